@@ -1,0 +1,844 @@
+"""HighwayFormation: ICVs driving in multi-lane interlaced formations.
+
+A highway-env :class:`~highway_env.envs.common.abstract.AbstractEnv` subclass
+(``default_config()`` / ``configure()``, highway-env's viewer and
+``RecordVideo`` support) over the vectorised core :class:`icv_envs.sim.world.World`.
+The single-agent Gymnasium API (``gym.make("icv_envs/HighwayFormation-v0")``)
+drives one learned ego ICV among expert-driven ICVs; the multi-agent methods
+``ma_reset`` / ``ma_step`` back the PettingZoo module
+:mod:`icv_envs.envs.highway_formation_v0`, whose docstring documents
+observations, actions, rewards and arguments.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from highway_env.envs.common.abstract import AbstractEnv
+
+from icv_envs.envs.scenarios import SCENARIOS, scenario_config
+from icv_envs.formation.targets import formation_length, formation_targets
+from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
+from icv_envs.sim.formations import FormationManager
+from icv_envs.sim.road import Obstacle, OffRamp, OnRamp, RoadLayout
+from icv_envs.sim.world import StepEvents, World
+
+__all__ = ["HighwayFormationEnv", "OBS_FEATURES", "STATE_FEATURES", "action_to_controls", "controls_to_action"]
+
+OBS_FEATURES = (
+    "presence",
+    "x",
+    "y",
+    "vx",
+    "vy",
+    "cos_h",
+    "sin_h",
+    "target_dx",
+    "target_dy",
+    "target_dv",
+    "member",
+)
+STATE_FEATURES = OBS_FEATURES
+
+_FORMATION_DEFAULTS = {
+    "geometry": "interlaced",
+    "spacing": 20.0,
+    "w1": 1.0,
+    "w2": 10.0,
+    "speed": 25.0,
+    "lookahead": 200.0,
+    "join_distance": 60.0,
+    "exit_lookahead": 400.0,
+    "max_anchor_lead": 15.0,
+}
+_REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "formation": 0.5}
+
+
+def action_to_controls(action: np.ndarray, a_min=-6.0, a_max=3.0, steer_max=math.radians(30.0)):
+    """Map normalised actions ``[u_a, u_s]`` in ``[-1, 1]`` to SI controls.
+
+    Acceleration is piecewise linear so that 0 means coasting: ``u_a >= 0``
+    gives ``u_a * a_max`` and ``u_a < 0`` gives ``-u_a * a_min`` (paper Sec.
+    2.2 limits, [-6, 3] m/s^2). Steering is ``u_s * steer_max`` (30 deg)."""
+    action = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+    ua, us = action[..., 0], action[..., 1]
+    a = np.where(ua >= 0, ua * a_max, -ua * a_min)
+    return a, us * steer_max
+
+
+def controls_to_action(a, phi, a_min=-6.0, a_max=3.0, steer_max=math.radians(30.0)) -> np.ndarray:
+    """Inverse of :func:`action_to_controls` (clipped to the limits)."""
+    a = np.asarray(a, dtype=np.float64)
+    ua = np.where(a >= 0, a / a_max, -a / a_min)
+    return np.clip(np.stack([ua, np.asarray(phi) / steer_max], axis=-1), -1.0, 1.0)
+
+
+def _num(config: dict, key: str, lo=None, hi=None, *, lo_open=False, integer=False, allowed: str = "") -> float:
+    v = config[key]
+    ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
+    if ok and integer:
+        ok = float(v) == int(v)
+    if ok and lo is not None:
+        ok = v > lo if lo_open else v >= lo
+    if ok and hi is not None:
+        ok = v <= hi
+    if not ok:
+        raise ValueError(f"config[{key!r}] = {v!r} is invalid; allowed: {allowed}")
+    return int(v) if integer else float(v)
+
+
+class HighwayFormationEnv(AbstractEnv):
+    """Multi-lane formation control of ICVs on a straight highway.
+
+    See :mod:`icv_envs.envs.highway_formation_v0` for the full documentation.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+
+    def __init__(self, config: dict | None = None, render_mode: str | None = None) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode={render_mode!r} is invalid; allowed: {self.metadata['render_modes']} or None")
+        self.world: World | None = None
+        self.expert: FormationExpert | None = None
+        self._ma_mode = False
+        super().__init__(config, render_mode)
+
+    # ------------------------------------------------------------------ config
+    @classmethod
+    def default_config(cls) -> dict:
+        config = super().default_config()
+        config.update(
+            {
+                "scenario": "free",
+                "lanes_count": 4,
+                "lane_width": 4.0,
+                "road_length": 2000.0,
+                "lane_drop": None,
+                "obstacle": None,
+                "on_ramp": None,
+                "off_ramp": None,
+                "vehicles_count": 8,
+                "formation_size": 12,
+                "formation_gap": 60.0,
+                "initial_position": 150.0,
+                "initial_jitter": 1.5,
+                "initial_speed_jitter": 1.0,
+                "spawns": [],
+                "exits": {},
+                "formation": dict(_FORMATION_DEFAULTS),
+                "speed_range": [10.0, 30.0],
+                "ramp_speed": 15.0,
+                "acceleration_range": [-6.0, 3.0],
+                "max_steering_deg": 30.0,
+                "wheelbase": 2.8,
+                "simulation_frequency": 25,
+                "policy_frequency": 5,
+                "duration": 60.0,
+                "ego_vehicle": 0,
+                "observation": {"type": "FormationKinematics", "vehicles_count": 8, "perception_distance": 150.0},
+                "action": {"type": "ContinuousAcceleration+Steering"},
+                "reward": dict(_REWARD_DEFAULTS),
+                "expert_in_info": True,
+                "missing_action": "error",
+                "show_formation": True,
+                "screen_width": 1200,
+                "screen_height": 260,
+                "scaling": 4.0,
+                "centering_position": [0.5, 0.5],
+            }
+        )
+        return config
+
+    def configure(self, config: dict | None) -> None:
+        """highway-env's ``configure``, plus scenario presets: a ``scenario``
+        key applies :data:`~icv_envs.envs.scenarios.SCENARIOS` first, then the
+        rest of ``config`` on top; nested ``formation`` and ``reward`` dicts
+        are merged key by key."""
+        config = dict(config or {})
+        scen = config.get("scenario")
+        if scen is not None:
+            if not isinstance(scen, str) or scen not in SCENARIOS:
+                raise ValueError(f"unknown scenario {scen!r}; allowed: {sorted(SCENARIOS)}")
+            base = self.default_config()
+            base.update(scenario_config(scen))
+            self.config = base
+        for key in ("formation", "reward", "observation"):
+            if key in config and isinstance(config[key], dict) and isinstance(self.config.get(key), dict):
+                merged = dict(self.config[key])
+                merged.update(config[key])
+                config[key] = merged
+        super().configure(config)
+        self._validate_config()
+
+    def _validate_config(self) -> None:
+        c = self.config
+        unknown_top = set(c) - set(self.default_config())
+        if unknown_top:
+            raise ValueError(f"unknown config keys {sorted(unknown_top)}; allowed: {sorted(self.default_config())}")
+        n_lanes = _num(c, "lanes_count", 1, 6, integer=True, allowed="an integer in [1, 6]")
+        _num(c, "lane_width", 2.5, 6.0, allowed="a number in [2.5, 6] metres")
+        _num(c, "road_length", 100.0, 1e5, allowed="a number in [100, 100000] metres")
+        _num(c, "vehicles_count", 1, 5000, integer=True, allowed="an integer in [1, 5000]")
+        _num(c, "formation_size", 1, 64, integer=True, allowed="an integer in [1, 64]")
+        _num(c, "formation_gap", 0.0, allowed="a number >= 0 metres")
+        _num(c, "initial_jitter", 0.0, 5.0, allowed="a number in [0, 5] metres")
+        _num(c, "initial_speed_jitter", 0.0, 5.0, allowed="a number in [0, 5] m/s")
+        _num(c, "simulation_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
+        _num(c, "policy_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
+        if c["simulation_frequency"] % c["policy_frequency"]:
+            raise ValueError(
+                f"policy_frequency={c['policy_frequency']} must divide simulation_frequency={c['simulation_frequency']}"
+            )
+        _num(c, "duration", 0.0, lo_open=True, allowed="a number > 0 seconds")
+        _num(c, "wheelbase", 0.5, 10.0, allowed="a number in [0.5, 10] metres")
+        _num(c, "max_steering_deg", 0.0, 60.0, lo_open=True, allowed="a number in (0, 60] degrees")
+        _num(c, "ramp_speed", 0.0, lo_open=True, allowed="a number > 0 m/s")
+        sr = c["speed_range"]
+        if not (isinstance(sr, (list, tuple)) and len(sr) == 2 and all(isinstance(v, (int, float)) for v in sr)
+                and 0 <= sr[0] < sr[1] and math.isfinite(sr[1])):
+            raise ValueError(f"config['speed_range'] = {sr!r} is invalid; allowed: [v_min, v_max] with 0 <= v_min < v_max")
+        ar = c["acceleration_range"]
+        if not (isinstance(ar, (list, tuple)) and len(ar) == 2 and ar[0] < 0 < ar[1]):
+            raise ValueError(f"config['acceleration_range'] = {ar!r} is invalid; allowed: [a_min < 0, a_max > 0]")
+        f = c["formation"]
+        unknown = set(f) - set(_FORMATION_DEFAULTS)
+        if unknown:
+            raise ValueError(f"unknown formation keys {sorted(unknown)}; allowed: {sorted(_FORMATION_DEFAULTS)}")
+        if f["geometry"] not in ("interlaced", "parallel"):
+            raise ValueError(f"formation geometry {f['geometry']!r} is invalid; allowed: 'interlaced', 'parallel'")
+        _num(f, "spacing", 0.0, lo_open=True, allowed="a number > 0 metres")
+        _num(f, "w1", 0.0, allowed="a number >= 0")
+        _num(f, "w2", 0.0, allowed="a number >= 0")
+        _num(f, "speed", sr[0], sr[1], allowed=f"a number within speed_range {list(sr)}")
+        for k in ("lookahead", "join_distance", "exit_lookahead", "max_anchor_lead"):
+            _num(f, k, 0.0, allowed="a number >= 0 metres")
+        r = c["reward"]
+        unknown = set(r) - set(_REWARD_DEFAULTS)
+        if unknown:
+            raise ValueError(f"unknown reward keys {sorted(unknown)}; allowed: {sorted(_REWARD_DEFAULTS)}")
+        for k in _REWARD_DEFAULTS:
+            _num(r, k, allowed="a finite number")
+        o = c["observation"]
+        _num(o, "vehicles_count", 1, 64, integer=True, allowed="an integer in [1, 64]")
+        _num(o, "perception_distance", 0.0, lo_open=True, allowed="a number > 0 metres")
+        if c["missing_action"] not in ("error", "expert"):
+            raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
+        L = c["road_length"]
+        if c["lane_drop"] is not None:
+            d = c["lane_drop"]
+            if not isinstance(d, dict) or set(d) != {"position", "lanes"}:
+                raise ValueError(f"config['lane_drop'] = {d!r}; allowed: None or {{'position': x, 'lanes': n}}")
+            _num(d, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]")
+            _num(d, "lanes", 1, n_lanes - 1 if n_lanes > 1 else 0, integer=True,
+                 allowed=f"an integer in [1, lanes_count - 1 = {n_lanes - 1}]")
+        if c["obstacle"] is not None:
+            d = dict(c["obstacle"])
+            if not {"lane", "position"} <= set(d) <= {"lane", "position", "length"}:
+                raise ValueError(f"config['obstacle'] = {c['obstacle']!r}; allowed: None or {{'lane', 'position'[, 'length']}}")
+            _num(d, "lane", 0, n_lanes - 1, integer=True, allowed=f"a lane index in [0, {n_lanes - 1}]")
+            _num(d, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]")
+        for key in ("on_ramp", "off_ramp"):
+            if c[key] is not None:
+                d = c[key]
+                need = {"position", "length"}
+                if not isinstance(d, dict) or not need <= set(d):
+                    raise ValueError(f"config[{key!r}] = {d!r}; allowed: None or a dict with 'position' and 'length'")
+                _num(d, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]")
+                _num(d, "length", 0.0, lo_open=True, allowed="a number > 0 metres")
+        n_exits = 1 if c["off_ramp"] is not None else 0
+        exits = c["exits"]
+        if not isinstance(exits, dict):
+            raise ValueError(f"config['exits'] = {exits!r}; allowed: a dict {{vehicle_index: exit_index}}")
+        for k, e in exits.items():
+            if not (str(k).lstrip("-").isdigit() and 0 <= int(k) < c["vehicles_count"]):
+                raise ValueError(f"exits key {k!r} is not a vehicle index in [0, {c['vehicles_count'] - 1}]")
+            if not (isinstance(e, (int, np.integer)) and 0 <= e < n_exits):
+                raise ValueError(f"exit {e!r} for vehicle {k} does not exist; allowed exit indices: {list(range(n_exits))}")
+        if not isinstance(c["spawns"], (list, tuple)):
+            raise ValueError(f"config['spawns'] = {c['spawns']!r}; allowed: a list of dicts")
+        for s in c["spawns"]:
+            if not isinstance(s, dict) or not {"time", "position", "lane"} <= set(s):
+                raise ValueError(f"spawn {s!r} is invalid; allowed: a dict with 'time', 'position', 'lane'[, 'speed', 'exit']")
+            _num(s, "time", 0.0, allowed="a number >= 0 seconds")
+            if s["lane"] == "ramp":
+                if c["on_ramp"] is None:
+                    raise ValueError("spawn lane 'ramp' needs an on_ramp in the config")
+            else:
+                _num(s, "lane", 0, n_lanes - 1, integer=True, allowed=f"'ramp' or a lane index in [0, {n_lanes - 1}]")
+            if "speed" in s:
+                _num(s, "speed", 0.0, sr[1], allowed=f"a number in [0, {sr[1]}] m/s")
+        ego = c["ego_vehicle"]
+        if not (isinstance(ego, (int, np.integer)) and 0 <= ego < c["vehicles_count"]):
+            raise ValueError(f"config['ego_vehicle'] = {ego!r}; allowed: an index in [0, vehicles_count - 1 = {c['vehicles_count'] - 1}]")
+        # vehicles must fit on the road
+        self._placement()
+
+    def _placement(self) -> list[tuple[int, float]]:
+        """(count, anchor) per initial formation; raises if they do not fit."""
+        c = self.config
+        n, size = int(c["vehicles_count"]), int(c["formation_size"])
+        k = math.ceil(n / size)
+        counts = [n // k + (1 if i < n % k else 0) for i in range(k)]
+        lanes = self._initial_lane_count()
+        f = c["formation"]
+        lengths = [formation_length(m, lanes, f["spacing"], f["geometry"]) for m in counts]
+        needed = sum(lengths) + c["formation_gap"] * (k - 1) + 10.0
+        front = c["initial_position"]
+        if front is None:
+            front = needed + 10.0
+        if not isinstance(front, (int, float)) or not math.isfinite(front):
+            raise ValueError(f"config['initial_position'] = {front!r}; allowed: a number or None (automatic)")
+        if front - needed < 0 or front > c["road_length"] - 100.0:
+            per_m = max(lanes, 1) / (2.0 * f["spacing"]) * 2.0
+            cap = int(max(0.0, min(front, c["road_length"] - 100.0) - 10.0) * per_m * 0.5) + 1
+            raise ValueError(
+                f"vehicles_count={n} does not fit: {lanes} lanes with spacing {f['spacing']} m need {needed:.0f} m "
+                f"behind initial_position={front} (road_length={c['road_length']}); at most about {cap} vehicles fit "
+                f"there, or set initial_position=None to place them automatically"
+            )
+        anchors, a = [], float(front)
+        for m, length in zip(counts, lengths):
+            anchors.append((m, a))
+            a -= length + c["formation_gap"]
+        return anchors
+
+    def _initial_lane_count(self) -> int:
+        c = self.config
+        n = int(c["lanes_count"])
+        if c["obstacle"] is not None and c["obstacle"]["position"] < (c["initial_position"] or 0) + 50:
+            n -= 1
+        return max(n, 1)
+
+    # ------------------------------------------------------------------ build
+    def _make_road(self) -> RoadLayout:
+        c = self.config
+        n = int(c["lanes_count"])
+        ends = np.full(n, np.inf)
+        if c["lane_drop"] is not None:
+            ends[int(c["lane_drop"]["lanes"]):] = float(c["lane_drop"]["position"])
+        on, off, obs = [], [], []
+        if c["on_ramp"] is not None:
+            r = c["on_ramp"]
+            on.append(OnRamp(float(r["position"]), float(r["position"]) + float(r["length"]), float(r.get("approach", 300.0))))
+        if c["off_ramp"] is not None:
+            r = c["off_ramp"]
+            s = float(r["position"])
+            off.append(OffRamp(s, s + float(r["length"]), s + float(r["length"]) + float(r.get("ramp_length", 150.0))))
+        if c["obstacle"] is not None:
+            o = c["obstacle"]
+            obs.append(Obstacle(int(o["lane"]), float(o["position"]), float(o.get("length", 4.0))))
+        return RoadLayout(n, float(c["road_length"]), float(c["lane_width"]), ends, on, off, obs)
+
+    def _expert_params(self) -> ExpertParams:
+        c = self.config
+        return ExpertParams(
+            wheelbase=float(c["wheelbase"]),
+            a_min=float(c["acceleration_range"][0]),
+            a_max=float(c["acceleration_range"][1]),
+            steer_max=math.radians(c["max_steering_deg"]),
+            v_min=float(c["speed_range"][0]),
+            v_max=float(c["speed_range"][1]),
+            desired_speed=float(c["formation"]["speed"]),
+            ramp_speed=float(c["ramp_speed"]),
+            exit_lookahead=float(c["formation"]["exit_lookahead"]),
+        )
+
+    def _reset(self) -> None:
+        c = self.config
+        road = self._make_road()
+        f = c["formation"]
+        manager = FormationManager(
+            spacing=f["spacing"], geometry=f["geometry"], w1=f["w1"], w2=f["w2"], speed=f["speed"],
+            lookahead=f["lookahead"], join_distance=f["join_distance"], exit_lookahead=f["exit_lookahead"],
+            max_size=max(int(c["formation_size"]), 1) + 4, max_anchor_lead=f["max_anchor_lead"],
+        )
+        world = World(road, manager, dt=1.0 / c["simulation_frequency"], wheelbase=c["wheelbase"],
+                      v_max=float(c["speed_range"][1]))
+        self.world = world
+        self.expert = FormationExpert(self._expert_params())
+        rng = self.np_random
+        tr = world.traffic
+        exits = {int(k): int(v) for k, v in c["exits"].items()}
+        h = 0.5 * c["wheelbase"]
+        idx = 0
+        for count, anchor in self._placement():
+            lanes = road.drivable_main_lanes(anchor - 200.0, anchor + f["lookahead"]) or [0]
+            tx, tl = formation_targets(count, len(lanes), f["spacing"], f["geometry"])
+            lane_arr = np.asarray(lanes)[tl - 1]
+            cx = anchor - tx + rng.uniform(-1, 1, count) * c["initial_jitter"]
+            speed = f["speed"] + rng.uniform(-1, 1, count) * c["initial_speed_jitter"]
+            ex = np.array([exits.get(idx + i, -1) for i in range(count)])
+            rows_before = tr.n
+            tr.add(cx - h, lane_arr * road.lane_width, speed, exit=ex)
+            manager.create(tr, np.arange(rows_before, tr.n), road, anchor=anchor)
+            idx += count
+        self._pending_spawns = sorted(
+            (dict(s) for s in c["spawns"]), key=lambda s: (float(s["time"]), float(s["position"]))
+        )
+        self.possible_agents = [f"icv_{i}" for i in range(int(c["vehicles_count"]) + len(self._pending_spawns))]
+        self._spawn_due()
+        self._proxies: dict[int, Any] = {}
+        self._last_actions = np.zeros((tr.n, 2))
+        self._expert_cache = None
+        self._ego_vid = int(c["ego_vehicle"])
+        self._ego_done = False
+        self._sync_render_road(force=True)
+
+    def _spawn_due(self) -> list[int]:
+        w = self.world
+        c = self.config
+        new = []
+        while self._pending_spawns and float(self._pending_spawns[0]["time"]) <= w.time + 1e-9:
+            s = self._pending_spawns.pop(0)
+            lane = w.road.ramp_lane if s["lane"] == "ramp" else int(s["lane"])
+            speed = float(s.get("speed", c["ramp_speed"] if s["lane"] == "ramp" else c["formation"]["speed"]))
+            ids = w.traffic.add(float(s["position"]) - 0.5 * c["wheelbase"], lane * w.road.lane_width, speed,
+                                exit=int(s.get("exit", -1)), time=w.time)
+            new.extend(int(v) for v in ids)
+        if new:
+            w.invalidate()
+        return new
+
+    # ------------------------------------------------------------------ spaces
+    def define_spaces(self) -> None:
+        c = self.config
+        V = int(c["observation"]["vehicles_count"])
+        self.observation_space = spaces.Box(-1.0, 1.0, (V, len(OBS_FEATURES)), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
+        self.observation_type = _ObservationStub(self)
+        self.action_type = None
+
+    def state_space_for(self, n_slots: int) -> spaces.Box:
+        return spaces.Box(-1.0, 1.0, (n_slots, len(STATE_FEATURES)), dtype=np.float32)
+
+    # ------------------------------------------------------------ observations
+    def _features(self) -> np.ndarray:
+        """Per-vehicle feature rows in absolute terms (n, F), before
+        normalisation: x, y, vx, vy, cos, sin, target dx, dy, dv, member."""
+        w = self.world
+        tr = w.traffic
+        cx, cy = tr.center()
+        x_ref, lane_ref, v_ref, member = w.manager.references(tr)
+        F = np.zeros((tr.n, len(OBS_FEATURES)))
+        F[:, 0] = 1.0
+        F[:, 1] = cx
+        F[:, 2] = cy
+        F[:, 3] = tr.speed * np.cos(tr.heading)
+        F[:, 4] = tr.speed * np.sin(tr.heading)
+        F[:, 5] = np.cos(tr.heading)
+        F[:, 6] = np.sin(tr.heading)
+        F[:, 7] = np.where(member, x_ref - cx, 0.0)
+        F[:, 8] = np.where(member, lane_ref * w.road.lane_width - cy, 0.0)
+        F[:, 9] = np.where(member, v_ref - tr.speed, 0.0)
+        F[:, 10] = member
+        return F
+
+    def _observe_rows(self, rows: np.ndarray) -> np.ndarray:
+        """highway-env ``Kinematics`` convention, vectorised: row 0 is the
+        observer (absolute, normalised), rows 1.. the ``V - 1`` nearest
+        vehicles by longitudinal distance within the perception distance
+        (relative to the observer), padded with zero rows (presence 0)."""
+        c = self.config
+        V = int(c["observation"]["vehicles_count"])
+        pd = float(c["observation"]["perception_distance"])
+        w = self.world
+        tr = w.traffic
+        n = tr.n
+        out = np.zeros((len(rows), V, len(OBS_FEATURES)), dtype=np.float32)
+        if not len(rows):
+            return out
+        F = self._features()
+        vmax = float(c["speed_range"][1])
+        width = w.road.total_lanes * w.road.lane_width
+        scale_abs = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1])
+        scale_rel = np.array([1, pd, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1])
+        out[:, 0, :] = np.clip(F[rows] / scale_abs, -1, 1)
+        if V > 1 and n > 1:
+            cx = F[:, 1]
+            order = np.argsort(cx, kind="stable")
+            rank = np.empty(n, dtype=np.int64)
+            rank[order] = np.arange(n)
+            K = V - 1
+            offs = np.concatenate([np.arange(-K, 0), np.arange(1, K + 1)])
+            cand_rank = rank[rows][:, None] + offs[None, :]
+            valid = (cand_rank >= 0) & (cand_rank < n)
+            cand = order[np.clip(cand_rank, 0, n - 1)]
+            dist = np.abs(cx[cand] - cx[rows][:, None])
+            dist = np.where(valid & (dist < pd), dist, np.inf)
+            # stable selection of the K nearest (ties: rear first, as sorted)
+            pick = np.argsort(dist, axis=1, kind="stable")[:, :K]
+            sel = np.take_along_axis(cand, pick, axis=1)
+            seld = np.take_along_axis(dist, pick, axis=1)
+            present = np.isfinite(seld)
+            rel = F[sel].copy()
+            rel[..., 1:5] -= F[rows][:, None, 1:5]
+            rel = np.clip(rel / scale_rel, -1, 1)
+            rel[~present] = 0.0
+            out[:, 1:, :] = rel
+        return out
+
+    def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple[np.ndarray, dict]:
+        """Per-agent reward: weighted sum of progress (speed / v_max), safety
+        (-1 on a collision, else minus the headway shortfall
+        ``max(0, 1 - gap / (s0 + v T))`` with ``s0 = 2 m``, ``T = 1 s``),
+        comfort (minus the mean of the squared normalised acceleration and
+        steering) and formation keeping (members:
+        ``exp(-(dx / L_s)^2 - (dy / lane_width)^2)`` of the target error; free
+        vehicles: 0)."""
+        c = self.config
+        w = self.world
+        tr = w.traffic
+        wts = c["reward"]
+        vmax = float(c["speed_range"][1])
+        progress = tr.speed[rows] / vmax
+        gap, _ = w.own_lane_gaps()
+        headway = 2.0 + tr.speed * 1.0
+        safety = -np.clip(1.0 - gap[rows] / headway[rows], 0.0, 1.0)
+        safety = np.where(crashed_now, -1.0, safety)
+        ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
+        comfort = -0.5 * (ua[:, 0] ** 2 + ua[:, 1] ** 2)
+        F = self._features()
+        member = F[rows, 10] > 0
+        L_s = float(c["formation"]["spacing"])
+        form = np.where(member, np.exp(-(F[rows, 7] / L_s) ** 2 - (F[rows, 8] / w.road.lane_width) ** 2), 0.0)
+        total = wts["progress"] * progress + wts["safety"] * safety + wts["comfort"] * comfort + wts["formation"] * form
+        parts = {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
+        return total, parts
+
+    def global_state(self, slots: list[str]) -> np.ndarray:
+        """Fixed-size global state: one row per possible agent (slot order),
+        absolute normalised features, zeros for absent vehicles."""
+        c = self.config
+        w = self.world
+        out = np.zeros((len(slots), len(STATE_FEATURES)), dtype=np.float32)
+        tr = w.traffic
+        if tr.n:
+            F = self._features()
+            vmax = float(c["speed_range"][1])
+            width = w.road.total_lanes * w.road.lane_width
+            scale = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1])
+            slot_of = {name: i for i, name in enumerate(slots)}
+            idx = np.array([slot_of.get(f"icv_{v}", -1) for v in tr.vid])
+            ok = idx >= 0
+            out[idx[ok]] = np.clip(F[ok] / scale, -1, 1)
+        return out
+
+    # ------------------------------------------------------------------ expert
+    def expert_actions(self) -> np.ndarray:
+        """The formation expert's normalised actions for every vehicle now
+        (rows in traffic order), computed once per step."""
+        key = (self.world.time, self.world.traffic.n)
+        if self._expert_cache is None or self._expert_cache[0] != key:
+            self._expert_cache = (key, self.expert.compute(self.world).astype(np.float32))
+        return self._expert_cache[1]
+
+    # -------------------------------------------------------------- stepping
+    def _advance(self, actions: np.ndarray) -> StepEvents:
+        """Apply normalised actions (rows in traffic order) for one policy
+        period, then update formations and spawns."""
+        c = self.config
+        w = self.world
+        events = StepEvents()
+        frames = int(c["simulation_frequency"] // c["policy_frequency"])
+        acts = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
+        vids = w.traffic.vid.copy()
+        a, phi = action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
+                                    math.radians(c["max_steering_deg"]))
+        for frame in range(frames):
+            # rows may have been removed (exits): re-align by vehicle id
+            if w.traffic.n != len(vids) or not np.array_equal(w.traffic.vid, vids):
+                keep = np.isin(vids, w.traffic.vid)
+                vids, a, phi = vids[keep], a[keep], phi[keep]
+            w.substep(a, phi, events)
+            if frame < frames - 1:
+                self._automatic_rendering()
+        w.record_min_gap()
+        return events
+
+    def ma_reset(self, seed: int | None = None, options: dict | None = None):
+        self._ma_mode = True
+        self.reset(seed=seed, options=options)
+        rows = np.arange(self.world.traffic.n)
+        agents = [f"icv_{v}" for v in self.world.traffic.vid]
+        obs = self._observe_rows(rows)
+        infos = self._ma_infos(agents, rows, {})
+        return {a: obs[i] for i, a in enumerate(agents)}, infos
+
+    def _ma_infos(self, agents, rows, parts) -> dict:
+        c = self.config
+        infos = {}
+        ex = self.expert_actions() if c["expert_in_info"] and len(rows) else None
+        tr = self.world.traffic
+        x_ref, lane_ref, v_ref, member = self.world.manager.references(tr)
+        for i, a in enumerate(agents):
+            r = rows[i]
+            info = {
+                "speed": float(tr.speed[r]),
+                "lane": int(self.world.road.lane_of(tr.center()[1][r])),
+                "formation": int(tr.group[r]),
+                "target_lane": int(lane_ref[r]),
+                "crashed": False,
+            }
+            if ex is not None:
+                info["expert_action"] = ex[r].copy()
+            if parts:
+                info["rewards"] = {k: float(v[i]) for k, v in parts.items()}
+            infos[a] = info
+        return infos
+
+    def ma_step(self, actions: dict) -> tuple[dict, dict, dict, dict, dict]:
+        """Multi-agent step: ``actions`` maps live agent names to actions."""
+        c = self.config
+        w = self.world
+        tr = w.traffic
+        live = [f"icv_{v}" for v in tr.vid]
+        live_set = set(live)
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+        unknown = [a for a in actions if a not in live_set]
+        if unknown:
+            raise ValueError(f"actions for agents that are not live: {unknown[:5]}; live agents: {live[:5]}...")
+        missing = [a for a in live if a not in actions]
+        if missing and c["missing_action"] == "error":
+            raise ValueError(
+                f"no action for live agents {missing[:5]} ({len(missing)} missing); pass an action for every agent "
+                f"or configure missing_action='expert'"
+            )
+        acts = np.zeros((tr.n, 2), dtype=np.float64)
+        if missing:
+            acts[:] = self.expert_actions()
+        for i, a in enumerate(live):
+            if a in actions:
+                acts[i] = self._check_action(actions[a], a)
+        return self._ma_advance(acts)
+
+    def _check_action(self, action, who: str = "agent") -> np.ndarray:
+        arr = np.asarray(action, dtype=np.float64) if not isinstance(action, np.ndarray) else action.astype(np.float64)
+        if arr.shape != (2,):
+            raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, steering] in [-1, 1]")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"action of {who} = {arr.tolist()} holds NaN or inf; allowed: finite values in [-1, 1]")
+        return np.clip(arr, -1.0, 1.0)
+
+    def _ma_advance(self, acts: np.ndarray):
+        c = self.config
+        w = self.world
+        tr = w.traffic
+        before = tr.vid.copy()
+        acts_by_vid = {int(v): acts[i] for i, v in enumerate(before)}
+        events = self._advance(acts)
+        self.time += 1.0 / c["policy_frequency"]
+        self.steps += 1
+        # formations react to what happened, then new vehicles appear
+        w.manager.update(tr, w.road, 1.0 / c["policy_frequency"])
+        crashed_rows = np.flatnonzero(tr.crashed)
+        self._last_actions = np.array([acts_by_vid.get(int(v), np.zeros(2)) for v in tr.vid]).reshape(-1, 2)
+        rows = np.arange(tr.n)
+        agents = [f"icv_{v}" for v in tr.vid]
+        crashed_now = tr.crashed.copy()
+        rew, parts = self._rewards_rows(rows, crashed_now)
+        obs = self._observe_rows(rows)
+        truncated_all = w.time >= float(c["duration"]) - 1e-9
+        observations = {a: obs[i] for i, a in enumerate(agents)}
+        rewards = {a: float(rew[i]) for i, a in enumerate(agents)}
+        terms = {a: bool(crashed_now[i]) for i, a in enumerate(agents)}
+        truncs = {a: bool(truncated_all) for a in agents}
+        infos = self._ma_infos(agents, rows, parts)
+        for i, a in enumerate(agents):
+            if crashed_now[i]:
+                infos[a]["crashed"] = True
+        # vehicles that left the simulation during the step: exits are
+        # terminal successes, the end of the road is a truncation
+        gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        for vid in sorted(events.exited | events.left_road):
+            a = f"icv_{vid}"
+            observations[a] = gone_obs.copy()
+            rewards[a] = 0.0
+            terms[a] = vid in events.exited
+            truncs[a] = vid in events.left_road
+            infos[a] = {"exited": vid in events.exited, "left_road": vid in events.left_road, "crashed": False}
+            if c["expert_in_info"]:
+                infos[a]["expert_action"] = np.zeros(2, dtype=np.float32)
+        # crashed vehicles leave the road after reporting
+        if len(crashed_rows):
+            w.remove_crashed_vehicles()
+        new = self._spawn_due()
+        if new:
+            rows2 = np.searchsorted(tr.vid, new)
+            o2 = self._observe_rows(rows2)
+            a2 = [f"icv_{v}" for v in new]
+            inf2 = self._ma_infos(a2, rows2, {})
+            for i, a in enumerate(a2):
+                observations[a] = o2[i]
+                rewards[a] = 0.0
+                terms[a] = False
+                truncs[a] = bool(truncated_all)
+                infos[a] = inf2[a]
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terms, truncs, infos
+
+    # ------------------------------------------------------- gymnasium (ego)
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        gym.Env.reset(self, seed=seed, options=options)
+        if options and "config" in options:
+            self.configure(options["config"])
+        self.update_metadata()
+        self.define_spaces()
+        self.time = self.steps = 0
+        self.done = False
+        self._reset()
+        obs, info = self._ego_obs_info()
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def _ego_row(self) -> int:
+        tr = self.world.traffic
+        r = int(np.searchsorted(tr.vid, self._ego_vid))
+        return r if r < tr.n and tr.vid[r] == self._ego_vid else -1
+
+    def _ego_obs_info(self):
+        r = self._ego_row()
+        if r < 0:
+            return np.zeros(self.observation_space.shape, dtype=np.float32), {}
+        obs = self._observe_rows(np.array([r]))[0]
+        info = self._ma_infos([f"icv_{self._ego_vid}"], np.array([r]), {})[f"icv_{self._ego_vid}"]
+        return obs, info
+
+    def step(self, action):
+        """Single-agent step: ``action`` drives the ego ICV (config
+        ``ego_vehicle``), every other ICV follows the formation expert."""
+        if self.world is None:
+            raise RuntimeError("call reset() before step()")
+        if self._ego_done:
+            raise RuntimeError("the ego's episode has ended (terminated or truncated): call reset()")
+        act = self._check_action(action, "the ego")
+        tr = self.world.traffic
+        acts = self.expert_actions().astype(np.float64).copy() if tr.n else np.zeros((0, 2))
+        r = self._ego_row()
+        if r >= 0:
+            acts[r] = act
+        observations, rewards, terms, truncs, infos = self._ma_advance(acts)
+        a = f"icv_{self._ego_vid}"
+        obs = observations.get(a, np.zeros(self.observation_space.shape, dtype=np.float32))
+        reward = float(rewards.get(a, 0.0))
+        terminated = bool(terms.get(a, True))
+        truncated = bool(truncs.get(a, False))
+        info = infos.get(a, {})
+        info["ego_present"] = a in observations
+        if terminated or truncated:
+            self._ego_done = True
+        return obs, reward, terminated, truncated, info
+
+    # --------------------------------------------------------------- metrics
+    def metrics(self) -> dict:
+        """Run metrics so far (see :mod:`icv_envs.experiments.metrics`)."""
+        from icv_envs.experiments.metrics import run_metrics
+
+        return run_metrics(self.world)
+
+    # -------------------------------------------------------------- rendering
+    def _sync_render_road(self, force: bool = False) -> None:
+        """Refresh highway-env objects (road network, vehicle views) from
+        the arrays. Only rendering pays for this."""
+        from highway_env.road.road import Road
+        from highway_env.vehicle.objects import Obstacle as HEObstacle
+
+        from icv_envs.sim.vehicle import ICVVehicle
+
+        w = self.world
+        if force or self.road is None or getattr(self, "_road_world", None) is not w:
+            self.road = Road(network=w.road.to_network(), np_random=self.np_random, record_history=False)
+            for ob in w.road.obstacles:
+                o = HEObstacle(self.road, [ob.x, ob.lane * w.road.lane_width])
+                o.LENGTH, o.WIDTH = ob.length, ob.width
+                self.road.objects.append(o)
+            self._road_world = w
+            self._proxies = {}
+        tr = w.traffic
+        cx, cy = tr.center()
+        alive = set(int(v) for v in tr.vid)
+        for vid in list(self._proxies):
+            if vid not in alive:
+                del self._proxies[vid]
+        vehicles = []
+        palette = [(50, 200, 0), (100, 200, 255), (255, 150, 50), (200, 100, 255), (255, 220, 50), (50, 220, 200)]
+        for i, vid in enumerate(tr.vid.tolist()):
+            p = self._proxies.get(vid)
+            if p is None:
+                p = object.__new__(ICVVehicle)
+                p.road = self.road
+                p.vid = vid
+                p.history = []
+                p.action = {"steering": 0.0, "acceleration": 0.0}
+                p.LENGTH = float(tr.length[i])
+                p.WIDTH = float(tr.width[i])
+                p.lane_index = None
+                p.lane = None
+                p.impact = None
+                self._proxies[vid] = p
+            p.position = np.array([cx[i], cy[i]])
+            p.heading = float(tr.heading[i])
+            p.speed = float(tr.speed[i])
+            p.crashed = bool(tr.crashed[i])
+            p.action = {"steering": float(tr.steer[i]), "acceleration": float(tr.accel[i])}
+            g = int(tr.group[i])
+            if p.crashed:
+                p.color = (255, 100, 100)
+            elif not self._ma_mode and vid == self._ego_vid:
+                p.color = (50, 200, 0)
+            elif g >= 0:
+                p.color = palette[1 + g % (len(palette) - 1)]
+            else:
+                p.color = (200, 200, 200)
+            vehicles.append(p)
+        self.road.vehicles = vehicles
+        ego = self._proxies.get(self._ego_vid) if hasattr(self, "_ego_vid") else None
+        if ego is None and vehicles:
+            ego = vehicles[int(np.argmax(cx))] if self._ma_mode else vehicles[0]
+        self.controlled_vehicles = [ego] if ego is not None else []
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self.world is None:
+            raise RuntimeError("call reset() before render()")
+        self._sync_render_road()
+        if self.viewer is None:
+            from icv_envs.envs.rendering import FormationViewer
+
+            self.viewer = FormationViewer(self)
+        self.enable_auto_render = True
+        self.viewer.display()
+        if not self.viewer.offscreen:
+            self.viewer.handle_events()
+        if self.render_mode == "rgb_array":
+            return self.viewer.get_image()
+        return None
+
+    def _automatic_rendering(self) -> None:
+        if self.viewer is not None and self.enable_auto_render:
+            if self._record_video_wrapper:
+                self._sync_render_road()
+                self._record_video_wrapper._capture_frame()
+            else:
+                self.render()
+
+
+class _ObservationStub:
+    """Stands in for highway-env's observation type where its viewer expects one."""
+
+    def __init__(self, env):
+        self.env = env
+
+    def observe(self):  # pragma: no cover - highway-env compatibility
+        return self.env._ego_obs_info()[0]
+
+    def space(self):  # pragma: no cover
+        return self.env.observation_space

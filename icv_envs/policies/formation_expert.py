@@ -1,0 +1,247 @@
+"""The formation expert: the paper's vehicle controller as a policy.
+
+For every ICV it returns an action in the agents' action space
+(``[acceleration, steering]`` scaled to ``[-1, 1]``, see
+:func:`icv_envs.envs.highway_formation.action_to_controls`):
+
+* **Lateral** (paper Sec. 2.2 and 3.4): a vehicle whose target lane differs
+  from its lane changes lanes one lane at a time along a cubic Bezier curve
+  (:func:`icv_envs.formation.bezier.lane_change_lateral`), tracked with a
+  preview (pure-pursuit) steering law; otherwise it keeps its lane centre.
+* **Longitudinal** (paper Sec. 2.2, eq. (law)): members track their target
+  with ``a = k_p (X - X_ref) + k_v (v - v_ref)``; free ICVs (joining from a
+  ramp before they are assigned, leaving for an exit) drive IDM at the lane's
+  desired speed.
+* **Safety layer** (the "lower-level controller" the paper delegates to,
+  Sec. 3.4): the command is capped by IDM's interaction term towards the
+  leader in every lane the vehicle occupies or is moving into, and towards the
+  end of its lane (lane drop, obstacle, ramp end); a lane change starts only
+  when the gaps in the target lane pass a MOBIL-style safety check (neither the
+  new follower nor the vehicle itself would have to brake harder than
+  ``b_safe``). The configured minimum speed is a control floor that yields to
+  this layer.
+
+The plan of an ongoing lane change is the expert's only memory; it lives in
+the traffic arrays (``lc_*`` columns) and is dropped when the vehicle strays
+more than ``replan_tolerance`` metres from it (e.g. a learned policy drives
+the vehicle), so the expert can always be queried for any vehicle.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from icv_envs.formation.bezier import lane_change_lateral, pure_pursuit_steering
+from icv_envs.formation.control import longitudinal_feedback
+from icv_envs.sim.traffic import followers, idm_acceleration, leaders
+
+__all__ = ["ExpertParams", "FormationExpert"]
+
+
+@dataclass
+class ExpertParams:
+    wheelbase: float = 2.8
+    a_min: float = -6.0
+    a_max: float = 3.0
+    steer_max: float = np.deg2rad(30.0)
+    v_min: float = 10.0
+    v_max: float = 30.0
+    desired_speed: float = 25.0  # free ICVs on main lanes [m/s]
+    ramp_speed: float = 15.0  # free ICVs on the ramp lane [m/s]
+    exit_speed: float = 20.0  # free ICVs heading for their exit (paper Table 1: fourth lane 20 m/s)
+    blocked_slowdown: float = 3.0  # [m/s] a vehicle whose lane change is refused slows by this to find a gap
+    kp: float = -0.3
+    kv: float = -1.1
+    # IDM safety envelope
+    idm_T: float = 1.0  # time gap of the IDM safety envelope, free ICVs [s]
+    member_time_gap: float = 0.5  # ... and inside a formation, where lane changes pass 15 m gaps [s]
+    idm_s0: float = 2.0
+    idm_b: float = 3.0
+    b_safe: float = 4.0  # [m/s^2] hardest braking a lane change may impose
+    lc_min_gap: float = 4.0  # [m] minimum bumper gaps to start a lane change
+    lc_duration: float = 3.0  # [s] Bezier length = clip(v * lc_duration, ...)
+    lc_min_length: float = 20.0
+    lc_max_length: float = 90.0
+    preview_time: float = 0.8  # [s] preview distance = max(preview_min, v * preview_time)
+    preview_min: float = 8.0
+    replan_tolerance: float = 1.0  # [m]
+    exit_lookahead: float = 400.0
+
+
+class FormationExpert:
+    """Vectorised expert over all vehicles of a :class:`~icv_envs.sim.world.World`.
+
+    ``FormationExpert(params).compute(world)`` returns an ``(n, 2)`` float array
+    of normalised actions, row ``i`` for traffic row ``i``.
+    """
+
+    def __init__(self, params: ExpertParams | None = None) -> None:
+        self.p = params or ExpertParams()
+
+    # ----------------------------------------------------------------- helpers
+    def _normalise(self, a: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        p = self.p
+        ua = np.where(a >= 0, a / p.a_max, -a / p.a_min)
+        us = phi / p.steer_max
+        return np.clip(np.stack([ua, us], axis=1), -1.0, 1.0)
+
+    def compute(self, world) -> np.ndarray:
+        p = self.p
+        tr, road = world.traffic, world.road
+        n = tr.n
+        if n == 0:
+            return np.zeros((0, 2))
+        cx, cy = tr.center()
+        v = tr.speed
+        W = road.lane_width
+        n_tot = road.total_lanes
+        lane = road.lane_of(cy)
+        rows = np.arange(n)
+        index = world.lane_index()
+        x_ref, lane_ref, v_ref, member = world.manager.references(tr)
+
+        # ------------------------------------------------------ desired lane
+        desired = np.where(member, lane_ref, lane)
+        if road.has_ramp_lane:
+            ramp = road.ramp_lane
+            exiting = np.zeros(n, dtype=bool)
+            has = (tr.exit >= 0) & ~member
+            if has.any() and road.n_exits:
+                dist = road.diverge_start(tr.exit[has]) - cx[has]
+                exiting[has] = dist < p.exit_lookahead
+            desired = np.where(exiting, ramp, desired)
+            # free vehicles on the ramp lane of an on-ramp move onto the main road
+            on_ramp = (lane == ramp) & ~exiting & ~member
+            desired = np.where(on_ramp, road.n_lanes - 1, desired)
+        else:
+            exiting = np.zeros(n, dtype=bool)
+        # free vehicles whose lane ends ahead move to a neighbouring lane
+        free = ~member & ~exiting & (desired == lane)
+        if free.any():
+            end = road.interval_end(lane, cx)
+            soon = free & (end - cx < 150.0)
+            if soon.any():
+                for d in (-1, 1):
+                    alt = np.clip(lane + d, 0, road.n_lanes - 1)
+                    ok = soon & (alt != lane) & (road.interval_end(alt, cx) > end + 50.0)
+                    desired = np.where(ok & (desired == lane), alt, desired)
+
+        # --------------------------------------------- lane-change plan state
+        active = tr.lc_lane >= 0
+        if active.any():
+            a_rows = np.flatnonzero(active)
+            y_plan, _ = lane_change_lateral(
+                tr.x[a_rows], tr.lc_x0[a_rows], tr.lc_y0[a_rows], tr.lc_y1[a_rows], tr.lc_len[a_rows]
+            )
+            stray = np.abs(y_plan - tr.y[a_rows]) > p.replan_tolerance
+            done = tr.x[a_rows] >= tr.lc_x0[a_rows] + tr.lc_len[a_rows]
+            tr.lc_lane[a_rows[stray | done]] = -1
+            active = tr.lc_lane >= 0
+
+        # ------------------------------------------------ start lane changes
+        settled = ~active & (np.abs(cy - lane * W) < 0.6)
+        blocked = np.zeros(n, dtype=bool)
+        want = settled & (desired >= 0) & (desired != lane)
+        if want.any():
+            w_rows = np.flatnonzero(want)
+            nxt = lane[w_rows] + np.sign(desired[w_rows] - lane[w_rows])
+            vw = v[w_rows]
+            length = np.clip(vw * p.lc_duration, p.lc_min_length, p.lc_max_length)
+            xw = cx[w_rows]
+            ok = (nxt >= 0) & (nxt < n_tot)
+            nxt = np.clip(nxt, 0, n_tot - 1)
+            # the target lane must exist now and over the whole manoeuvre
+            ok &= road.available(nxt, xw) & road.available(nxt, xw + length)
+            if road.has_ramp_lane:
+                into_ramp = nxt == road.ramp_lane
+                from_ramp = lane[w_rows] == road.ramp_lane
+                ok &= ~into_ramp | road.in_diverge(xw)
+                ok &= ~from_ramp | road.in_merge(xw)
+                # a merge must end before the ramp lane does
+                rend = road.interval_end(lane[w_rows], xw)
+                length = np.where(from_ramp, np.clip(np.minimum(length, rend - xw - 5.0), 10.0, None), length)
+            # gap acceptance in the target lane
+            lead = leaders(index, w_rows, nxt, cx)
+            foll = followers(index, w_rows, nxt, cx)
+            lw = tr.length[w_rows]
+            gap_f = np.where(lead >= 0, cx[lead] - xw - 0.5 * (tr.length[lead] + lw), np.inf)
+            gap_r = np.where(foll >= 0, xw - cx[foll] - 0.5 * (tr.length[foll] + lw), np.inf)
+            vl = np.where(lead >= 0, v[lead], vw)
+            vf = np.where(foll >= 0, v[foll], 0.0)
+            Tw = np.where(member[w_rows], p.member_time_gap, p.idm_T)
+            Tf = np.where(member[np.maximum(foll, 0)] & (foll >= 0), p.member_time_gap, p.idm_T)
+            own = idm_acceleration(vw, p.v_max, gap_f, vw - vl, p.a_max, p.idm_b, Tw, p.idm_s0, free_term=False)
+            fol = idm_acceleration(vf, p.v_max, gap_r, vf - vw, p.a_max, p.idm_b, Tf, p.idm_s0, free_term=False)
+            ok &= (gap_f > p.lc_min_gap) & (gap_r > p.lc_min_gap) & (own > -p.b_safe) & (fol > -p.b_safe)
+            start = w_rows[ok]
+            blocked = np.zeros(n, dtype=bool)
+            blocked[w_rows[~ok]] = True
+            if len(start):
+                tr.lc_lane[start] = nxt[ok]
+                tr.lc_x0[start] = tr.x[start]
+                tr.lc_y0[start] = tr.y[start]
+                tr.lc_y1[start] = nxt[ok] * W
+                tr.lc_len[start] = length[ok]
+                active = tr.lc_lane >= 0
+
+        # ---------------------------------------------------------- steering
+        ld = np.maximum(p.preview_min, v * p.preview_time)
+        px = tr.x + ld
+        py = lane * W
+        if active.any():
+            a_rows = np.flatnonzero(active)
+            yp, _ = lane_change_lateral(
+                px[a_rows], tr.lc_x0[a_rows], tr.lc_y0[a_rows], tr.lc_y1[a_rows], tr.lc_len[a_rows]
+            )
+            py = py.astype(np.float64)
+            py[a_rows] = yp
+        phi = pure_pursuit_steering(tr.x, tr.y, tr.heading, px, py, p.wheelbase, p.steer_max)
+
+        # ------------------------------------------------------ longitudinal
+        lane_speed = np.where((lane == road.n_lanes) & road.has_ramp_lane, p.ramp_speed, p.desired_speed)
+        lane_speed = np.where(exiting & (lane < road.n_lanes), p.exit_speed, lane_speed)
+        lane_speed = np.where(blocked & ~member, np.maximum(lane_speed - p.blocked_slowdown, p.v_min), lane_speed)
+        acc = np.empty(n)
+        free = ~member
+        if free.any():
+            acc[free] = idm_acceleration(
+                v[free], lane_speed[free], np.inf, 0.0, p.a_max, p.idm_b, p.idm_T, p.idm_s0, free_term=True
+            )
+        if member.any():
+            m = np.flatnonzero(member)
+            acc[m] = longitudinal_feedback(cx[m], x_ref[m], v[m], v_ref[m], p.kp, p.kv, p.a_min, p.a_max)
+            # control floor: do not command speeds below the configured minimum
+            # (braking is faded out as v approaches v_min; the safety cap below still wins)
+            acc[m] = np.maximum(acc[m], 1.0 * (p.v_min - v[m]))
+        # safety envelope: leaders in the lanes the vehicle occupies or enters
+        q_rows = [index.rows]
+        q_lanes = [index.lanes]
+        if active.any():
+            a_rows = np.flatnonzero(active)
+            q_rows.append(a_rows)
+            q_lanes.append(tr.lc_lane[a_rows])
+        q_rows = np.concatenate(q_rows)
+        q_lanes = np.concatenate(q_lanes)
+        lead = leaders(index, q_rows, q_lanes, cx)
+        has_l = lead >= 0
+        gap = np.full(len(q_rows), np.inf)
+        gap[has_l] = cx[lead[has_l]] - cx[q_rows[has_l]] - 0.5 * (tr.length[lead[has_l]] + tr.length[q_rows[has_l]])
+        dv = np.where(has_l, v[q_rows] - v[np.maximum(lead, 0)], 0.0)
+        # the end of the lane ahead acts as a standing leader, unless the
+        # vehicle is leaving that lane
+        end = road.interval_end(q_lanes, cx[q_rows])
+        leaving = (tr.lc_lane[q_rows] >= 0) & (tr.lc_lane[q_rows] != q_lanes)
+        exit_ramp_end = (q_lanes == road.n_lanes) & exiting[q_rows]  # exits: leave at the ramp end
+        gap_end = np.where(leaving | exit_ramp_end, np.inf, end - cx[q_rows] - 0.5 * tr.length[q_rows])
+        use_end = gap_end < gap
+        gap = np.where(use_end, gap_end, gap)
+        dv = np.where(use_end, v[q_rows], dv)
+        Tq = np.where(member[q_rows], p.member_time_gap, p.idm_T)
+        safe = idm_acceleration(v[q_rows], p.v_max, gap, dv, p.a_max, p.idm_b, Tq, p.idm_s0, free_term=False)
+        cap = np.full(n, np.inf)
+        np.minimum.at(cap, q_rows, safe)
+        acc = np.minimum(acc, cap)
+        acc = np.clip(acc, p.a_min, p.a_max)
+        return self._normalise(acc, phi)

@@ -1,0 +1,240 @@
+"""The formation layer: which ICVs form which formation, where each
+formation's front target is, and which target each member holds.
+
+This is the coordination layer of the paper's Sec. 3 (target generation,
+Sec. 3.2; position assignment, Sec. 3.3), run by the environment as the
+V2X infrastructure would: it publishes each member's reference
+``(X_ref, lane_ref, v_ref)``, which is part of every agent's observation
+and of the formation-keeping reward. How a vehicle tracks its reference is
+the policy's business (:class:`icv_envs.policies.FormationExpert` or a
+learned one).
+
+Decisions the paper leaves open (NOTES.md §5), each a config value:
+
+* the front target (``anchor``) moves at the formation speed; it is held back
+  so that it never leads the best-placed member's implied front by more than
+  ``max_anchor_lead`` metres (a blocked formation does not run away from its
+  members);
+* the formation re-forms (new targets for the new count and lanes, then a
+  new minimum-cost assignment) whenever a member leaves or joins, or the set
+  of main lanes drivable over ``[rear - 10 m, front + lookahead]`` changes
+  (lane drop, blocking obstacle, lane re-opening after an obstacle). Between
+  events the assignment is kept (re-assigning every step would make vehicles
+  chase one another);
+* a member farther than ``stall_error`` metres from its target for
+  ``stall_time`` seconds also triggers a re-assignment (from the current
+  positions), so an assignment that traffic makes unreachable is revised;
+* a free ICV joins a formation when it is within ``join_distance`` of the
+  formation's span and the formation has fewer than ``max_size`` members; a
+  member whose exit's diverge segment is less than ``exit_lookahead`` ahead
+  leaves.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from icv_envs.formation.assignment import assign_targets
+from icv_envs.formation.targets import formation_targets
+
+__all__ = ["FormationManager"]
+
+
+class FormationManager:
+    def __init__(
+        self,
+        *,
+        spacing: float = 20.0,
+        geometry: str = "interlaced",
+        w1: float = 1.0,
+        w2: float = 10.0,
+        speed: float = 25.0,
+        lookahead: float = 200.0,
+        join_distance: float = 60.0,
+        exit_lookahead: float = 400.0,
+        max_size: int = 16,
+        max_anchor_lead: float = 15.0,
+        stall_error: float = 30.0,
+        stall_time: float = 5.0,
+        allowed_lanes=None,
+    ) -> None:
+        self.spacing = float(spacing)
+        self.geometry = geometry
+        self.w1, self.w2 = float(w1), float(w2)
+        self.speed = float(speed)
+        self.lookahead = float(lookahead)
+        self.join_distance = float(join_distance)
+        self.exit_lookahead = float(exit_lookahead)
+        self.max_size = int(max_size)
+        self.max_anchor_lead = float(max_anchor_lead)
+        self.stall_error = float(stall_error)
+        self.stall_time = float(stall_time)
+        self.stalled_for: dict[int, float] = {}
+        self.allowed_lanes = None if allowed_lanes is None else tuple(int(v) for v in allowed_lanes)
+        self.anchor: dict[int, float] = {}
+        self.lanes: dict[int, tuple[int, ...]] = {}
+        self.count: dict[int, int] = {}
+        self.length: dict[int, float] = {}
+        self.next_gid = 0
+        self.reforms = 0
+
+    # ---------------------------------------------------------------- helpers
+    def _lane_set(self, road, anchor: float, length: float) -> tuple[int, ...]:
+        lanes = road.drivable_main_lanes(anchor - length - 10.0, anchor + self.lookahead)
+        if self.allowed_lanes is not None:
+            lanes = [lane for lane in lanes if lane in self.allowed_lanes]
+        return tuple(lanes)
+
+    def create(self, traffic, rows, road, anchor: float | None = None) -> int:
+        """Make a new formation of vehicles ``rows`` and assign them targets."""
+        rows = np.asarray(rows, dtype=np.int64)
+        cx, _ = traffic.center()
+        gid = self.next_gid
+        self.next_gid += 1
+        self.anchor[gid] = float(cx[rows].max() if anchor is None else anchor)
+        traffic.group[rows] = gid
+        self.length[gid] = 0.0
+        self._reform(traffic, road, gid, cx)
+        return gid
+
+    def _reform(self, traffic, road, gid: int, cx: np.ndarray) -> None:
+        """Paper Sec. 3.2-3.3: generate targets for the members on the
+        drivable lanes and assign them by minimum total cost F_w."""
+        rows = np.flatnonzero(traffic.group == gid)
+        n = len(rows)
+        self.count[gid] = n
+        if n == 0:
+            return
+        anchor = self.anchor[gid]
+        # lanes over the window the *new* formation will span
+        lanes = self._lane_set(road, anchor, self.length[gid])
+        if not lanes:
+            lanes = (0,)
+        for _ in range(2):  # the length depends on the lane count and vice versa
+            tx, tl = formation_targets(n, len(lanes), self.spacing, self.geometry)
+            length = float(tx.max()) if n else 0.0
+            new = self._lane_set(road, anchor, max(length, self.length[gid])) or lanes
+            if new == lanes:
+                break
+            lanes = new
+        tx, tl = formation_targets(n, len(lanes), self.spacing, self.geometry)
+        self.lanes[gid] = lanes
+        self.length[gid] = float(tx.max())
+        # vehicles in the formation frame: metres behind the front target and
+        # a (fractional) formation lane id interpolated over the lane set
+        lanes_arr = np.asarray(lanes, dtype=np.float64)
+        ids = np.arange(1, len(lanes) + 1, dtype=np.float64)
+        _, cy = traffic.center()
+        lane_pos = cy[rows] / road.lane_width
+        if len(lanes) > 1:
+            y_v = np.interp(lane_pos, lanes_arr, ids)
+            y_v = np.where(lane_pos < lanes_arr[0], 1.0 - (lanes_arr[0] - lane_pos), y_v)
+            y_v = np.where(lane_pos > lanes_arr[-1], len(lanes) + (lane_pos - lanes_arr[-1]), y_v)
+        else:
+            y_v = 1.0 + (lane_pos - lanes_arr[0])
+        x_v = anchor - cx[rows]
+        slot = assign_targets(x_v, y_v, tx, tl.astype(np.float64), self.w1, self.w2)
+        traffic.tgt_behind[rows] = tx[slot]
+        traffic.tgt_lane[rows] = np.asarray(lanes, dtype=np.int64)[tl[slot] - 1]
+        self.reforms += 1
+
+    # ----------------------------------------------------------------- update
+    def update(self, traffic, road, dt: float) -> list[int]:
+        """Advance the front targets by ``dt`` and process membership and
+        lane-set events; returns the ids of formations that re-formed."""
+        cx, _ = traffic.center()
+        changed: set[int] = set()
+        gids = list(self.anchor)
+        for gid in gids:
+            self.anchor[gid] += self.speed * dt
+        if traffic.n:
+            # members about to exit leave (the vehicle becomes free and
+            # heads for its ramp)
+            has_exit = (traffic.exit >= 0) & (traffic.group >= 0)
+            if has_exit.any() and road.n_exits:
+                rows = np.flatnonzero(has_exit)
+                dist = road.diverge_start(traffic.exit[rows]) - cx[rows]
+                leave = rows[dist < self.exit_lookahead]
+                for gid in np.unique(traffic.group[leave]):
+                    changed.add(int(gid))
+                traffic.group[leave] = -1
+                traffic.tgt_lane[leave] = -1
+        counts = np.bincount(traffic.group[traffic.group >= 0], minlength=self.next_gid) if traffic.n else np.zeros(
+            self.next_gid, dtype=np.int64
+        )
+        for gid in gids:
+            if counts[gid] != self.count.get(gid, 0):
+                changed.add(gid)  # a member crashed, left the road or left
+        # joins
+        free = np.flatnonzero((traffic.group < 0) & ~traffic.crashed) if traffic.n else np.zeros(0, dtype=np.int64)
+        if len(free) and gids:
+            if road.n_exits:
+                ex = traffic.exit[free]
+                soon = np.zeros(len(free), dtype=bool)
+                has = ex >= 0
+                soon[has] = road.diverge_start(ex[has]) - cx[free[has]] < self.exit_lookahead + 100.0
+                free = free[~soon]
+            for gid in gids:
+                if not len(free):
+                    break
+                size = int(counts[gid]) if gid < len(counts) else 0
+                if size == 0 or size >= self.max_size:
+                    continue
+                lo = self.anchor[gid] - self.length[gid] - self.join_distance
+                hi = self.anchor[gid] + self.join_distance
+                near = free[(cx[free] >= lo) & (cx[free] <= hi)]
+                near = near[: self.max_size - size]
+                if len(near):
+                    traffic.group[near] = gid
+                    changed.add(gid)
+                    free = np.setdiff1d(free, near)
+        # lane-set changes and anchor hold-back
+        for gid in gids:
+            rows = np.flatnonzero(traffic.group == gid) if traffic.n else np.zeros(0, dtype=np.int64)
+            if not len(rows):
+                continue
+            implied = (cx[rows] + traffic.tgt_behind[rows]).max()
+            if gid not in changed and self.anchor[gid] > implied + self.max_anchor_lead:
+                self.anchor[gid] = float(implied + self.max_anchor_lead)
+            if gid not in changed and self._lane_set(road, self.anchor[gid], self.length[gid]) != self.lanes[gid]:
+                changed.add(gid)
+            # a member that stays far from its target (e.g. it joined ahead of
+            # the formation and its target lies beyond a member in its lane)
+            # triggers a re-assignment from the current positions
+            err = np.abs(cx[rows] - (self.anchor[gid] - traffic.tgt_behind[rows])).max()
+            if err > self.stall_error:
+                self.stalled_for[gid] = self.stalled_for.get(gid, 0.0) + dt
+            else:
+                self.stalled_for[gid] = 0.0
+            if self.stalled_for[gid] >= self.stall_time:
+                changed.add(gid)
+                self.stalled_for[gid] = 0.0
+        for gid in sorted(changed):
+            self._reform(traffic, road, gid, cx)
+        for gid in gids:
+            if self.count.get(gid, 0) == 0:
+                for d in (self.anchor, self.lanes, self.count, self.length, self.stalled_for):
+                    d.pop(gid, None)
+        return sorted(changed)
+
+    def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per-vehicle ``(x_ref, lane_ref, v_ref, member)``: body-centre
+        reference position ``X_ref = anchor - x_g`` (paper Sec. 4 uses the
+        same form), target lane, formation speed, membership mask. Free
+        vehicles get ``nan`` / ``-1``."""
+        member = traffic.group >= 0
+        x_ref = np.full(traffic.n, np.nan)
+        v_ref = np.full(traffic.n, np.nan)
+        if member.any():
+            g = traffic.group[member]
+            anchors = np.array([self.anchor.get(int(k), np.nan) for k in range(self.next_gid)])
+            x_ref[member] = anchors[g] - traffic.tgt_behind[member]
+            v_ref[member] = self.speed
+        lane_ref = np.where(member, traffic.tgt_lane, -1)
+        return x_ref, lane_ref, v_ref, member
+
+    def summary(self) -> list[dict]:
+        return [
+            {"id": g, "anchor": self.anchor[g], "lanes": list(self.lanes.get(g, ())), "members": self.count.get(g, 0)}
+            for g in sorted(self.anchor)
+        ]

@@ -1,0 +1,257 @@
+"""Straight multi-lane road layout: lanes, lane drops, obstacles and ramps.
+
+The simulation core works in road coordinates: ``x`` metres along the road,
+``y`` metres to the right of the centre of lane 0 (highway-env's convention:
+lane 0 is the leftmost lane, ``y`` grows to the right of the driving
+direction, lane ``l`` is centred at ``y = l * lane_width``). The ramp lane,
+when the road has ramps, is lane ``n_lanes`` (to the right of the main road),
+as in the paper's Fig. 2a and Table 1 (a merge segment of 100 m at an
+on-ramp, a diverge segment of 50 m at an off-ramp).
+
+Everything here is a small set of numpy arrays so the per-step queries
+(``available``, ``interval_end``) are vectorised over vehicles. The layout is
+also turned into a highway-env :class:`~highway_env.road.road.RoadNetwork`
+for rendering (:meth:`RoadLayout.to_network`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["OnRamp", "OffRamp", "Obstacle", "RoadLayout"]
+
+
+@dataclass(frozen=True)
+class OnRamp:
+    """An on-ramp: the ramp lane runs from ``start - approach`` to ``end``.
+
+    Vehicles on the ramp lane may move to the rightmost main lane only in the
+    merge segment ``[start, end]`` (paper Table 1: 100 m).
+    """
+
+    start: float
+    end: float
+    approach: float = 300.0
+
+
+@dataclass(frozen=True)
+class OffRamp:
+    """An off-ramp: the ramp lane opens at ``start`` (diverge segment
+    ``[start, end]``, paper Table 1: 50 m) and continues to ``exit_x`` where
+    the vehicle leaves the simulation (it has reached its exit)."""
+
+    start: float
+    end: float
+    exit_x: float
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A static obstacle centred at ``x`` in ``lane``, ``length`` metres long.
+
+    Paper Sec. 3.4: an obstacle that makes its lane undrivable is handled as a
+    lane-count change, so it blocks the whole lane over its length."""
+
+    lane: int
+    x: float
+    length: float = 4.0
+    width: float = 2.0
+
+
+@dataclass
+class RoadLayout:
+    """A straight road of ``n_lanes`` main lanes plus an optional ramp lane.
+
+    ``lane_ends[l]`` is where main lane ``l`` ends (``inf`` if it runs to the
+    end of the road): a lane drop. Obstacles block their lane over their
+    length. Main lane ``l`` is available at ``x`` when ``x < lane_ends[l]``
+    and no obstacle covers ``x``; the ramp lane is available inside a ramp's
+    extent only.
+    """
+
+    n_lanes: int
+    length: float
+    lane_width: float = 4.0
+    lane_ends: np.ndarray | None = None
+    on_ramps: list[OnRamp] = field(default_factory=list)
+    off_ramps: list[OffRamp] = field(default_factory=list)
+    obstacles: list[Obstacle] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if int(self.n_lanes) != self.n_lanes or self.n_lanes < 1:
+            raise ValueError(f"n_lanes must be an integer >= 1, got {self.n_lanes!r}")
+        if not np.isfinite(self.length) or self.length <= 0:
+            raise ValueError(f"road length must be a finite number > 0, got {self.length!r}")
+        if self.lane_ends is None:
+            self.lane_ends = np.full(self.n_lanes, np.inf)
+        self.lane_ends = np.asarray(self.lane_ends, dtype=np.float64)
+        if self.lane_ends.shape != (self.n_lanes,):
+            raise ValueError(
+                f"lane_ends must have one entry per main lane ({self.n_lanes}), got shape {self.lane_ends.shape}"
+            )
+        for ob in self.obstacles:
+            if not 0 <= ob.lane < self.n_lanes:
+                raise ValueError(f"obstacle lane must be in [0, {self.n_lanes - 1}], got {ob.lane}")
+        # Intervals where the ramp lane exists, as arrays [k, 2]
+        ramp = [(r.start - r.approach, r.end) for r in self.on_ramps]
+        ramp += [(r.start, r.exit_x) for r in self.off_ramps]
+        self._ramp_iv = np.array(sorted(ramp), dtype=np.float64).reshape(-1, 2)
+        self._merge_iv = np.array([(r.start, r.end) for r in self.on_ramps], dtype=np.float64).reshape(-1, 2)
+        self._diverge_iv = np.array([(r.start, r.end) for r in self.off_ramps], dtype=np.float64).reshape(-1, 2)
+        self._exit_x = np.array([r.exit_x for r in self.off_ramps], dtype=np.float64)
+        obs = sorted(self.obstacles, key=lambda o: (o.lane, o.x))
+        self._ob_lane = np.array([o.lane for o in obs], dtype=np.int64)
+        self._ob_lo = np.array([o.x - o.length / 2 for o in obs], dtype=np.float64)
+        self._ob_hi = np.array([o.x + o.length / 2 for o in obs], dtype=np.float64)
+
+    # ------------------------------------------------------------------ lanes
+    @property
+    def has_ramp_lane(self) -> bool:
+        return len(self._ramp_iv) > 0
+
+    @property
+    def ramp_lane(self) -> int:
+        """Index of the ramp lane (right of the main lanes)."""
+        return self.n_lanes
+
+    @property
+    def total_lanes(self) -> int:
+        return self.n_lanes + (1 if self.has_ramp_lane else 0)
+
+    def lane_center(self, lane) -> np.ndarray:
+        return np.asarray(lane, dtype=np.float64) * self.lane_width
+
+    def lane_of(self, y) -> np.ndarray:
+        """Lane index whose centre is nearest to lateral position ``y``."""
+        return np.clip(np.rint(np.asarray(y) / self.lane_width), 0, self.total_lanes - 1).astype(np.int64)
+
+    def available(self, lane, x) -> np.ndarray:
+        """Whether ``lane`` is drivable at ``x`` (vectorised, broadcasting)."""
+        lane, x = np.broadcast_arrays(np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64))
+        out = np.zeros(lane.shape, dtype=bool)
+        main = (lane >= 0) & (lane < self.n_lanes)
+        if main.any():
+            lm, xm = lane[main], x[main]
+            ok = (xm >= 0) & (xm < self.lane_ends[lm])
+            if len(self._ob_lane):
+                blocked = (
+                    (lm[:, None] == self._ob_lane[None, :])
+                    & (xm[:, None] >= self._ob_lo[None, :])
+                    & (xm[:, None] <= self._ob_hi[None, :])
+                ).any(axis=1)
+                ok &= ~blocked
+            out[main] = ok
+        ramp = lane == self.n_lanes
+        if ramp.any() and len(self._ramp_iv):
+            xr = x[ramp]
+            out[ramp] = ((xr[:, None] >= self._ramp_iv[None, :, 0]) & (xr[:, None] <= self._ramp_iv[None, :, 1])).any(
+                axis=1
+            )
+        return out
+
+    def interval_end(self, lane, x) -> np.ndarray:
+        """Distance-free position where the drivable stretch of ``lane``
+        containing (or following) ``x`` ends: the next lane end, obstacle rear
+        or ramp end ahead of ``x`` (``inf`` if none). Vectorised."""
+        lane, x = np.broadcast_arrays(np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64))
+        end = np.full(lane.shape, np.inf)
+        main = lane < self.n_lanes
+        if main.any():
+            lm, xm = lane[main], x[main]
+            e = self.lane_ends[lm].copy()
+            if len(self._ob_lane):
+                cand = np.where(
+                    (lm[:, None] == self._ob_lane[None, :]) & (self._ob_hi[None, :] >= xm[:, None]),
+                    self._ob_lo[None, :],
+                    np.inf,
+                ).min(axis=1)
+                e = np.minimum(e, cand)
+            end[main] = e
+        ramp = ~main
+        if ramp.any() and len(self._ramp_iv):
+            xr = x[ramp]
+            cand = np.where(self._ramp_iv[None, :, 1] >= xr[:, None], self._ramp_iv[None, :, 1], np.inf).min(axis=1)
+            end[ramp] = cand
+        return end
+
+    def in_merge(self, x) -> np.ndarray:
+        """Inside an on-ramp merge segment (ramp lane -> rightmost main lane allowed)."""
+        x = np.asarray(x, dtype=np.float64)
+        if not len(self._merge_iv):
+            return np.zeros(x.shape, dtype=bool)
+        return ((x[..., None] >= self._merge_iv[:, 0]) & (x[..., None] <= self._merge_iv[:, 1])).any(axis=-1)
+
+    def in_diverge(self, x) -> np.ndarray:
+        """Inside an off-ramp diverge segment (rightmost main lane -> ramp lane allowed)."""
+        x = np.asarray(x, dtype=np.float64)
+        if not len(self._diverge_iv):
+            return np.zeros(x.shape, dtype=bool)
+        return ((x[..., None] >= self._diverge_iv[:, 0]) & (x[..., None] <= self._diverge_iv[:, 1])).any(axis=-1)
+
+    def drivable_main_lanes(self, x0: float, x1: float) -> list[int]:
+        """Main lanes drivable over the whole window ``[x0, x1]`` (the lanes a
+        formation spanning that window may use; paper Sec. 3.3-3.4: a lane
+        that closes ahead, by a lane drop or a blocking obstacle, is removed
+        from the formation, which then re-forms on the remaining lanes)."""
+        x0 = max(float(x0), 0.0)
+        x1 = max(float(x1), x0)
+        ok = self.lane_ends > x1
+        if len(self._ob_lane):
+            hit = (self._ob_hi >= x0) & (self._ob_lo <= x1)
+            ok[self._ob_lane[hit]] = False
+        return [int(l) for l in np.flatnonzero(ok)]
+
+    def exit_position(self, exit_index) -> np.ndarray:
+        return self._exit_x[np.asarray(exit_index, dtype=np.int64)]
+
+    def diverge_start(self, exit_index) -> np.ndarray:
+        return self._diverge_iv[np.asarray(exit_index, dtype=np.int64), 0]
+
+    def diverge_end(self, exit_index) -> np.ndarray:
+        return self._diverge_iv[np.asarray(exit_index, dtype=np.int64), 1]
+
+    @property
+    def n_exits(self) -> int:
+        return len(self.off_ramps)
+
+    # -------------------------------------------------------------- rendering
+    def to_network(self):
+        """A highway-env :class:`RoadNetwork` drawing this layout.
+
+        The road is cut at every lane drop, obstacle and ramp boundary; each
+        piece holds the lanes that exist there, with continuous outer lines
+        and striped lines between lanes. Used for rendering only: the
+        simulation core never queries it in the hot loop."""
+        from highway_env.road.lane import LineType, StraightLane
+        from highway_env.road.road import RoadNetwork
+
+        net = RoadNetwork()
+        cuts = {0.0, float(self.length)}
+        cuts.update(float(e) for e in self.lane_ends if np.isfinite(e) and 0 < e < self.length)
+        for a, b in self._ramp_iv:
+            cuts.update(float(np.clip(v, 0, self.length)) for v in (a, b))
+        cuts = sorted(cuts)
+        C, S, N = LineType.CONTINUOUS_LINE, LineType.STRIPED, LineType.NONE
+        w = self.lane_width
+        for k, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
+            if b - a < 1e-6:
+                continue
+            mid = 0.5 * (a + b)
+            present = [lane for lane in range(self.n_lanes) if mid < self.lane_ends[lane]]
+            if self.has_ramp_lane and self.available(self.n_lanes, mid):
+                present.append(self.n_lanes)
+            for j, lane in enumerate(present):
+                left = C if j == 0 else N
+                right = C if j == len(present) - 1 else S
+                if lane == self.n_lanes and j > 0:
+                    # the ramp lane is separated from the main road by a
+                    # continuous line except in merge / diverge segments
+                    pass
+                net.add_lane(
+                    f"s{k}",
+                    f"s{k + 1}",
+                    StraightLane([a, lane * w], [b, lane * w], line_types=(left, right), width=w),
+                )
+        return net

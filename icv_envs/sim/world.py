@@ -1,0 +1,165 @@
+"""The simulation core: road layout + traffic arrays + formation layer.
+
+:class:`World` advances all vehicles at once with array operations. It knows
+nothing about Gymnasium or PettingZoo; the environments in
+:mod:`icv_envs.envs` are thin layers over it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from icv_envs.sim.formations import FormationManager
+from icv_envs.sim.road import RoadLayout
+from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, leaders, rect_overlap
+
+__all__ = ["World", "StepEvents"]
+
+
+class StepEvents:
+    """What happened during one :meth:`World.advance` call (vehicle ids)."""
+
+    __slots__ = ("crashed", "exited", "left_road", "collision_pairs")
+
+    def __init__(self) -> None:
+        self.crashed: set[int] = set()
+        self.exited: set[int] = set()
+        self.left_road: set[int] = set()
+        self.collision_pairs: list[tuple[int, int]] = []
+
+
+class World:
+    def __init__(
+        self,
+        road: RoadLayout,
+        manager: FormationManager,
+        *,
+        dt: float = 0.04,
+        wheelbase: float = 2.8,
+        v_max: float = 30.0,
+        remove_crashed: bool = True,
+    ) -> None:
+        self.road = road
+        self.manager = manager
+        self.dt = float(dt)
+        self.v_max = float(v_max)
+        self.remove_crashed = remove_crashed
+        self.traffic = Traffic(wheelbase)
+        self.time = 0.0
+        self._index = None
+        # run metrics, accumulated every substep (see icv_envs.experiments.metrics)
+        self.stats = {
+            "vehicle_steps": 0,
+            "speed_sum": 0.0,
+            "abs_accel_sum": 0.0,
+            "collisions": 0,
+            "exited": 0,
+            "left_road": 0,
+            "min_gap": np.inf,
+        }
+
+    # ---------------------------------------------------------------- queries
+    def lane_index(self):
+        """Lane-sorted index of the current state (cached until the next step)."""
+        if self._index is None:
+            cx, cy = self.traffic.center()
+            self._index = lane_index(
+                cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length
+            )
+        return self._index
+
+    def invalidate(self) -> None:
+        self._index = None
+
+    def own_lane_gaps(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bumper-to-bumper gap to the leader in each vehicle's own lane, and
+        that leader's row (-1 and ``inf`` when none)."""
+        tr = self.traffic
+        cx, cy = tr.center()
+        lane = self.road.lane_of(cy)
+        lead = leaders(self.lane_index(), np.arange(tr.n), lane, cx)
+        gap = np.full(tr.n, np.inf)
+        ok = lead >= 0
+        gap[ok] = cx[lead[ok]] - cx[ok] - 0.5 * (tr.length[lead[ok]] + tr.length[ok])
+        return gap, lead
+
+    # ---------------------------------------------------------------- dynamics
+    def substep(self, accel: np.ndarray, steer: np.ndarray, events: StepEvents) -> None:
+        """One integration step of ``dt`` for all vehicles, then collision
+        detection (sweep and prune, see :func:`find_collisions`), exits and
+        road ends."""
+        tr = self.traffic
+        if tr.n:
+            accel = np.where(tr.crashed, -6.0, accel)
+            steer = np.where(tr.crashed, 0.0, steer)
+            tr.step(accel, steer, self.dt, self.v_max)
+        self.time += self.dt
+        self._index = None
+        if not tr.n:
+            return
+        st = self.stats
+        st["vehicle_steps"] += tr.n
+        st["speed_sum"] += float(tr.speed.sum())
+        st["abs_accel_sum"] += float(np.abs(tr.accel).sum())
+        cx, cy = tr.center()
+        i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width)
+        hit = np.zeros(tr.n, dtype=bool)
+        if len(i):
+            hit[i] = True
+            hit[j] = True
+            for a, b in zip(tr.vid[i], tr.vid[j]):
+                events.collision_pairs.append((int(a), int(b)))
+        obs = self.road.obstacles
+        if obs:
+            for ob in obs:
+                near = np.flatnonzero(np.abs(cx - ob.x) < 0.5 * (ob.length + tr.length.max()) + 1.0)
+                if len(near):
+                    h = rect_overlap(
+                        cx[near], cy[near], tr.heading[near], tr.length[near], tr.width[near],
+                        ob.x, ob.lane * self.road.lane_width, 0.0, ob.length, ob.width,
+                    )
+                    hit[near[h]] = True
+        # leaving the drivable surface: a main-road vehicle whose lane has
+        # ended, or a ramp vehicle past the ramp's end, has crashed
+        lane = self.road.lane_of(cy)
+        off = ~self.road.available(lane, cx)
+        # beyond the outer edge of the outermost lane (a learned policy can steer off)
+        off |= np.abs(cy - lane * self.road.lane_width) > 0.5 * self.road.lane_width + 0.5
+        exit_now = np.zeros(tr.n, dtype=bool)
+        if self.road.n_exits:
+            has = tr.exit >= 0
+            if has.any():
+                ex_x = np.full(tr.n, np.inf)
+                ex_x[has] = self.road.exit_position(tr.exit[has])
+                exit_now = has & (lane == self.road.ramp_lane) & (cx >= ex_x - 1.0)
+        off &= ~exit_now
+        at_end = cx >= self.road.length
+        off &= ~at_end
+        new_crash = (hit | off) & ~tr.crashed
+        if new_crash.any():
+            tr.crashed |= new_crash
+            events.crashed.update(int(v) for v in tr.vid[new_crash])
+            st["collisions"] += int(new_crash.sum())
+        if exit_now.any():
+            events.exited.update(int(v) for v in tr.vid[exit_now])
+            st["exited"] += int(exit_now.sum())
+        if at_end.any():
+            events.left_road.update(int(v) for v in tr.vid[at_end & ~exit_now])
+            st["left_road"] += int((at_end & ~exit_now).sum())
+        gone = exit_now | at_end
+        if gone.any():
+            tr.remove(gone)
+            self._index = None
+
+    def remove_crashed_vehicles(self) -> np.ndarray:
+        tr = self.traffic
+        ids = tr.vid[tr.crashed]
+        if self.remove_crashed and len(ids):
+            tr.remove(tr.crashed)
+            self._index = None
+        return ids
+
+    def record_min_gap(self) -> None:
+        if self.traffic.n > 1:
+            gap, _ = self.own_lane_gaps()
+            self.stats["min_gap"] = min(self.stats["min_gap"], float(gap.min()))
