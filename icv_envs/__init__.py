@@ -1,0 +1,44 @@
+"""icv_envs: Gymnasium and PettingZoo environments for intelligent and
+connected vehicles (ICVs), with the cooperative-driving framework of Xu et al.
+(IET ITS 2021) as scripted experts.
+
+Importing the package registers the Gymnasium ids (``icv_envs/...-v0``) and the
+PettingZoo ids (``icv_envs/..._v0`` style, see :data:`PETTINGZOO_IDS`).
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+__version__ = "0.1.0"
+
+GYM_IDS = {
+    "icv_envs/HighwayFormation-v0": "icv_envs.envs.highway_formation:HighwayFormationEnv",
+}
+PETTINGZOO_IDS = {
+    "icv_envs/highway_formation-v0": "icv_envs.envs.highway_formation_v0",
+}
+
+
+def _register() -> None:
+    for env_id, entry in GYM_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=entry)
+    try:
+        import pettingzoo
+    except ImportError:  # pragma: no cover
+        return
+    if not hasattr(pettingzoo, "register"):  # PettingZoo < 1.27 has no registry
+        return
+    for env_id, module in PETTINGZOO_IDS.items():
+        if env_id not in pettingzoo.parallel_registry:
+            pettingzoo.register("parallel", env_id, entry_point=f"{module}:parallel_env")
+        if env_id not in pettingzoo.aec_registry:
+            pettingzoo.register("aec", env_id, entry_point=f"{module}:env")
+
+
+_register()
+
+from icv_envs.envs import highway_formation_v0  # noqa: E402
+
+__all__ = ["highway_formation_v0", "GYM_IDS", "PETTINGZOO_IDS", "__version__"]

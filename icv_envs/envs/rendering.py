@@ -10,6 +10,8 @@ returns all-black frames).
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pygame
 from highway_env.envs.common.graphics import EnvViewer
@@ -20,6 +22,11 @@ __all__ = ["FormationViewer"]
 
 class FormationViewer(EnvViewer):
     def __init__(self, env, config=None) -> None:
+        cfg = config or env.config
+        if cfg.get("offscreen_rendering") and not os.environ.get("DISPLAY"):
+            # no screen: render with SDL's dummy video driver (our display()
+            # draws regardless, so frames are not black)
+            os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
         super().__init__(env, config)
         if self.offscreen:
             self.enabled = True

@@ -54,6 +54,7 @@ class ExpertParams:
     blocked_slowdown: float = 3.0  # [m/s] a vehicle whose lane change is refused slows by this to find a gap
     kp: float = -0.3
     kv: float = -1.1
+    ref_error_clip: float = 50.0  # [m] position error fed to the feedback law is clipped to +-this
     # IDM safety envelope
     idm_T: float = 1.0  # time gap of the IDM safety envelope, free ICVs [s]
     member_time_gap: float = 0.5  # ... and inside a formation, where lane changes pass 15 m gaps [s]
@@ -211,7 +212,11 @@ class FormationExpert:
             )
         if member.any():
             m = np.flatnonzero(member)
-            acc[m] = longitudinal_feedback(cx[m], x_ref[m], v[m], v_ref[m], p.kp, p.kv, p.a_min, p.a_max)
+            # bounded reference: with a_max = 3 the clipped law overshoots for
+            # errors beyond ~100 m; clipping the error to +-ref_error_clip keeps
+            # the closing speed small enough that it never does
+            x_eff = cx[m] + np.clip(x_ref[m] - cx[m], -p.ref_error_clip, p.ref_error_clip)
+            acc[m] = longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], p.kp, p.kv, p.a_min, p.a_max)
             # control floor: do not command speeds below the configured minimum
             # (braking is faded out as v approaches v_min; the safety cap below still wins)
             acc[m] = np.maximum(acc[m], 1.0 * (p.v_min - v[m]))

@@ -230,8 +230,9 @@ class RoadLayout:
         net = RoadNetwork()
         cuts = {0.0, float(self.length)}
         cuts.update(float(e) for e in self.lane_ends if np.isfinite(e) and 0 < e < self.length)
-        for a, b in self._ramp_iv:
-            cuts.update(float(np.clip(v, 0, self.length)) for v in (a, b))
+        for iv in (self._ramp_iv, self._merge_iv, self._diverge_iv):
+            for a, b in iv:
+                cuts.update(float(np.clip(v, 0, self.length)) for v in (a, b))
         cuts = sorted(cuts)
         C, S, N = LineType.CONTINUOUS_LINE, LineType.STRIPED, LineType.NONE
         w = self.lane_width
@@ -240,15 +241,17 @@ class RoadLayout:
                 continue
             mid = 0.5 * (a + b)
             present = [lane for lane in range(self.n_lanes) if mid < self.lane_ends[lane]]
-            if self.has_ramp_lane and self.available(self.n_lanes, mid):
+            ramp_here = self.has_ramp_lane and bool(self.available(self.n_lanes, mid))
+            if ramp_here:
                 present.append(self.n_lanes)
+            # the ramp is fenced off from the main road by a continuous line
+            # except along merge and diverge segments
+            open_ramp = bool(self.in_merge(mid) or self.in_diverge(mid))
             for j, lane in enumerate(present):
                 left = C if j == 0 else N
                 right = C if j == len(present) - 1 else S
-                if lane == self.n_lanes and j > 0:
-                    # the ramp lane is separated from the main road by a
-                    # continuous line except in merge / diverge segments
-                    pass
+                if ramp_here and j == len(present) - 2 and not open_ramp:
+                    right = C
                 net.add_lane(
                     f"s{k}",
                     f"s{k + 1}",

@@ -208,9 +208,11 @@ def leaders(index: LaneIndex, q_rows, q_lanes, cx) -> np.ndarray:
     resolved by row so two vehicles never lead each other."""
     q_rows = np.asarray(q_rows, dtype=np.int64)
     q_lanes = np.asarray(q_lanes, dtype=np.int64)
+    out = np.full(len(q_rows), -1, dtype=np.int64)
+    if not len(index.keys):
+        return out
     qk = q_lanes * index.offset + cx[q_rows]
     pos = np.searchsorted(index.keys, qk, side="right")
-    out = np.full(len(q_rows), -1, dtype=np.int64)
     # a vehicle at exactly the same x is skipped by side="right"; acceptable
     # (two co-located vehicles are a collision anyway)
     ok = pos < len(index.keys)
@@ -224,9 +226,11 @@ def followers(index: LaneIndex, q_rows, q_lanes, cx) -> np.ndarray:
     """Row of the nearest vehicle strictly behind ``q_rows`` in ``q_lanes``; -1 if none."""
     q_rows = np.asarray(q_rows, dtype=np.int64)
     q_lanes = np.asarray(q_lanes, dtype=np.int64)
+    out = np.full(len(q_rows), -1, dtype=np.int64)
+    if not len(index.keys):
+        return out
     qk = q_lanes * index.offset + cx[q_rows]
     pos = np.searchsorted(index.keys, qk, side="left") - 1
-    out = np.full(len(q_rows), -1, dtype=np.int64)
     ok = pos >= 0
     p = np.maximum(pos, 0)
     ok &= index.lanes[p] == q_lanes

@@ -1,0 +1,216 @@
+"""
+# Highway Formation
+
+| Import | `from icv_envs import highway_formation_v0` |
+|---|---|
+| Creation | `highway_formation_v0.parallel_env(scenario="lane-drop", render_mode=None, **config)` |
+| Actions | Continuous |
+| Parallel API | Yes (`parallel_env`); AEC through `env()` / `raw_env()` |
+| Manual Control | No |
+| Agents | `agents = ["icv_0", "icv_1", ...]`: every ICV, from its appearance until it crashes, exits or the episode ends |
+| Number of agents | `vehicles_count` + scheduled `spawns` (8 by default) |
+| Action Shape | `(2,)` |
+| Action Values | `Box(-1, 1, (2,), float32)`: `[acceleration, steering]` |
+| Observation Shape | `(V, 11)`, `V = observation["vehicles_count"]` (8) |
+| Observation Values | `Box(-1, 1, (V, 11), float32)` |
+| State Shape | `(len(possible_agents), 11)` |
+| State Values | `Box(-1, 1, (len(possible_agents), 11), float32)` |
+| Gymnasium id | `icv_envs/HighwayFormation-v0` (one learned ego among expert ICVs) |
+| PettingZoo id | `icv_envs/highway_formation-v0` (`pettingzoo.make("parallel", ...)`) |
+
+Intelligent and connected vehicles (ICVs) drive on a straight multi-lane
+highway (1 to 6 lanes) in the interlaced multi-lane formation of Xu et al.
+(2021), Sec. 3: a formation layer (run by the environment, as V2X
+infrastructure would) generates the formation's targets (Sec. 3.2, the
+corrected target equation of NOTES.md §2) on the lanes that are drivable
+ahead and assigns them to the members by minimum total cost with the
+Hungarian method (Sec. 3.3); it re-forms whenever lanes close or open (a lane
+drop, an obstacle blocking a lane) or a vehicle joins (on-ramp) or leaves
+(off-ramp). Each agent's job is to reach and hold its target safely. The
+formation expert (:class:`icv_envs.policies.FormationExpert`; Bezier lane
+changes, preview steering, the paper's feedback law, an IDM safety envelope)
+does it through the same action space, and its action is in every agent's
+info as `"expert_action"`.
+
+The vehicle model is the paper's rear-axle kinematic bicycle (Sec. 2.2,
+L = 2.8 m, steering within +-30 deg, acceleration within [-6, 3] m/s^2),
+integrated at 25 Hz (0.04 s); agents act at `policy_frequency` (5 Hz), each
+action held for the substeps in between.
+
+The simulation core stores vehicles as arrays; neighbour search uses
+lane-sorted positions and collisions a sweep over x-sorted bodies, so a step
+costs O(N log N) (highway-env's own loops are O(N^2)); highway-env supplies
+road drawing, rendering and the observation conventions.
+
+## Observations
+
+A `(V, 11)` float32 array in highway-env's `Kinematics` layout. Row 0 is the
+observing vehicle in absolute terms; rows 1..V-1 are the V-1 vehicles nearest
+by longitudinal distance within `perception_distance` (150 m), relative to the
+observer (x, y, vx, vy differences), zero-padded (presence 0). Columns:
+
+| # | feature | scaling |
+|---|---|---|
+| 0 | presence | 1 for a vehicle, 0 for padding |
+| 1 | x | row 0: x / road_length; others: dx / perception_distance |
+| 2 | y | / (lanes x lane_width) (row 0: absolute, lane 0 centred at 0) |
+| 3, 4 | vx, vy | / v_max |
+| 5, 6 | cos_h, sin_h | heading |
+| 7 | target_dx | (X_ref - x) / 100 m, 0 for a vehicle outside a formation |
+| 8 | target_dy | (y_ref - y) / (lanes x lane_width) |
+| 9 | target_dv | (v_ref - v) / v_max |
+| 10 | member | 1 if the vehicle holds a formation target |
+
+All values are clipped to [-1, 1].
+
+## Actions
+
+`[u_a, u_s]` in [-1, 1]: acceleration `u_a * 3` m/s^2 for `u_a >= 0` and
+`u_a * 6` m/s^2 for `u_a < 0` (so 0 coasts), steering `u_s * 30` deg.
+Out-of-range values are clipped; a wrong shape or a NaN raises `ValueError`
+naming the agent. Every live agent needs an action unless
+`missing_action="expert"`, in which case the expert drives the ones left out.
+
+## Rewards
+
+Per agent and per step, the weighted sum (weights in `config["reward"]`) of
+
+* `progress` (0.4): speed / v_max;
+* `safety` (1.0): -1 on the step of a collision, else
+  `-max(0, 1 - gap / (2 m + v * 1 s))` for the gap to the leader in its lane;
+* `comfort` (0.1): `-(u_a^2 + u_s^2) / 2` of the action taken;
+* `formation` (0.5): `exp(-(dx / L_s)^2 - (dy / lane_width)^2)` of the target
+  error for members, 0 for free vehicles.
+
+The components are in `infos[agent]["rewards"]`.
+
+## Episode end
+
+An agent *terminates* when it collides (its vehicle is then removed) or
+reaches its exit at the end of an off-ramp; it is *truncated* when it reaches
+the end of the road, and every agent is truncated after `duration` seconds.
+
+## State
+
+`state()` returns one row per possible agent (in `possible_agents` order),
+with the observation's columns in absolute terms; zeros for vehicles not on
+the road. Use it for centralised critics.
+
+## Arguments
+
+`parallel_env(render_mode=None, **config)`; `config` keys are highway-env style
+(see `HighwayFormationEnv.default_config()`), the main ones:
+
+| key | default | meaning |
+|---|---|---|
+| `scenario` | `"free"` | preset: `free`, `lane-drop`, `lane-change`, `off-ramp`, `on-ramp` (the paper's Fig. 7) |
+| `lanes_count` | 4 | main lanes, 1 to 6 (1: a single-lane platoon with gap L_s) |
+| `road_length` | 2000 | metres |
+| `lane_drop` | None | `{"position": x, "lanes": n}`: only the n leftmost lanes continue after x |
+| `obstacle` | None | `{"lane": l, "position": x, "length": 4}` blocks lane l |
+| `on_ramp` / `off_ramp` | None | `{"position": x, "length": merge/diverge length[, "approach"/"ramp_length"]}` |
+| `vehicles_count` | 8 | ICVs at the start, split into formations of at most `formation_size` (12) |
+| `spawns` | [] | `[{"time", "position", "lane" (int or "ramp")[, "speed", "exit"]}]` vehicles appearing later |
+| `exits` | {} | `{vehicle_index: exit_index}`: which initial vehicles leave at which off-ramp |
+| `formation` | see below | `geometry` (`interlaced`/`parallel`), `spacing` L_s (20 m), `w1` (1), `w2` (10), `speed` (25 m/s), `lookahead` (200 m), `join_distance`, `exit_lookahead`, `max_anchor_lead` |
+| `speed_range` | [10, 30] | m/s; the lower bound is a control floor, vehicles may brake below it to avoid a collision |
+| `simulation_frequency` / `policy_frequency` | 25 / 5 | Hz |
+| `duration` | 60 | seconds |
+| `observation` | `{"vehicles_count": 8, "perception_distance": 150}` | |
+| `reward` | see Rewards | |
+| `expert_in_info` | True | put the expert's action in infos (costs one vectorised expert call per step) |
+| `missing_action` | `"error"` | or `"expert"` |
+| `show_formation` | True | draw targets and the assignment when rendering |
+
+Invalid values raise `ValueError` naming the key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pettingzoo import ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
+
+from icv_envs.envs.highway_formation import HighwayFormationEnv
+
+__all__ = ["env", "parallel_env", "raw_env", "HighwayFormationParallelEnv"]
+
+
+class HighwayFormationParallelEnv(ParallelEnv):
+    """PettingZoo parallel env over :class:`HighwayFormationEnv` (every ICV an agent)."""
+
+    metadata = {
+        "name": "highway_formation_v0",
+        "render_modes": ["human", "rgb_array"],
+        "is_parallelizable": True,
+        "render_fps": 10,
+    }
+
+    def __init__(self, render_mode: str | None = None, **config) -> None:
+        self.render_mode = render_mode
+        self.core = HighwayFormationEnv(config, render_mode=render_mode)
+        self.core._ma_mode = True
+        self.possible_agents = list(self.core.possible_agents)
+        self.agents: list[str] = []
+        self._obs_space = self.core.observation_space
+        self._act_space = self.core.action_space
+        self.observation_spaces = {a: self._obs_space for a in self.possible_agents}
+        self.action_spaces = {a: self._act_space for a in self.possible_agents}
+        self.state_space = self.core.state_space_for(len(self.possible_agents))
+
+    @property
+    def unwrapped_core(self) -> HighwayFormationEnv:
+        return self.core
+
+    def observation_space(self, agent):
+        return self._obs_space
+
+    def action_space(self, agent):
+        return self._act_space
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        obs, infos = self.core.ma_reset(seed=seed, options=options)
+        if list(self.core.possible_agents) != self.possible_agents:
+            raise ValueError("options['config'] may not change the number of possible agents of a PettingZoo env")
+        self.agents = list(obs)
+        return obs, infos
+
+    def step(self, actions: dict):
+        if not self.agents and self.core.world is not None and self.core.world.traffic.n == 0:
+            raise RuntimeError("the episode has ended: call reset()")
+        obs, rew, term, trunc, infos = self.core.ma_step(actions)
+        self.agents = [a for a in obs if not (term[a] or trunc[a])]
+        return obs, rew, term, trunc, infos
+
+    def state(self) -> np.ndarray:
+        return self.core.global_state(self.possible_agents)
+
+    def render(self):
+        return self.core.render()
+
+    def close(self) -> None:
+        self.core.close()
+
+    def expert_actions(self) -> dict:
+        """The formation expert's action for every live agent."""
+        ex = self.core.expert_actions()
+        return {f"icv_{v}": ex[i] for i, v in enumerate(self.core.world.traffic.vid)}
+
+    def metrics(self) -> dict:
+        return self.core.metrics()
+
+
+def parallel_env(render_mode: str | None = None, **config) -> HighwayFormationParallelEnv:
+    """The parallel env (PettingZoo's ``parallel_env()``)."""
+    return HighwayFormationParallelEnv(render_mode=render_mode, **config)
+
+
+def raw_env(render_mode: str | None = None, **config):
+    """The AEC env without wrappers (converted from the parallel env)."""
+    return parallel_to_aec_wrapper(parallel_env(render_mode=render_mode, **config))
+
+
+def env(render_mode: str | None = None, **config):
+    """The AEC env with PettingZoo's order-enforcing wrapper."""
+    return OrderEnforcingWrapper(raw_env(render_mode=render_mode, **config))

@@ -1,0 +1,100 @@
+"""Benchmarks: wall time per simulated second, as ratios against a reference
+measured in the same run (machines are noisy; never assert wall times).
+
+``bench_highway_formation`` runs, at each vehicle count, this package's
+HighwayFormation env with the formation expert acting (every vehicle an
+agent, expert actions computed every step, observations and rewards for all
+agents) and stock highway-env ``highway-v0`` with the same number of IDM
+vehicles, and reports the ratio of their wall time per simulated second.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+__all__ = ["bench_highway_formation", "time_icv", "time_highway_v0"]
+
+
+def time_icv(n: int, seconds: float = 10.0, seed: int = 0) -> dict:
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+
+    # formations of 12 with 60 m between them, on a road long enough to drive
+    # ``seconds`` at 30 m/s
+    span = math.ceil(n / 12) * (6 * 20.0 + 60.0) + 100.0
+    env = parallel_env(
+        vehicles_count=n, formation_size=12, initial_position=None,
+        road_length=float(span + 30.0 * seconds + 300.0), duration=float(seconds),
+    )
+    obs, infos = env.reset(seed=seed)
+    steps = 0
+    t0 = time.perf_counter()
+    while env.agents:
+        ex = env.expert_actions()
+        obs, rew, term, trunc, infos = env.step({a: ex[a] for a in env.agents})
+        steps += 1
+    wall = time.perf_counter() - t0
+    sim = env.core.world.time
+    m = env.metrics()
+    env.close()
+    return {"wall_per_sim_s": wall / sim, "sim_seconds": sim, "collisions": m["collisions"], "vehicles": n,
+            "simulation_frequency": env.core.config["simulation_frequency"]}
+
+
+def time_highway_v0(n: int, seconds: float = 1.0, seed: int = 0) -> dict:
+    import gymnasium as gym
+    import highway_env  # noqa: F401  (registers highway-v0)
+
+    env = gym.make("highway-v0", config={"vehicles_count": n, "duration": 10_000})
+    env.reset(seed=seed)
+    cfg = env.unwrapped.config
+    steps_wanted = max(1, int(round(seconds * cfg["policy_frequency"])))
+    t0 = time.perf_counter()
+    steps = 0
+    for _ in range(steps_wanted):
+        _, _, term, trunc, _ = env.step(1)  # IDLE
+        steps += 1
+        if term or trunc:
+            break
+    wall = time.perf_counter() - t0
+    sim = steps / cfg["policy_frequency"]
+    n_vehicles = len(env.unwrapped.road.vehicles)
+    env.close()
+    return {"wall_per_sim_s": wall / sim, "sim_seconds": sim, "vehicles": n_vehicles,
+            "simulation_frequency": cfg["simulation_frequency"]}
+
+
+def bench_highway_formation(sizes=(50, 200, 800), seconds: float = 10.0, stock_seconds: float = 1.0,
+                            echo=print) -> dict:
+    rows = []
+    for n in sizes:
+        ours = time_icv(n, seconds)
+        stock = time_highway_v0(n, stock_seconds)
+        ratio = stock["wall_per_sim_s"] / ours["wall_per_sim_s"]
+        row = {
+            "vehicles": n,
+            "icv_envs_wall_per_sim_s": ours["wall_per_sim_s"],
+            "highway_v0_wall_per_sim_s": stock["wall_per_sim_s"],
+            "speedup": ratio,
+            "icv_envs_real_time_factor": 1.0 / ours["wall_per_sim_s"],
+            "icv_envs_collisions": ours["collisions"],
+            "icv_envs_hz": ours["simulation_frequency"],
+            "highway_v0_hz": stock["simulation_frequency"],
+        }
+        rows.append(row)
+        echo(
+            f"{n:5d} vehicles: icv_envs {ours['wall_per_sim_s'] * 1e3:9.2f} ms/sim-s ({ours['simulation_frequency']} Hz)  "
+            f"highway-v0 {stock['wall_per_sim_s'] * 1e3:10.1f} ms/sim-s ({stock['simulation_frequency']} Hz)  "
+            f"speedup x{ratio:8.1f}"
+        )
+    at200 = [r["speedup"] for r in rows if r["vehicles"] == 200]
+    return {"bench": "highway-formation", "results": rows, "speedup_at_200": at200[0] if at200 else None,
+            "python": _platform()}
+
+
+def _platform() -> str:
+    import platform
+
+    return f"{platform.python_implementation()} {platform.python_version()} numpy {np.__version__}"
