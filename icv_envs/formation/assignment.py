@@ -16,6 +16,8 @@ import math
 import numbers
 
 import numpy as np
+
+from icv_envs.formation._validate import finite
 from scipy.optimize import linear_sum_assignment
 
 __all__ = ["DEFAULT_W1", "DEFAULT_W2", "assignment_cost", "assign_targets", "total_cost"]
@@ -28,16 +30,7 @@ DEFAULT_W2: float = 10.0
 
 def _as_1d(name: str, values) -> np.ndarray:
     """``values`` as a finite float64 1-D array, else ValueError naming it."""
-    try:
-        arr = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a 1-D array of finite numbers, got {values!r}") from None
-    if arr.ndim != 1:
-        raise ValueError(f"{name} must be 1-D, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        bad = arr[~np.isfinite(arr)]
-        raise ValueError(f"{name} must be finite, got non-finite value(s) {bad.tolist()}")
-    return arr
+    return finite(name, values, ndim=1)
 
 
 def _check_weight(name: str, w) -> float:

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from icv_envs.formation._validate import finite
+
 __all__ = [
     "DEFAULT_WHEELBASE",
     "DEFAULT_MAX_STEER",
@@ -40,15 +42,7 @@ DEFAULT_WHEELBASE: float = 2.8
 DEFAULT_MAX_STEER: float = float(np.deg2rad(30.0))
 
 
-def _finite(name: str, value) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an array of finite numbers, got {value!r}") from None
-    if not np.all(np.isfinite(arr)):
-        bad = np.atleast_1d(arr)[~np.isfinite(np.atleast_1d(arr))]
-        raise ValueError(f"{name} must be finite, got non-finite value(s) {bad.tolist()}")
-    return arr
+_finite = finite
 
 
 def _broadcast(**arrays: np.ndarray) -> list[np.ndarray]:

@@ -15,6 +15,8 @@ import numbers
 
 import numpy as np
 
+from icv_envs.formation._validate import finite
+
 __all__ = ["DEFAULT_KP", "DEFAULT_KV", "DEFAULT_A_MIN", "DEFAULT_A_MAX", "longitudinal_feedback"]
 
 #: Position gain k_p (1/s^2).  With e = X - X_ref and a reference moving at
@@ -32,15 +34,7 @@ DEFAULT_A_MIN: float = -6.0
 DEFAULT_A_MAX: float = 3.0
 
 
-def _finite(name: str, value) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an array of finite numbers, got {value!r}") from None
-    if not np.all(np.isfinite(arr)):
-        bad = np.atleast_1d(arr)[~np.isfinite(np.atleast_1d(arr))]
-        raise ValueError(f"{name} must be finite, got non-finite value(s) {bad.tolist()}")
-    return arr
+_finite = finite
 
 
 def _scalar(name: str, value) -> float:
