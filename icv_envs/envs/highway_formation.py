@@ -574,13 +574,17 @@ class HighwayFormationEnv(AbstractEnv):
         ex = self.expert_actions() if c["expert_in_info"] and len(rows) else None
         tr = self.world.traffic
         x_ref, lane_ref, v_ref, member = self.world.manager.references(tr)
+        lanes = self.world.road.lane_of(tr.center()[1]).tolist()
+        speeds = tr.speed.tolist()
+        groups = tr.group.tolist()
+        tlanes = lane_ref.tolist()
         for i, a in enumerate(agents):
-            r = rows[i]
+            r = int(rows[i])
             info = {
-                "speed": float(tr.speed[r]),
-                "lane": int(self.world.road.lane_of(tr.center()[1][r])),
-                "formation": int(tr.group[r]),
-                "target_lane": int(lane_ref[r]),
+                "speed": speeds[r],
+                "lane": lanes[r],
+                "formation": groups[r],
+                "target_lane": tlanes[r],
                 "crashed": False,
             }
             if ex is not None:
@@ -611,9 +615,19 @@ class HighwayFormationEnv(AbstractEnv):
         acts = np.zeros((tr.n, 2), dtype=np.float64)
         if missing:
             acts[:] = self.expert_actions()
-        for i, a in enumerate(live):
-            if a in actions:
-                acts[i] = self._check_action(actions[a], a)
+        given = [i for i, a in enumerate(live) if a in actions]
+        vals = []
+        for i in given:
+            arr = np.asarray(actions[live[i]], dtype=np.float64)
+            if arr.shape != (2,):
+                self._check_action(arr, live[i])  # raises with the agent's name
+            vals.append(arr)
+        if given:
+            block = np.stack(vals)
+            if not np.isfinite(block).all():
+                bad = given[int(np.flatnonzero(~np.isfinite(block).all(axis=1))[0])]
+                self._check_action(block[given.index(bad)], live[bad])
+            acts[given] = np.clip(block, -1.0, 1.0)
         return self._ma_advance(acts)
 
     def _check_action(self, action, who: str = "agent") -> np.ndarray:
