@@ -571,7 +571,11 @@ def critical_points(road: RoadLayout, lo: float, hi: float) -> np.ndarray:
 
 
 @SETTINGS
-@given(layouts(), fl(-100.0, 1100.0), fl(0.0, 400.0) | st.sampled_from([0.0, 10.0, 20.0]))
+@given(
+    layouts(),
+    fl(-100.0, 1100.0) | st.integers(-5, 110).map(lambda k: 10.0 * k),
+    fl(0.0, 400.0) | st.sampled_from([0.0, 10.0, 20.0]),
+)
 def test_drivable_main_lanes_matches_dense_sampling(road, x0, w):
     x1 = x0 + w
     lo = max(x0, 0.0)
@@ -598,6 +602,22 @@ def test_interval_end_main_lanes(road, x, data):
     # vectorised call agrees with scalar calls
     lanes = np.arange(road.n_lanes)
     np.testing.assert_array_equal(road.interval_end(lanes, x), [road.interval_end(int(l), x) for l in lanes])
+
+
+def test_drivable_main_lanes_examples():
+    road = RoadLayout(
+        3,
+        1000.0,
+        lane_ends=[np.inf, np.inf, 500.0],
+        obstacles=[Obstacle(lane=0, x=-20.0, length=10.0), Obstacle(lane=1, x=300.0, length=20.0)],
+    )
+    assert road.drivable_main_lanes(-100.0, 100.0) == [0, 1, 2]  # the obstacle at x < 0 is off the road
+    assert road.drivable_main_lanes(0.0, 290.0) == [0, 2]  # touching the obstacle's rear end
+    assert road.drivable_main_lanes(310.0, 400.0) == [0, 2]  # touching its front end
+    assert road.drivable_main_lanes(310.1, 499.9) == [0, 1, 2]
+    assert road.drivable_main_lanes(400.0, 500.0) == [0, 1]  # lane 2 ends at 500 (exclusive)
+    assert road.drivable_main_lanes(600.0, 500.0) == [0, 1]  # reversed window collapses to x0
+    assert road.drivable_main_lanes(-50.0, -10.0) == [0, 1, 2]  # window clipped to [0, 0]
 
 
 @pytest.mark.parametrize(

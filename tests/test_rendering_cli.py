@@ -78,3 +78,13 @@ def test_cli_list(capsys):
     assert main(["list"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert "icv_envs/HighwayFormation-v0" in out["gymnasium"] and "lane-drop" in out["scenarios"]
+
+
+def test_human_render_mode_runs_headless():
+    # SDL's dummy driver (set in conftest) stands in for a screen
+    env = highway_formation_v0.parallel_env(scenario="lane-drop", render_mode="human", duration=1.0)
+    obs, infos = env.reset(seed=0)
+    while env.agents:
+        obs, *_, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    assert env.render() is None
+    env.close()
