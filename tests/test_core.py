@@ -541,6 +541,12 @@ def test_available_lane_drop_obstacle_and_ramps():
     assert RoadLayout(2, 100.0).available(2, 50.0).tolist() is False  # no ramp lane
 
 
+def test_interval_end_ramp_lane_with_touching_on_and_off_ramps():
+    road = RoadLayout(3, 2000.0, on_ramps=[OnRamp(300.0, 400.0, approach=100.0)], off_ramps=[OffRamp(400.0, 450.0, 600.0)])
+    assert road.available(3, np.linspace(200.0, 600.0, 81)).all()  # one continuous ramp-lane stretch
+    assert road.interval_end(3, [250.0, 399.0]).tolist() == [600.0, 600.0]
+
+
 @st.composite
 def layouts(draw):
     n = draw(st.integers(1, 4))
@@ -719,3 +725,8 @@ def test_idm_brakes_hard_at_small_gaps():
     assert idm_acceleration(20.0, 30.0, 1.0, 0.0) < -100.0
     assert idm_acceleration(0.0, 30.0, 0.0, 0.0) < 0.0  # gap is clamped, no division by zero
     np.testing.assert_allclose(idm_acceleration(0.0, 30.0, 2.0, 0.0, free_term=False), 0.0, atol=1e-12)
+
+
+def test_interval_end_of_lanes_that_do_not_exist():
+    road = RoadLayout(3, 1000.0)
+    assert np.all(road.interval_end([-1, 5], [10.0, 10.0]) == -np.inf)

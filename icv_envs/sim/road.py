@@ -97,7 +97,14 @@ class RoadLayout:
         # Intervals where the ramp lane exists, as arrays [k, 2]
         ramp = [(r.start - r.approach, r.end) for r in self.on_ramps]
         ramp += [(r.start, r.exit_x) for r in self.off_ramps]
-        self._ramp_iv = np.array(sorted(ramp), dtype=np.float64).reshape(-1, 2)
+        # merge touching / overlapping stretches: the ramp lane is one lane
+        merged: list[list[float]] = []
+        for a, b in sorted(ramp):
+            if merged and a <= merged[-1][1]:
+                merged[-1][1] = max(merged[-1][1], b)
+            else:
+                merged.append([a, b])
+        self._ramp_iv = np.array(merged, dtype=np.float64).reshape(-1, 2)
         self._merge_iv = np.array([(r.start, r.end) for r in self.on_ramps], dtype=np.float64).reshape(-1, 2)
         self._diverge_iv = np.array([(r.start, r.end) for r in self.off_ramps], dtype=np.float64).reshape(-1, 2)
         self._exit_x = np.array([r.exit_x for r in self.off_ramps], dtype=np.float64)
@@ -156,8 +163,8 @@ class RoadLayout:
         containing (or following) ``x`` ends: the next lane end, obstacle rear
         or ramp end ahead of ``x`` (``inf`` if none). Vectorised."""
         lane, x = np.broadcast_arrays(np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64))
-        end = np.full(lane.shape, np.inf)
-        main = lane < self.n_lanes
+        end = np.full(lane.shape, -np.inf)  # lanes that do not exist end at once
+        main = (lane >= 0) & (lane < self.n_lanes)
         if main.any():
             lm, xm = lane[main], x[main]
             e = self.lane_ends[lm].copy()
@@ -169,7 +176,9 @@ class RoadLayout:
                 ).min(axis=1)
                 e = np.minimum(e, cand)
             end[main] = e
-        ramp = ~main
+        ramp = lane == self.n_lanes
+        if ramp.any() and not len(self._ramp_iv):
+            end[ramp] = -np.inf
         if ramp.any() and len(self._ramp_iv):
             xr = x[ramp]
             cand = np.where(self._ramp_iv[None, :, 1] >= xr[:, None], self._ramp_iv[None, :, 1], np.inf).min(axis=1)
@@ -220,7 +229,8 @@ class RoadLayout:
     def to_network(self):
         """A highway-env :class:`RoadNetwork` drawing this layout.
 
-        The road is cut at every lane drop, obstacle and ramp boundary; each
+        The road is cut at every lane drop and ramp boundary (obstacles are
+        drawn as highway-env obstacles, not as cuts); each
         piece holds the lanes that exist there, with continuous outer lines
         and striped lines between lanes. Used for rendering only: the
         simulation core never queries it in the hot loop."""

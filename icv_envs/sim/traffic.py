@@ -204,8 +204,10 @@ def lane_index(cx, cy, width, lane_width, n_lanes, road_length) -> LaneIndex:
 
 def leaders(index: LaneIndex, q_rows, q_lanes, cx) -> np.ndarray:
     """Row of the nearest vehicle strictly ahead (larger body-centre x) of
-    vehicle ``q_rows`` in lane ``q_lanes``; -1 if none. Ties in x are
-    resolved by row so two vehicles never lead each other."""
+    vehicle ``q_rows`` in lane ``q_lanes``; -1 if none. A vehicle at exactly
+    the same x is not a leader (so two vehicles never lead each other); x
+    values closer than about 1e-11 m count as equal (the sort key is
+    ``lane * offset + x``)."""
     q_rows = np.asarray(q_rows, dtype=np.int64)
     q_lanes = np.asarray(q_lanes, dtype=np.int64)
     out = np.full(len(q_rows), -1, dtype=np.int64)
