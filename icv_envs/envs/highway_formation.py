@@ -431,7 +431,7 @@ class HighwayFormationEnv(AbstractEnv):
         F[:, 4] = tr.speed * np.sin(tr.heading)
         F[:, 5] = np.cos(tr.heading)
         F[:, 6] = np.sin(tr.heading)
-        F[:, 7] = np.where(member, x_ref - cx, 0.0)
+        F[:, 7] = np.where(member, w.road.wrap(np.where(member, x_ref, 0.0) - cx), 0.0)
         F[:, 8] = np.where(member, lane_ref * w.road.lane_width - cy, 0.0)
         F[:, 9] = np.where(member, v_ref - tr.speed, 0.0)
         F[:, 10] = member
@@ -465,9 +465,13 @@ class HighwayFormationEnv(AbstractEnv):
             K = V - 1
             offs = np.concatenate([np.arange(-K, 0), np.arange(1, K + 1)])
             cand_rank = rank[rows][:, None] + offs[None, :]
-            valid = (cand_rank >= 0) & (cand_rank < n)
+            if w.road.periodic:  # round the ring: ranks wrap, each vehicle at most once
+                valid = np.abs(offs)[None, :] <= (n - 1) // 2 + (offs[None, :] > 0) * ((n - 1) % 2)
+                cand_rank = np.mod(cand_rank, n)
+            else:
+                valid = (cand_rank >= 0) & (cand_rank < n)
             cand = order[np.clip(cand_rank, 0, n - 1)]
-            dist = np.abs(cx[cand] - cx[rows][:, None])
+            dist = np.abs(w.road.wrap(cx[cand] - cx[rows][:, None]))
             dist = np.where(valid & (dist < pd), dist, np.inf)
             # stable selection of the K nearest (ties: rear first, as sorted)
             pick = np.argsort(dist, axis=1, kind="stable")[:, :K]
@@ -476,6 +480,7 @@ class HighwayFormationEnv(AbstractEnv):
             present = np.isfinite(seld)
             rel = F[sel].copy()
             rel[..., 1:5] -= F[rows][:, None, 1:5]
+            rel[..., 1] = w.road.wrap(rel[..., 1])
             rel = np.clip(rel / scale_rel, -1, 1)
             rel[~present] = 0.0
             out[:, 1:, :] = rel

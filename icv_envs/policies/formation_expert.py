@@ -110,8 +110,12 @@ class FormationExpert:
             exiting = np.zeros(n, dtype=bool)
             has = (tr.exit >= 0) & ~member
             if has.any() and road.n_exits:
-                dist = road.diverge_start(tr.exit[has]) - cx[has]
-                exiting[has] = dist < p.exit_lookahead
+                dist = road.exit_ahead(tr.exit[has], cx[has])
+                dlen = road.diverge_end(tr.exit[has]) - road.diverge_start(tr.exit[has])
+                ds = road.diverge_start(tr.exit[has])
+                past_ds = road.wrap(cx[has] - ds)
+                on_its_off_ramp = (lane[has] == ramp) & (past_ds >= 0) & (past_ds <= road.exit_position(tr.exit[has]) - ds)
+                exiting[has] = ((dist < p.exit_lookahead) & (dist >= -dlen)) | on_its_off_ramp
             desired = np.where(exiting, ramp, desired)
             # free vehicles on the ramp lane of an on-ramp move onto the main road
             on_ramp = (lane == ramp) & ~exiting & ~member
@@ -164,11 +168,11 @@ class FormationExpert:
                 rend = road.interval_end(lane[w_rows], xw)
                 length = np.where(from_ramp, np.clip(np.minimum(length, rend - xw - 5.0), 10.0, None), length)
             # gap acceptance in the target lane
-            lead = leaders(index, w_rows, nxt, cx)
-            foll = followers(index, w_rows, nxt, cx)
+            lead, lx = leaders(index, w_rows, nxt, cx, return_x=True)
+            foll, fx = followers(index, w_rows, nxt, cx, return_x=True)
             lw = tr.length[w_rows]
-            gap_f = np.where(lead >= 0, cx[lead] - xw - 0.5 * (tr.length[lead] + lw), np.inf)
-            gap_r = np.where(foll >= 0, xw - cx[foll] - 0.5 * (tr.length[foll] + lw), np.inf)
+            gap_f = np.where(lead >= 0, lx - xw - 0.5 * (tr.length[lead] + lw), np.inf)
+            gap_r = np.where(foll >= 0, xw - fx - 0.5 * (tr.length[foll] + lw), np.inf)
             vl = np.where(lead >= 0, v[lead], vw)
             vf = np.where(foll >= 0, v[foll], 0.0)
             Tw = np.where(member[w_rows], p.member_time_gap, p.idm_T)
@@ -215,7 +219,7 @@ class FormationExpert:
             # bounded reference: with a_max = 3 the clipped law overshoots for
             # errors beyond ~100 m; clipping the error to +-ref_error_clip keeps
             # the closing speed small enough that it never does
-            x_eff = cx[m] + np.clip(x_ref[m] - cx[m], -p.ref_error_clip, p.ref_error_clip)
+            x_eff = cx[m] + np.clip(road.wrap(x_ref[m] - cx[m]), -p.ref_error_clip, p.ref_error_clip)
             acc[m] = longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], p.kp, p.kv, p.a_min, p.a_max)
             # control floor: do not command speeds below the configured minimum
             # (braking is faded out as v approaches v_min; the safety cap below still wins)
@@ -229,10 +233,10 @@ class FormationExpert:
             q_lanes.append(tr.lc_lane[a_rows])
         q_rows = np.concatenate(q_rows)
         q_lanes = np.concatenate(q_lanes)
-        lead = leaders(index, q_rows, q_lanes, cx)
+        lead, lx = leaders(index, q_rows, q_lanes, cx, return_x=True)
         has_l = lead >= 0
         gap = np.full(len(q_rows), np.inf)
-        gap[has_l] = cx[lead[has_l]] - cx[q_rows[has_l]] - 0.5 * (tr.length[lead[has_l]] + tr.length[q_rows[has_l]])
+        gap[has_l] = lx[has_l] - cx[q_rows[has_l]] - 0.5 * (tr.length[lead[has_l]] + tr.length[q_rows[has_l]])
         dv = np.where(has_l, v[q_rows] - v[np.maximum(lead, 0)], 0.0)
         # the end of the lane ahead acts as a standing leader, unless the
         # vehicle is leaving that lane

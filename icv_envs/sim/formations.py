@@ -57,6 +57,9 @@ class FormationManager:
         stall_error: float = 30.0,
         stall_time: float = 5.0,
         allowed_lanes=None,
+        create: bool = False,
+        new_formation_gap: float = 60.0,
+        formation_gap: float = 40.0,
     ) -> None:
         self.spacing = float(spacing)
         self.geometry = geometry
@@ -70,6 +73,9 @@ class FormationManager:
         self.stall_error = float(stall_error)
         self.stall_time = float(stall_time)
         self.stalled_for: dict[int, float] = {}
+        self.create_new = bool(create)
+        self.new_formation_gap = float(new_formation_gap)
+        self.formation_gap = float(formation_gap)
         self.allowed_lanes = None if allowed_lanes is None else tuple(int(v) for v in allowed_lanes)
         self.anchor: dict[int, float] = {}
         self.lanes: dict[int, tuple[int, ...]] = {}
@@ -132,29 +138,53 @@ class FormationManager:
             y_v = np.where(lane_pos > lanes_arr[-1], len(lanes) + (lane_pos - lanes_arr[-1]), y_v)
         else:
             y_v = 1.0 + (lane_pos - lanes_arr[0])
-        x_v = anchor - cx[rows]
+        x_v = road.wrap(anchor - cx[rows])
         slot = assign_targets(x_v, y_v, tx, tl.astype(np.float64), self.w1, self.w2)
         traffic.tgt_behind[rows] = tx[slot]
         traffic.tgt_lane[rows] = np.asarray(lanes, dtype=np.int64)[tl[slot] - 1]
         self.reforms += 1
 
     # ----------------------------------------------------------------- update
+    def _eligible_free(self, traffic, road, cx) -> np.ndarray:
+        """Rows of free vehicles that may join or found a formation: not
+        crashed, not heading for an exit within ``exit_lookahead + 100 m``."""
+        free = np.flatnonzero((traffic.group < 0) & ~traffic.crashed)
+        if len(free) and road.n_exits:
+            ex = traffic.exit[free]
+            has = ex >= 0
+            soon = np.zeros(len(free), dtype=bool)
+            if has.any():
+                d = road.exit_ahead(ex[has], cx[free[has]])
+                dlen = road.diverge_end(ex[has]) - road.diverge_start(ex[has])
+                soon[has] = (d < self.exit_lookahead + 100.0) & (d >= -dlen)
+                if not road.periodic:
+                    soon[has] |= d < -dlen  # exit passed on a straight road: never rejoin
+            free = free[~soon]
+        return free
+
     def update(self, traffic, road, dt: float) -> list[int]:
         """Advance the front targets by ``dt`` and process membership and
-        lane-set events; returns the ids of formations that re-formed."""
-        cx, _ = traffic.center()
+        lane-set events; returns the ids of formations that re-formed.
+
+        Order: front targets advance; members about to exit leave; free
+        vehicles near a formation with room join it; with ``create`` set,
+        a free vehicle farther than ``new_formation_gap`` from every
+        formation founds a new one; each front target is held back behind
+        the formation ahead (``formation_gap``) and within
+        ``max_anchor_lead`` of its members; lane-set changes and stalls are
+        detected; every formation that changed re-forms."""
+        cx, cy = traffic.center()
+        wrap = road.wrap
         changed: set[int] = set()
         gids = list(self.anchor)
         for gid in gids:
-            self.anchor[gid] += self.speed * dt
-        if traffic.n:
-            # members about to exit leave (the vehicle becomes free and
-            # heads for its ramp)
-            has_exit = (traffic.exit >= 0) & (traffic.group >= 0)
-            if has_exit.any() and road.n_exits:
-                rows = np.flatnonzero(has_exit)
-                dist = road.diverge_start(traffic.exit[rows]) - cx[rows]
-                leave = rows[dist < self.exit_lookahead]
+            self.anchor[gid] = float(road.mod(self.anchor[gid] + self.speed * dt))
+        if traffic.n and road.n_exits:
+            # members about to exit leave (the vehicle becomes free and heads for its ramp)
+            rows = np.flatnonzero((traffic.exit >= 0) & (traffic.group >= 0))
+            if len(rows):
+                d = road.exit_ahead(traffic.exit[rows], cx[rows])
+                leave = rows[d < self.exit_lookahead]
                 for gid in np.unique(traffic.group[leave]):
                     changed.add(int(gid))
                 traffic.group[leave] = -1
@@ -165,53 +195,78 @@ class FormationManager:
         for gid in gids:
             if counts[gid] != self.count.get(gid, 0):
                 changed.add(gid)  # a member crashed, left the road or left
+        free = self._eligible_free(traffic, road, cx) if traffic.n else np.zeros(0, dtype=np.int64)
         # joins
-        free = np.flatnonzero((traffic.group < 0) & ~traffic.crashed) if traffic.n else np.zeros(0, dtype=np.int64)
         if len(free) and gids:
-            if road.n_exits:
-                ex = traffic.exit[free]
-                soon = np.zeros(len(free), dtype=bool)
-                has = ex >= 0
-                soon[has] = road.diverge_start(ex[has]) - cx[free[has]] < self.exit_lookahead + 100.0
-                free = free[~soon]
             for gid in gids:
                 if not len(free):
                     break
                 size = int(counts[gid]) if gid < len(counts) else 0
                 if size == 0 or size >= self.max_size:
                     continue
-                lo = self.anchor[gid] - self.length[gid] - self.join_distance
-                hi = self.anchor[gid] + self.join_distance
-                near = free[(cx[free] >= lo) & (cx[free] <= hi)]
+                rel = wrap(cx[free] - self.anchor[gid])
+                near = free[(rel >= -self.length[gid] - self.join_distance) & (rel <= self.join_distance)]
                 near = near[: self.max_size - size]
                 if len(near):
                     traffic.group[near] = gid
                     changed.add(gid)
                     free = np.setdiff1d(free, near)
-        # lane-set changes and anchor hold-back
+        # new formations (front-most candidates first)
+        if self.create_new and len(free):
+            on_main = free[road.lane_of(cy[free]) < road.n_lanes]
+            for r in on_main[np.argsort(-cx[on_main], kind="stable")]:
+                if traffic.group[r] >= 0:
+                    continue
+                clear = True
+                for gid in self.anchor:
+                    rel = float(wrap(cx[r] - self.anchor[gid]))
+                    if -self.length[gid] - self.new_formation_gap < rel < self.new_formation_gap:
+                        clear = False
+                        break
+                if clear:
+                    gid = self.next_gid
+                    self.next_gid += 1
+                    self.anchor[gid] = float(cx[r])
+                    self.length[gid] = 0.0
+                    self.count[gid] = 0
+                    traffic.group[r] = gid
+                    changed.add(gid)
+        gids = list(self.anchor)
+        # front targets: behind the formation ahead, and not running away
+        order = sorted(gids, key=lambda g: self.anchor[g])
         for gid in gids:
             rows = np.flatnonzero(traffic.group == gid) if traffic.n else np.zeros(0, dtype=np.int64)
             if not len(rows):
                 continue
-            implied = (cx[rows] + traffic.tgt_behind[rows]).max()
-            if gid not in changed and self.anchor[gid] > implied + self.max_anchor_lead:
-                self.anchor[gid] = float(implied + self.max_anchor_lead)
+            if gid not in changed:
+                implied = float(wrap(cx[rows] + traffic.tgt_behind[rows] - self.anchor[gid]).max())
+                if implied < -self.max_anchor_lead:
+                    self.anchor[gid] = float(road.mod(self.anchor[gid] + implied + self.max_anchor_lead))
+            if len(order) > 1:
+                ahead = [float(wrap(self.anchor[o] - self.length[o] - self.anchor[gid])) for o in order if o != gid]
+                ahead = [a for a in ahead if a > -self.length[gid]]
+                if ahead:
+                    room = min(ahead) - self.formation_gap
+                    if room < 0:
+                        self.anchor[gid] = float(road.mod(self.anchor[gid] + room))
             if gid not in changed and self._lane_set(road, self.anchor[gid], self.length[gid]) != self.lanes[gid]:
                 changed.add(gid)
             # a member that stays far from its target (e.g. it joined ahead of
             # the formation and its target lies beyond a member in its lane)
             # triggers a re-assignment from the current positions
-            err = np.abs(cx[rows] - (self.anchor[gid] - traffic.tgt_behind[rows])).max()
-            if err > self.stall_error:
-                self.stalled_for[gid] = self.stalled_for.get(gid, 0.0) + dt
-            else:
+            err = float(np.abs(wrap(cx[rows] - (self.anchor[gid] - traffic.tgt_behind[rows]))).max())
+            if gid in changed:
                 self.stalled_for[gid] = 0.0
-            if self.stalled_for[gid] >= self.stall_time:
-                changed.add(gid)
+            elif err > self.stall_error:
+                self.stalled_for[gid] = self.stalled_for.get(gid, 0.0) + dt
+                if self.stalled_for[gid] >= self.stall_time:
+                    changed.add(gid)
+                    self.stalled_for[gid] = 0.0
+            else:
                 self.stalled_for[gid] = 0.0
         for gid in sorted(changed):
             self._reform(traffic, road, gid, cx)
-        for gid in gids:
+        for gid in list(self.anchor):
             if self.count.get(gid, 0) == 0:
                 for d in (self.anchor, self.lanes, self.count, self.length, self.stalled_for):
                     d.pop(gid, None)
@@ -229,6 +284,8 @@ class FormationManager:
             g = traffic.group[member]
             anchors = np.array([self.anchor.get(int(k), np.nan) for k in range(self.next_gid)])
             x_ref[member] = anchors[g] - traffic.tgt_behind[member]
+            if traffic.period is not None:
+                x_ref[member] = np.mod(x_ref[member], traffic.period)
             v_ref[member] = self.speed
         lane_ref = np.where(member, traffic.tgt_lane, -1)
         return x_ref, lane_ref, v_ref, member

@@ -78,6 +78,7 @@ class RoadLayout:
     on_ramps: list[OnRamp] = field(default_factory=list)
     off_ramps: list[OffRamp] = field(default_factory=list)
     obstacles: list[Obstacle] = field(default_factory=list)
+    periodic: bool = False
 
     def __post_init__(self) -> None:
         if int(self.n_lanes) != self.n_lanes or self.n_lanes < 1:
@@ -108,6 +109,17 @@ class RoadLayout:
         self._merge_iv = np.array([(r.start, r.end) for r in self.on_ramps], dtype=np.float64).reshape(-1, 2)
         self._diverge_iv = np.array([(r.start, r.end) for r in self.off_ramps], dtype=np.float64).reshape(-1, 2)
         self._exit_x = np.array([r.exit_x for r in self.off_ramps], dtype=np.float64)
+        if self.periodic:
+            # a ring: every stretch must lie inside [0, length) so that no lane
+            # feature straddles the seam (place the seam on a plain stretch)
+            for a, b in list(self._ramp_iv) + [(o.x - o.length / 2, o.x + o.length / 2) for o in self.obstacles]:
+                if a < 0 or b >= self.length:
+                    raise ValueError(
+                        f"on a ring road every ramp and obstacle must lie inside [0, {self.length}); "
+                        f"got a stretch [{a}, {b}]: move the seam (x = 0) to a plain stretch"
+                    )
+            if np.isfinite(self.lane_ends).any():
+                raise ValueError("a ring road cannot have lane drops (lane_ends must all be inf)")
         obs = sorted(self.obstacles, key=lambda o: (o.lane, o.x))
         self._ob_lane = np.array([o.lane for o in obs], dtype=np.int64)
         self._ob_lo = np.array([o.x - o.length / 2 for o in obs], dtype=np.float64)
@@ -134,9 +146,37 @@ class RoadLayout:
         """Lane index whose centre is nearest to lateral position ``y``."""
         return np.clip(np.rint(np.asarray(y) / self.lane_width), 0, self.total_lanes - 1).astype(np.int64)
 
+    # ---------------------------------------------------------------- ring
+    def mod(self, x) -> np.ndarray:
+        """Position folded onto the road: ``x mod length`` on a ring, ``x`` otherwise."""
+        x = np.asarray(x, dtype=np.float64)
+        return np.mod(x, self.length) if self.periodic else x
+
+    def wrap(self, d) -> np.ndarray:
+        """Signed longitudinal difference: the shortest way round on a ring
+        (in ``[-length/2, length/2)``), ``d`` itself otherwise."""
+        d = np.asarray(d, dtype=np.float64)
+        if not self.periodic:
+            return d
+        half = 0.5 * self.length
+        return np.mod(d + half, self.length) - half
+
+    def exit_ahead(self, exit_index, x) -> np.ndarray:
+        """Distance from ``x`` to the start of the diverge segment of exit
+        ``exit_index``, measured forwards. Inside the diverge segment it is in
+        ``[-(diverge length), 0]``; on a straight road it is more negative once
+        the exit has been passed, on a ring it counts to the next time round."""
+        e = np.asarray(exit_index, dtype=np.int64)
+        ds, de = self._diverge_iv[e, 0], self._diverge_iv[e, 1]
+        x = np.asarray(x, dtype=np.float64)
+        if not self.periodic:
+            return ds - x
+        return np.mod(de - x, self.length) - (de - ds)
+
     def available(self, lane, x) -> np.ndarray:
         """Whether ``lane`` is drivable at ``x`` (vectorised, broadcasting)."""
         lane, x = np.broadcast_arrays(np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64))
+        x = self.mod(x)
         out = np.zeros(lane.shape, dtype=bool)
         main = (lane >= 0) & (lane < self.n_lanes)
         if main.any():
@@ -163,6 +203,12 @@ class RoadLayout:
         containing (or following) ``x`` ends: the next lane end, obstacle rear
         or ramp end ahead of ``x`` (``inf`` if none). Vectorised."""
         lane, x = np.broadcast_arrays(np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64))
+        if self.periodic:
+            base = x - self.mod(x)
+            return self._interval_end(lane, self.mod(x)) + base
+        return self._interval_end(lane, x)
+
+    def _interval_end(self, lane, x) -> np.ndarray:
         end = np.full(lane.shape, -np.inf)  # lanes that do not exist end at once
         main = (lane >= 0) & (lane < self.n_lanes)
         if main.any():
@@ -187,14 +233,14 @@ class RoadLayout:
 
     def in_merge(self, x) -> np.ndarray:
         """Inside an on-ramp merge segment (ramp lane -> rightmost main lane allowed)."""
-        x = np.asarray(x, dtype=np.float64)
+        x = self.mod(x)
         if not len(self._merge_iv):
             return np.zeros(x.shape, dtype=bool)
         return ((x[..., None] >= self._merge_iv[:, 0]) & (x[..., None] <= self._merge_iv[:, 1])).any(axis=-1)
 
     def in_diverge(self, x) -> np.ndarray:
         """Inside an off-ramp diverge segment (rightmost main lane -> ramp lane allowed)."""
-        x = np.asarray(x, dtype=np.float64)
+        x = self.mod(x)
         if not len(self._diverge_iv):
             return np.zeros(x.shape, dtype=bool)
         return ((x[..., None] >= self._diverge_iv[:, 0]) & (x[..., None] <= self._diverge_iv[:, 1])).any(axis=-1)
@@ -204,12 +250,20 @@ class RoadLayout:
         formation spanning that window may use; paper Sec. 3.3-3.4: a lane
         that closes ahead, by a lane drop or a blocking obstacle, is removed
         from the formation, which then re-forms on the remaining lanes)."""
-        x0 = max(float(x0), 0.0)
-        x1 = max(float(x1), x0)
-        ok = self.lane_ends > x1
-        if len(self._ob_lane):
-            hit = (self._ob_hi >= x0) & (self._ob_lo <= x1)
-            ok[self._ob_lane[hit]] = False
+        x0, x1 = float(x0), float(x1)
+        if self.periodic:
+            span = min(max(x1 - x0, 0.0), self.length)
+            a = float(np.mod(x0, self.length))
+            pieces = [(a, a + span)] if a + span <= self.length else [(a, self.length), (0.0, a + span - self.length)]
+        else:
+            x0 = max(x0, 0.0)
+            pieces = [(x0, max(x1, x0))]
+        ok = np.ones(self.n_lanes, dtype=bool)
+        for p0, p1 in pieces:
+            ok &= self.lane_ends > p1
+            if len(self._ob_lane):
+                hit = (self._ob_hi >= p0) & (self._ob_lo <= p1)
+                ok[self._ob_lane[hit]] = False
         return [int(l) for l in np.flatnonzero(ok)]
 
     def exit_position(self, exit_index) -> np.ndarray:

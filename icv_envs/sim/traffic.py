@@ -67,8 +67,9 @@ class Traffic:
     axle), used for gaps, lanes and collisions.
     """
 
-    def __init__(self, wheelbase: float = 2.8) -> None:
+    def __init__(self, wheelbase: float = 2.8, period: float | None = None) -> None:
         self.wheelbase = float(wheelbase)
+        self.period = None if period is None else float(period)
         for f in _FLOAT_FIELDS:
             setattr(self, f, np.zeros(0, dtype=np.float64))
         for f in _INT_FIELDS:
@@ -135,7 +136,10 @@ class Traffic:
 
     def center(self) -> tuple[np.ndarray, np.ndarray]:
         h = 0.5 * self.wheelbase
-        return self.x + h * np.cos(self.heading), self.y + h * np.sin(self.heading)
+        cx = self.x + h * np.cos(self.heading)
+        if self.period is not None:
+            cx = np.mod(cx, self.period)
+        return cx, self.y + h * np.sin(self.heading)
 
     # --------------------------------------------------------------- dynamics
     def step(self, accel: np.ndarray, steer: np.ndarray, dt: float, v_max: float) -> None:
@@ -155,6 +159,8 @@ class Traffic:
         self.y = self.y + v * np.sin(self.heading) * dt
         self.heading = self.heading + v * np.tan(self.steer) / self.wheelbase * dt
         self.speed = np.clip(v + self.accel * dt, 0.0, v_max)
+        if self.period is not None:
+            self.x = np.mod(self.x, self.period)
 
 
 def bicycle_step(x, y, heading, speed, accel, steer, dt, wheelbase=2.8, v_max=np.inf):
@@ -194,15 +200,27 @@ def occupied_lanes(cy, width, lane_width, n_lanes, margin=0.3):
     return np.concatenate(rows_l), np.concatenate(lanes_l)
 
 
-def lane_index(cx, cy, width, lane_width, n_lanes, road_length) -> LaneIndex:
+def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool = False, ghost: float = 1000.0) -> LaneIndex:
+    """Build the lane-sorted index. On a ring (``periodic``), vehicles within
+    ``ghost`` metres of the seam are listed a second time one lap further
+    (``x + length`` and ``x - length``) so that searches see round the seam;
+    ``LaneIndex.x`` holds those unfolded positions (use it for gaps)."""
     rows, lanes = occupied_lanes(cy, width, lane_width, n_lanes)
+    xs = cx[rows]
+    if periodic and len(rows):
+        L = float(road_length)
+        g = min(ghost, 0.5 * L)
+        lo, hi = xs < g, xs > L - g
+        rows = np.concatenate([rows, rows[lo], rows[hi]])
+        lanes = np.concatenate([lanes, lanes[lo], lanes[hi]])
+        xs = np.concatenate([xs, xs[lo] + L, xs[hi] - L])
     offset = 4.0 * (abs(road_length) + 1e4)
-    keys = lanes * offset + cx[rows]
+    keys = lanes * offset + xs
     order = np.argsort(keys, kind="stable")
-    return LaneIndex(keys[order], rows[order], lanes[order], cx[rows][order], offset)
+    return LaneIndex(keys[order], rows[order], lanes[order], xs[order], offset)
 
 
-def leaders(index: LaneIndex, q_rows, q_lanes, cx) -> np.ndarray:
+def leaders(index: LaneIndex, q_rows, q_lanes, cx, return_x: bool = False):
     """Row of the nearest vehicle strictly ahead (larger body-centre x) of
     vehicle ``q_rows`` in lane ``q_lanes``; -1 if none. A vehicle at exactly
     the same x is not a leader (so two vehicles never lead each other); x
@@ -211,8 +229,9 @@ def leaders(index: LaneIndex, q_rows, q_lanes, cx) -> np.ndarray:
     q_rows = np.asarray(q_rows, dtype=np.int64)
     q_lanes = np.asarray(q_lanes, dtype=np.int64)
     out = np.full(len(q_rows), -1, dtype=np.int64)
+    xo = np.full(len(q_rows), np.inf)
     if not len(index.keys):
-        return out
+        return (out, xo) if return_x else out
     qk = q_lanes * index.offset + cx[q_rows]
     pos = np.searchsorted(index.keys, qk, side="right")
     # a vehicle at exactly the same x is skipped by side="right"; acceptable
@@ -221,23 +240,26 @@ def leaders(index: LaneIndex, q_rows, q_lanes, cx) -> np.ndarray:
     p = np.minimum(pos, len(index.keys) - 1)
     ok &= index.lanes[p] == q_lanes
     out[ok] = index.rows[p[ok]]
-    return out
+    xo[ok] = index.x[p[ok]]
+    return (out, xo) if return_x else out
 
 
-def followers(index: LaneIndex, q_rows, q_lanes, cx) -> np.ndarray:
+def followers(index: LaneIndex, q_rows, q_lanes, cx, return_x: bool = False):
     """Row of the nearest vehicle strictly behind ``q_rows`` in ``q_lanes``; -1 if none."""
     q_rows = np.asarray(q_rows, dtype=np.int64)
     q_lanes = np.asarray(q_lanes, dtype=np.int64)
     out = np.full(len(q_rows), -1, dtype=np.int64)
+    xo = np.full(len(q_rows), -np.inf)
     if not len(index.keys):
-        return out
+        return (out, xo) if return_x else out
     qk = q_lanes * index.offset + cx[q_rows]
     pos = np.searchsorted(index.keys, qk, side="left") - 1
     ok = pos >= 0
     p = np.maximum(pos, 0)
     ok &= index.lanes[p] == q_lanes
     out[ok] = index.rows[p[ok]]
-    return out
+    xo[ok] = index.x[p[ok]]
+    return (out, xo) if return_x else out
 
 
 # ---------------------------------------------------------------- collisions
@@ -256,7 +278,7 @@ def rect_overlap(c1x, c1y, h1, l1, w1, c2x, c2y, h2, l2, w2) -> np.ndarray:
     return overlap
 
 
-def find_collisions(cx, cy, heading, length, width) -> tuple[np.ndarray, np.ndarray]:
+def find_collisions(cx, cy, heading, length, width, period: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """All colliding pairs ``(i, j)`` (rows, i < j in x order).
 
     Sweep and prune: sort by x; compare each vehicle with the vehicle ``k``
@@ -266,6 +288,22 @@ def find_collisions(cx, cy, heading, length, width) -> tuple[np.ndarray, np.ndar
     n = len(cx)
     if n < 2:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    if period is not None:
+        # ring: vehicles near the seam get a ghost one lap on; pairs found
+        # through a ghost are mapped back to real rows
+        near = np.flatnonzero(cx < 2.0 * float(np.max(length)) + 1.0)
+        if len(near):
+            idx = np.concatenate([np.arange(n), near])
+            gi, gj = find_collisions(
+                np.concatenate([cx, cx[near] + period]), cy[idx], heading[idx], length[idx], width[idx]
+            )
+            a, b = idx[gi], idx[gj]
+            keep = a != b
+            pairs = {(min(x, y), max(x, y)) for x, y in zip(a[keep].tolist(), b[keep].tolist())}
+            if not pairs:
+                return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+            arr = np.array(sorted(pairs), dtype=np.int64)
+            return arr[:, 0], arr[:, 1]
     c, s = np.abs(np.cos(heading)), np.abs(np.sin(heading))
     hx = 0.5 * (length * c + width * s)
     hy = 0.5 * (length * s + width * c)

@@ -44,7 +44,7 @@ class World:
         self.dt = float(dt)
         self.v_max = float(v_max)
         self.remove_crashed = remove_crashed
-        self.traffic = Traffic(wheelbase)
+        self.traffic = Traffic(wheelbase, period=road.length if road.periodic else None)
         self.time = 0.0
         self._index = None
         # run metrics, accumulated every substep (see icv_envs.experiments.metrics)
@@ -56,6 +56,8 @@ class World:
             "exited": 0,
             "left_road": 0,
             "min_gap": np.inf,
+            "missed_exits": 0,
+            "crashed_removed": 0,
         }
 
     # ---------------------------------------------------------------- queries
@@ -64,7 +66,8 @@ class World:
         if self._index is None:
             cx, cy = self.traffic.center()
             self._index = lane_index(
-                cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length
+                cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length,
+                periodic=self.road.periodic,
             )
         return self._index
 
@@ -77,10 +80,10 @@ class World:
         tr = self.traffic
         cx, cy = tr.center()
         lane = self.road.lane_of(cy)
-        lead = leaders(self.lane_index(), np.arange(tr.n), lane, cx)
+        lead, lx = leaders(self.lane_index(), np.arange(tr.n), lane, cx, return_x=True)
         gap = np.full(tr.n, np.inf)
         ok = lead >= 0
-        gap[ok] = cx[lead[ok]] - cx[ok] - 0.5 * (tr.length[lead[ok]] + tr.length[ok])
+        gap[ok] = lx[ok] - cx[ok] - 0.5 * (tr.length[lead[ok]] + tr.length[ok])
         return gap, lead
 
     # ---------------------------------------------------------------- dynamics
@@ -89,6 +92,8 @@ class World:
         detection (sweep and prune, see :func:`find_collisions`), exits and
         road ends."""
         tr = self.traffic
+        if tr.n and self.road.n_exits:
+            cx_before = tr.center()[0]
         if tr.n:
             accel = np.where(tr.crashed, -6.0, accel)
             steer = np.where(tr.crashed, 0.0, steer)
@@ -102,7 +107,8 @@ class World:
         st["speed_sum"] += float(tr.speed.sum())
         st["abs_accel_sum"] += float(np.abs(tr.accel).sum())
         cx, cy = tr.center()
-        i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width)
+        i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width,
+                               period=self.road.length if self.road.periodic else None)
         hit = np.zeros(tr.n, dtype=bool)
         if len(i):
             hit[i] = True
@@ -131,9 +137,18 @@ class World:
             if has.any():
                 ex_x = np.full(tr.n, np.inf)
                 ex_x[has] = self.road.exit_position(tr.exit[has])
-                exit_now = has & (lane == self.road.ramp_lane) & (cx >= ex_x - 1.0)
+                past = self.road.wrap(cx - ex_x)
+                exit_now = has & (lane == self.road.ramp_lane) & (past >= -1.0) & (past < 100.0)
+                # a vehicle that drives past the end of its diverge segment on
+                # the main road has missed its exit (on a ring it tries again
+                # next time round)
+                de = np.full(tr.n, np.inf)
+                de[has] = self.road.diverge_end(tr.exit[has])
+                crossed = has & (lane < self.road.n_lanes) & (self.road.wrap(cx_before - de) < 0) & (
+                    self.road.wrap(cx - de) >= 0)
+                st["missed_exits"] += int(crossed.sum())
         off &= ~exit_now
-        at_end = cx >= self.road.length
+        at_end = (cx >= self.road.length) & (not self.road.periodic)
         off &= ~at_end
         new_crash = (hit | off) & ~tr.crashed
         if new_crash.any():
@@ -157,6 +172,7 @@ class World:
         if self.remove_crashed and len(ids):
             tr.remove(tr.crashed)
             self._index = None
+            self.stats["crashed_removed"] += len(ids)
         return ids
 
     def record_min_gap(self) -> None:
