@@ -14,9 +14,11 @@ __version__ = "0.1.0"
 
 GYM_IDS = {
     "icv_envs/HighwayFormation-v0": "icv_envs.envs.highway_formation:HighwayFormationEnv",
+    "icv_envs/HighwayRamps-v0": "icv_envs.envs.highway_ramps:HighwayRampsEnv",
 }
 PETTINGZOO_IDS = {
     "icv_envs/highway_formation-v0": "icv_envs.envs.highway_formation_v0",
+    "icv_envs/highway_ramps-v0": "icv_envs.envs.highway_ramps_v0",
 }
 
 
@@ -39,6 +41,6 @@ def _register() -> None:
 
 _register()
 
-from icv_envs.envs import highway_formation_v0  # noqa: E402
+from icv_envs.envs import highway_formation_v0, highway_ramps_v0  # noqa: E402
 
-__all__ = ["highway_formation_v0", "GYM_IDS", "PETTINGZOO_IDS", "__version__"]
+__all__ = ["highway_formation_v0", "highway_ramps_v0", "GYM_IDS", "PETTINGZOO_IDS", "__version__"]

@@ -98,6 +98,7 @@ class HighwayFormationEnv(AbstractEnv):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+    MIN_VEHICLES = 1
 
     def __init__(self, config: dict | None = None, render_mode: str | None = None) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -182,7 +183,8 @@ class HighwayFormationEnv(AbstractEnv):
         n_lanes = _num(c, "lanes_count", 1, 6, integer=True, allowed="an integer in [1, 6]")
         _num(c, "lane_width", 2.5, 6.0, allowed="a number in [2.5, 6] metres")
         _num(c, "road_length", 100.0, 1e5, allowed="a number in [100, 100000] metres")
-        _num(c, "vehicles_count", 1, 5000, integer=True, allowed="an integer in [1, 5000]")
+        _num(c, "vehicles_count", self.MIN_VEHICLES, 5000, integer=True,
+             allowed=f"an integer in [{self.MIN_VEHICLES}, 5000]")
         _num(c, "formation_size", 1, 64, integer=True, allowed="an integer in [1, 64]")
         _num(c, "formation_gap", 0.0, allowed="a number >= 0 metres")
         _num(c, "initial_jitter", 0.0, 5.0, allowed="a number in [0, 5] metres")
@@ -272,7 +274,7 @@ class HighwayFormationEnv(AbstractEnv):
             if "speed" in s:
                 _num(s, "speed", 0.0, sr[1], allowed=f"a number in [0, {sr[1]}] m/s")
         ego = c["ego_vehicle"]
-        if not (isinstance(ego, (int, np.integer)) and 0 <= ego < c["vehicles_count"]):
+        if self.MIN_VEHICLES and not (isinstance(ego, (int, np.integer)) and 0 <= ego < c["vehicles_count"]):
             raise ValueError(f"config['ego_vehicle'] = {ego!r}; allowed: an index in [0, vehicles_count - 1 = {c['vehicles_count'] - 1}]")
         # vehicles must fit on the road
         self._placement()
@@ -697,9 +699,13 @@ class HighwayFormationEnv(AbstractEnv):
                 terms[a] = False
                 truncs[a] = bool(truncated_all)
                 infos[a] = inf2[a]
+        self._on_step_end(events)
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terms, truncs, infos
+
+    def _on_step_end(self, events: StepEvents) -> None:
+        """Hook for subclasses (recorders); called once per policy step."""
 
     # ------------------------------------------------------- gymnasium (ego)
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -755,7 +761,7 @@ class HighwayFormationEnv(AbstractEnv):
         return obs, reward, terminated, truncated, info
 
     # --------------------------------------------------------------- metrics
-    def metrics(self) -> dict:
+    def metrics(self, **kwargs) -> dict:
         """Run metrics so far (see :mod:`icv_envs.experiments.metrics`)."""
         from icv_envs.experiments.metrics import run_metrics
 

@@ -127,78 +127,25 @@ Invalid values raise `ValueError` naming the key, the value and what is allowed.
 
 from __future__ import annotations
 
-import numpy as np
-from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from icv_envs.envs.highway_formation import HighwayFormationEnv
+from icv_envs.envs.parallel import CoreParallelEnv
 
 __all__ = ["env", "parallel_env", "raw_env", "HighwayFormationParallelEnv"]
 
 
-class HighwayFormationParallelEnv(ParallelEnv):
+class HighwayFormationParallelEnv(CoreParallelEnv):
     """PettingZoo parallel env over :class:`HighwayFormationEnv` (every ICV an agent)."""
 
+    core_cls = HighwayFormationEnv
     metadata = {
         "name": "highway_formation_v0",
         "render_modes": ["human", "rgb_array"],
         "is_parallelizable": True,
         "render_fps": 10,
     }
-
-    def __init__(self, render_mode: str | None = None, **config) -> None:
-        self.render_mode = render_mode
-        self.core = HighwayFormationEnv(config, render_mode=render_mode)
-        self.core._ma_mode = True
-        self.possible_agents = list(self.core.possible_agents)
-        self.agents: list[str] = []
-        self._obs_space = self.core.observation_space
-        self._act_space = self.core.action_space
-        self.observation_spaces = {a: self._obs_space for a in self.possible_agents}
-        self.action_spaces = {a: self._act_space for a in self.possible_agents}
-        self.state_space = self.core.state_space_for(len(self.possible_agents))
-
-    @property
-    def unwrapped_core(self) -> HighwayFormationEnv:
-        return self.core
-
-    def observation_space(self, agent):
-        return self._obs_space
-
-    def action_space(self, agent):
-        return self._act_space
-
-    def reset(self, seed: int | None = None, options: dict | None = None):
-        obs, infos = self.core.ma_reset(seed=seed, options=options)
-        if list(self.core.possible_agents) != self.possible_agents:
-            raise ValueError("options['config'] may not change the number of possible agents of a PettingZoo env")
-        self.agents = list(obs)
-        return obs, infos
-
-    def step(self, actions: dict):
-        if not self.agents and self.core.world is not None and self.core.world.traffic.n == 0:
-            raise RuntimeError("the episode has ended: call reset()")
-        obs, rew, term, trunc, infos = self.core.ma_step(actions)
-        self.agents = [a for a in obs if not (term[a] or trunc[a])]
-        return obs, rew, term, trunc, infos
-
-    def state(self) -> np.ndarray:
-        return self.core.global_state(self.possible_agents)
-
-    def render(self):
-        return self.core.render()
-
-    def close(self) -> None:
-        self.core.close()
-
-    def expert_actions(self) -> dict:
-        """The formation expert's action for every live agent."""
-        ex = self.core.expert_actions()
-        return {f"icv_{v}": ex[i] for i, v in enumerate(self.core.world.traffic.vid)}
-
-    def metrics(self) -> dict:
-        return self.core.metrics()
 
 
 def parallel_env(render_mode: str | None = None, **config) -> HighwayFormationParallelEnv:

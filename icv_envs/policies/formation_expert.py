@@ -69,6 +69,9 @@ class ExpertParams:
     preview_min: float = 8.0
     replan_tolerance: float = 1.0  # [m]
     exit_lookahead: float = 400.0
+    # desired speed of free vehicles per lane index (main lanes, then the ramp
+    # lane); None: ``desired_speed`` on main lanes, ``ramp_speed`` on the ramp
+    lane_speeds: tuple | None = None
 
 
 class FormationExpert:
@@ -80,6 +83,22 @@ class FormationExpert:
 
     def __init__(self, params: ExpertParams | None = None) -> None:
         self.p = params or ExpertParams()
+
+    # ------------------------------------------------------------------ hooks
+    def _lane_speeds(self, road, lane) -> np.ndarray:
+        """Desired speed of a free vehicle in ``lane`` (vectorised)."""
+        p = self.p
+        if p.lane_speeds is not None:
+            table = np.asarray(p.lane_speeds, dtype=np.float64)
+            return table[np.clip(lane, 0, len(table) - 1)]
+        return np.where((lane == road.n_lanes) & road.has_ramp_lane, p.ramp_speed, p.desired_speed)
+
+    def _desired_lanes(self, world, desired, lane, member, exiting, cx, v, index) -> np.ndarray:
+        """Hook for subclasses: the lane each vehicle wants. The formation
+        expert keeps what the formation layer assigned (members), heads for
+        the ramp (exiting) or the main road (on-ramp), and otherwise keeps its
+        lane."""
+        return desired
 
     # ----------------------------------------------------------------- helpers
     def _normalise(self, a: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -122,6 +141,7 @@ class FormationExpert:
             desired = np.where(on_ramp, road.n_lanes - 1, desired)
         else:
             exiting = np.zeros(n, dtype=bool)
+        desired = self._desired_lanes(world, desired, lane, member, exiting, cx, v, index)
         # free vehicles whose lane ends ahead move to a neighbouring lane
         free = ~member & ~exiting & (desired == lane)
         if free.any():
@@ -180,6 +200,17 @@ class FormationExpert:
             own = idm_acceleration(vw, p.v_max, gap_f, vw - vl, p.a_max, p.idm_b, Tw, p.idm_s0, free_term=False)
             fol = idm_acceleration(vf, p.v_max, gap_r, vf - vw, p.a_max, p.idm_b, Tf, p.idm_s0, free_term=False)
             ok &= (gap_f > p.lc_min_gap) & (gap_r > p.lc_min_gap) & (own > -p.b_safe) & (fol > -p.b_safe)
+            # two vehicles must not start into the same lane side by side in
+            # one step (neither sees the other yet): keep the front one
+            cand = np.flatnonzero(ok)
+            if len(cand) > 1:
+                o = cand[np.lexsort((-xw[cand], nxt[cand]))]
+                same = (nxt[o][1:] == nxt[o][:-1]) & (np.abs(road.wrap(xw[o][1:] - xw[o][:-1])) < lw[o][1:] + p.lc_min_gap + 2.0 * p.idm_s0 + vw[o][1:] * p.member_time_gap)
+                drop = np.zeros(len(o), dtype=bool)
+                for k in np.flatnonzero(same):
+                    if not drop[k]:
+                        drop[k + 1] = True
+                ok[o[drop]] = False
             start = w_rows[ok]
             blocked = np.zeros(n, dtype=bool)
             blocked[w_rows[~ok]] = True
@@ -205,7 +236,7 @@ class FormationExpert:
         phi = pure_pursuit_steering(tr.x, tr.y, tr.heading, px, py, p.wheelbase, p.steer_max)
 
         # ------------------------------------------------------ longitudinal
-        lane_speed = np.where((lane == road.n_lanes) & road.has_ramp_lane, p.ramp_speed, p.desired_speed)
+        lane_speed = self._lane_speeds(road, lane)
         lane_speed = np.where(exiting & (lane < road.n_lanes), p.exit_speed, lane_speed)
         lane_speed = np.where(blocked & ~member, np.maximum(lane_speed - p.blocked_slowdown, p.v_min), lane_speed)
         acc = np.empty(n)

@@ -200,12 +200,24 @@ def occupied_lanes(cy, width, lane_width, n_lanes, margin=0.3):
     return np.concatenate(rows_l), np.concatenate(lanes_l)
 
 
-def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool = False, ghost: float = 1000.0) -> LaneIndex:
+def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool = False, ghost: float = 1000.0,
+               reserved_lane=None) -> LaneIndex:
     """Build the lane-sorted index. On a ring (``periodic``), vehicles within
     ``ghost`` metres of the seam are listed a second time one lap further
     (``x + length`` and ``x - length``) so that searches see round the seam;
-    ``LaneIndex.x`` holds those unfolded positions (use it for gaps)."""
+    ``LaneIndex.x`` holds those unfolded positions (use it for gaps).
+
+    ``reserved_lane[i] >= 0`` lists vehicle ``i`` in that lane too: a vehicle
+    that has started a lane change holds its target lane before its body
+    reaches it (a turn signal), so two vehicles do not move into one gap."""
     rows, lanes = occupied_lanes(cy, width, lane_width, n_lanes)
+    if reserved_lane is not None:
+        res = np.flatnonzero((reserved_lane >= 0) & (reserved_lane < n_lanes))
+        if len(res):
+            pair = np.concatenate([rows, res]) * (n_lanes + 1) + np.concatenate([lanes, reserved_lane[res]])
+            _, first = np.unique(pair, return_index=True)
+            rows = np.concatenate([rows, res])[np.sort(first)]
+            lanes = np.concatenate([lanes, reserved_lane[res]])[np.sort(first)]
     xs = cx[rows]
     if periodic and len(rows):
         L = float(road_length)

@@ -67,7 +67,7 @@ class World:
             cx, cy = self.traffic.center()
             self._index = lane_index(
                 cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length,
-                periodic=self.road.periodic,
+                periodic=self.road.periodic, reserved_lane=self.traffic.lc_lane,
             )
         return self._index
 

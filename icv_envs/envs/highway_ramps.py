@@ -1,0 +1,329 @@
+"""HighwayRamps: the paper's highway experiment (Sec. 6.1, Table 1).
+
+A 10,000 m four-lane road whose end joins its start, plus a ramp lane;
+five on-ramps every 2000 m (the first at 0 m; merge segments 100 m) and five
+off-ramps every 2000 m (the first at 1600 m; diverge segments 50 m).
+Vehicles appear on every on-ramp at the vehicle generating rate (VGR,
+vehicles/s per ramp; Poisson or fixed-interval arrivals), each with a random
+exit among the off-ramps, and leave the road at their exit. The coordination
+method is a config choice:
+
+* ``formation``: the formation layer of :mod:`icv_envs.sim.formations` builds
+  interlaced formations on the left three lanes; the fourth lane is a
+  transition lane used only to join or leave (paper Sec. 6.1 remark); the
+  :class:`~icv_envs.policies.FormationExpert` drives;
+* ``lane-lp``: optimal lane assignment at the ramps (Dao et al. 2007, see
+  :mod:`icv_envs.policies.lane_lp`), IDM car following;
+* ``idm``: IDM/MOBIL, no coordination.
+
+Positions: the simulation's ``x = 0`` (the ring's seam) lies at the paper's
+1000 m, a plain stretch between the first on-ramp and the first off-ramp, so
+no ramp straddles the seam (config ``seam``). Metrics and heat maps are
+reported in the paper's coordinates (0 m = first on-ramp).
+
+Ramp vehicles may drive 5..25 m/s on the ramp (desired 15 m/s); main-road
+speeds are 15..30 m/s with desired 25 m/s on the left three lanes and 20 m/s
+on the fourth (Table 1): ``lane_speeds``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from icv_envs.envs.highway_formation import HighwayFormationEnv, _num
+from icv_envs.policies.formation_expert import FormationExpert
+from icv_envs.policies.reference import IdmMobilPolicy, LaneLpPolicy
+from icv_envs.sim.formations import FormationManager
+from icv_envs.sim.road import OffRamp, OnRamp, RoadLayout
+from icv_envs.sim.world import World
+
+__all__ = ["HighwayRampsEnv", "METHODS"]
+
+METHODS = ("formation", "lane-lp", "idm")
+MAX_VGR = 1.0  # vehicles/s per ramp: a single ramp lane carries at most ~0.6 veh/s
+
+
+class HighwayRampsEnv(HighwayFormationEnv):
+    """The 10 km ring with five on/off-ramps; see the module docstring and
+    :mod:`icv_envs.envs.highway_ramps_v0`."""
+
+    MIN_VEHICLES = 0
+
+    @classmethod
+    def default_config(cls) -> dict:
+        config = super().default_config()
+        config["formation"].update({"exit_lookahead": 600.0, "join_distance": 60.0})
+        config.update(
+            {
+                "scenario": None,
+                "vehicles_count": 0,
+                "lanes_count": 4,
+                "road_length": 10000.0,
+                "ramps": 5,
+                "ramp_spacing": 2000.0,
+                "first_on_ramp": 0.0,
+                "first_off_ramp": 1600.0,
+                "merge_length": 100.0,
+                "diverge_length": 50.0,
+                "on_ramp_approach": 200.0,
+                "off_ramp_length": 100.0,
+                "seam": 1000.0,
+                "vgr": 1.0 / 3.0,
+                "arrivals": "poisson",
+                "exit_choices": None,
+                "method": "formation",
+                "max_vehicles": None,
+                "duration": 600.0,
+                "speed_range": [15.0, 30.0],
+                "ramp_speed": 15.0,
+                "lane_speeds": [25.0, 25.0, 25.0, 20.0],
+                "formation_lanes": [0, 1, 2],
+                "formation_size": 12,
+                "sample_period": 1.0,
+                "heatmap_bin": 500.0,
+                "initial_position": None,
+            }
+        )
+        return config
+
+    # ------------------------------------------------------------- validation
+    def _validate_config(self) -> None:
+        c = self.config
+        for key in ("lane_drop", "obstacle", "on_ramp", "off_ramp"):
+            if c.get(key) is not None:
+                raise ValueError(f"config[{key!r}] is not supported by HighwayRamps (its layout is fixed by "
+                                 f"'ramps', 'ramp_spacing', ...); got {c[key]!r}")
+        if c.get("scenario") not in (None,):
+            raise ValueError(f"config['scenario'] = {c['scenario']!r}; HighwayRamps has no scenarios (use None)")
+        if c["spawns"]:
+            raise ValueError("config['spawns'] is not used by HighwayRamps: vehicles arrive at the VGR")
+        if c["method"] not in METHODS:
+            raise ValueError(f"unknown method {c['method']!r}; allowed: {list(METHODS)}")
+        vgr = c["vgr"]
+        if not isinstance(vgr, (int, float)) or isinstance(vgr, bool) or not math.isfinite(vgr) or not 0 < vgr <= MAX_VGR:
+            raise ValueError(f"vgr = {vgr!r} vehicles/s per ramp is invalid; allowed: 0 < vgr <= {MAX_VGR} "
+                             f"(one ramp lane carries at most about 0.6 vehicles/s)")
+        if c["arrivals"] not in ("poisson", "fixed"):
+            raise ValueError(f"arrivals = {c['arrivals']!r}; allowed: 'poisson', 'fixed'")
+        _num(c, "ramps", 1, 20, integer=True, allowed="an integer in [1, 20]")
+        n = int(c["ramps"])
+        ex = c["exit_choices"]
+        if ex is not None:
+            if not isinstance(ex, (list, tuple)) or not ex:
+                raise ValueError(f"exit_choices = {ex!r}; allowed: None (all exits) or a non-empty list of exit indices")
+            bad = [e for e in ex if not (isinstance(e, (int, np.integer)) and not isinstance(e, bool) and 0 <= e < n)]
+            if bad:
+                raise ValueError(f"exit_choices {bad} do not exist; allowed exit indices: {list(range(n))}")
+        for key in ("ramp_spacing", "merge_length", "diverge_length", "on_ramp_approach", "off_ramp_length",
+                    "sample_period", "heatmap_bin"):
+            _num(c, key, 0.0, lo_open=True, allowed="a number > 0")
+        ls = c["lane_speeds"]
+        if not (isinstance(ls, (list, tuple)) and len(ls) == c["lanes_count"] and all(
+                isinstance(v, (int, float)) and 0 < v <= c["speed_range"][1] for v in ls)):
+            raise ValueError(f"lane_speeds = {ls!r}; allowed: one speed in (0, v_max] per main lane "
+                             f"({c['lanes_count']} lanes)")
+        fl = c["formation_lanes"]
+        if not (isinstance(fl, (list, tuple)) and fl and all(isinstance(v, int) and 0 <= v < c["lanes_count"] for v in fl)):
+            raise ValueError(f"formation_lanes = {fl!r}; allowed: a non-empty list of lane indices in "
+                             f"[0, {c['lanes_count'] - 1}]")
+        mv = c["max_vehicles"]
+        if mv is not None and not (isinstance(mv, int) and mv >= 1):
+            raise ValueError(f"max_vehicles = {mv!r}; allowed: None (automatic) or an integer >= 1")
+        super()._validate_config()
+        self._make_road()  # raises if the layout does not fit the ring
+
+    def _placement(self):
+        return []
+
+    # ------------------------------------------------------------------ build
+    def _internal(self, paper_x: float) -> float:
+        c = self.config
+        return float(np.mod(paper_x - c["seam"], c["road_length"]))
+
+    def paper_position(self, x) -> np.ndarray:
+        """Simulation x -> the paper's coordinates (0 m = the first on-ramp)."""
+        c = self.config
+        return np.mod(np.asarray(x) + c["seam"], c["road_length"])
+
+    def _make_road(self) -> RoadLayout:
+        c = self.config
+        n, sp = int(c["ramps"]), float(c["ramp_spacing"])
+        on = []
+        off = []
+        for k in range(n):
+            s = self._internal(c["first_on_ramp"] + k * sp)
+            on.append(OnRamp(s, s + c["merge_length"], c["on_ramp_approach"]))
+            d = self._internal(c["first_off_ramp"] + k * sp)
+            off.append(OffRamp(d, d + c["diverge_length"], d + c["diverge_length"] + c["off_ramp_length"]))
+        return RoadLayout(int(c["lanes_count"]), float(c["road_length"]), float(c["lane_width"]),
+                          np.full(int(c["lanes_count"]), np.inf), on, off, [], periodic=True)
+
+    def _expert_params(self):
+        p = super()._expert_params()
+        c = self.config
+        p.lane_speeds = tuple(float(v) for v in c["lane_speeds"]) + (float(c["ramp_speed"]),)
+        p.exit_speed = float(c["lane_speeds"][-1])
+        return p
+
+    def _max_vehicles(self) -> int:
+        c = self.config
+        if c["max_vehicles"] is not None:
+            return int(c["max_vehicles"])
+        mean = c["duration"] * c["vgr"] * c["ramps"]
+        return int(math.ceil(mean + 6.0 * math.sqrt(mean) + 20))
+
+    def _reset(self) -> None:
+        c = self.config
+        road = self._make_road()
+        f = c["formation"]
+        method = c["method"]
+        manager = FormationManager(
+            spacing=f["spacing"], geometry=f["geometry"], w1=f["w1"], w2=f["w2"], speed=f["speed"],
+            lookahead=f["lookahead"], join_distance=f["join_distance"], exit_lookahead=f["exit_lookahead"],
+            max_size=int(c["formation_size"]), max_anchor_lead=f["max_anchor_lead"],
+            allowed_lanes=c["formation_lanes"], create=(method == "formation"),
+        )
+        self.world = World(road, manager, dt=1.0 / c["simulation_frequency"], wheelbase=c["wheelbase"],
+                           v_max=float(c["speed_range"][1]))
+        params = self._expert_params()
+        self.expert = {"formation": FormationExpert, "idm": IdmMobilPolicy, "lane-lp": LaneLpPolicy}[method](params)
+        # arrivals: per ramp, Poisson (exponential gaps) or fixed interval with
+        # a random phase; the first arrival at ramp 0 is at t = 0 (the gym ego)
+        rng = self.np_random
+        T, vgr, n = float(c["duration"]), float(c["vgr"]), int(c["ramps"])
+        choices = list(range(n)) if c["exit_choices"] is None else [int(e) for e in c["exit_choices"]]
+        arrivals = []
+        for k in range(n):
+            if c["arrivals"] == "poisson":
+                gaps = rng.exponential(1.0 / vgr, size=int(T * vgr * 2 + 50))
+                times = np.concatenate([[0.0], np.cumsum(gaps)]) if k == 0 else np.cumsum(gaps)
+            else:
+                phase = 0.0 if k == 0 else rng.uniform(0.0, 1.0 / vgr)
+                times = phase + np.arange(int(T * vgr) + 2) / vgr
+            times = times[times < T]
+            exits = rng.choice(choices, size=len(times))
+            arrivals += [(float(t), k, int(e)) for t, e in zip(times, exits)]
+        arrivals.sort()
+        cap = self._max_vehicles()
+        self._not_spawned = max(0, len(arrivals) - cap)
+        self._arrivals = arrivals[:cap]
+        self._queues: list[list[tuple[float, int]]] = [[] for _ in range(n)]
+        self._spawned = 0
+        self.possible_agents = [f"icv_{i}" for i in range(cap)]
+        self._series: list[dict] = []
+        self._heat_sum = None
+        self._heat_samples = 0
+        self._next_sample = 0.0
+        self._spawn_due()
+        self._proxies = {}
+        self._last_actions = np.zeros((self.world.traffic.n, 2))
+        self._expert_cache = None
+        self._ego_vid = int(c["ego_vehicle"])
+        self._ego_done = False
+        self._record()
+        self._sync_render_road(force=True)
+
+    # ---------------------------------------------------------------- arrivals
+    def _spawn_due(self) -> list[int]:
+        w = self.world
+        c = self.config
+        road = w.road
+        tr = w.traffic
+        while self._arrivals and self._arrivals[0][0] <= w.time + 1e-9:
+            t, k, e = self._arrivals.pop(0)
+            self._queues[k].append((t, e))
+        new = []
+        if not any(self._queues):
+            return new
+        cx, cy = tr.center()
+        on_ramp = road.lane_of(cy) == road.ramp_lane if tr.n else np.zeros(0, dtype=bool)
+        h = 0.5 * c["wheelbase"]
+        for k, q in enumerate(self._queues):
+            if not q:
+                continue
+            ramp = road.on_ramps[k]
+            x0 = ramp.start - ramp.approach + 5.0
+            # the spawn point must be free: nobody on the ramp lane within [-10, +25] m
+            if tr.n:
+                d = road.wrap(cx[on_ramp] - x0) if on_ramp.any() else np.zeros(0)
+                if ((d > -10.0) & (d < 25.0)).any():
+                    continue
+            t, e = q.pop(0)
+            ids = tr.add(x0 - h, road.ramp_lane * road.lane_width, float(c["ramp_speed"]), exit=e, time=w.time)
+            new.extend(int(v) for v in ids)
+            self._spawned += 1
+            cx, cy = tr.center()
+            on_ramp = road.lane_of(cy) == road.ramp_lane
+        if new:
+            w.invalidate()
+        return new
+
+    # --------------------------------------------------------------- metrics
+    def _on_step_end(self, events) -> None:
+        if self.world.time + 1e-9 >= self._next_sample:
+            self._record()
+
+    def _record(self) -> None:
+        c = self.config
+        w = self.world
+        tr = w.traffic
+        road = w.road
+        st = w.stats
+        cx, cy = tr.center()
+        lane = road.lane_of(cy) if tr.n else np.zeros(0, dtype=np.int64)
+        main = lane < road.n_lanes
+        nb = int(math.ceil(c["road_length"] / c["heatmap_bin"]))
+        heat = np.zeros((road.n_lanes, nb))
+        if main.any():
+            b = np.minimum((self.paper_position(cx[main]) // c["heatmap_bin"]).astype(int), nb - 1)
+            np.add.at(heat, (lane[main], b), 1.0)
+        self._heat_sum = heat if self._heat_sum is None else self._heat_sum + heat
+        self._heat_samples += 1
+        self._heat_last = heat
+        self._series.append(
+            {
+                "t": round(w.time, 6),
+                "remaining": int(tr.n),
+                "queued": int(sum(len(q) for q in self._queues)),
+                "mean_speed": float(tr.speed.mean()) if tr.n else None,
+                "mean_abs_accel": float(np.abs(tr.accel).mean()) if tr.n else None,
+                "spawned": int(self._spawned),
+                "exited": int(st["exited"]),
+                "missed_exits": int(st["missed_exits"]),
+                "collisions": int(st["collisions"]),
+                "formations": len(w.manager.anchor),
+            }
+        )
+        self._next_sample += float(c["sample_period"])
+
+    def metrics(self, series: bool = False) -> dict:
+        """Run totals (and with ``series`` the 1 Hz time series and heat maps).
+
+        ``lost`` = spawned - exited - remaining - removed after a crash: a
+        bookkeeping check that must be 0 (no vehicle disappears unaccounted)."""
+        from icv_envs.experiments.metrics import run_metrics
+
+        m = run_metrics(self.world)
+        st = self.world.stats
+        remaining = int(self.world.traffic.n)
+        m.update(
+            {
+                "method": self.config["method"],
+                "vgr": float(self.config["vgr"]),
+                "spawned": int(self._spawned),
+                "remaining": remaining,
+                "queued": int(sum(len(q) for q in self._queues)),
+                "not_spawned": int(self._not_spawned),
+                "missed_exits": int(st["missed_exits"]),
+                "crashed_removed": int(st["crashed_removed"]),
+                "lost": int(self._spawned - st["exited"] - remaining - st["crashed_removed"]),
+            }
+        )
+        if series:
+            m["timeseries"] = list(self._series)
+            m["heatmap_mean"] = (self._heat_sum / max(self._heat_samples, 1)).round(4).tolist()
+            m["heatmap_final"] = self._heat_last.tolist()
+            m["heatmap_bin"] = float(self.config["heatmap_bin"])
+        return m

@@ -1,0 +1,106 @@
+"""
+# Highway Ramps
+
+| Import | `from icv_envs import highway_ramps_v0` |
+|---|---|
+| Creation | `highway_ramps_v0.parallel_env(method="formation", vgr=1/3, render_mode=None, **config)` |
+| Actions | Continuous |
+| Parallel API | Yes (`parallel_env`); AEC through `env()` / `raw_env()` |
+| Manual Control | No |
+| Agents | `agents = ["icv_0", ...]`: every vehicle, from its arrival on an on-ramp until it exits, crashes or the episode ends |
+| Number of agents | up to `max_vehicles` (default: mean arrivals + 6 sigma + 20, about 1,250 for 600 s at VGR 1/3) |
+| Action Shape | `(2,)` |
+| Action Values | `Box(-1, 1, (2,), float32)`: `[acceleration, steering]` |
+| Observation Shape | `(V, 11)`, `V = observation["vehicles_count"]` (8) |
+| Observation Values | `Box(-1, 1, (V, 11), float32)` |
+| State Shape | `(len(possible_agents), 11)` |
+| State Values | `Box(-1, 1, (len(possible_agents), 11), float32)` |
+| Gymnasium id | `icv_envs/HighwayRamps-v0` (the first vehicle, arriving at t = 0 on the first on-ramp, is the learned ego) |
+| PettingZoo id | `icv_envs/highway_ramps-v0` |
+
+The paper's highway experiment (Xu et al. 2021, Sec. 6.1, Table 1): a 10 km
+four-lane ring plus a ramp lane with five on-ramps (every 2000 m from 0 m,
+100 m merge segments) and five off-ramps (every 2000 m from 1600 m, 50 m
+diverge segments). Vehicles arrive on every on-ramp at the vehicle generating
+rate `vgr` (vehicles/s per ramp; `arrivals="poisson"` or `"fixed"`), pick a
+random exit among `exit_choices` (default all five) and leave at it; a
+vehicle that misses its exit drives another lap. An arrival waits in a queue
+while its ramp's spawn point is occupied. The `method` decides who
+coordinates: `formation` (interlaced formations on the left three lanes,
+the fourth lane a transition lane, the formation expert driving), `lane-lp`
+(optimal lane assignment LP at the ramps, IDM) or `idm` (IDM/MOBIL). The
+`expert_action` in the infos is the chosen method's controller.
+
+## Observations, actions, rewards, state
+
+As in `highway_formation_v0` (same spaces, features and reward terms); row 0's
+`x` is the position on the ring divided by its length.
+
+## Episode end
+
+An agent terminates when it reaches its exit or collides, and every agent is
+truncated after `duration` (600 s) seconds.
+
+## Metrics
+
+`env.metrics()` adds to the common metrics: `spawned`, `exited`,
+`missed_exits`, `remaining` (on the road at the end), `queued`,
+`not_spawned`, `lost` (spawned - exited - remaining - removed after a crash,
+a bookkeeping check that must be 0); `env.metrics(series=True)` also returns
+the 1 Hz time series and the density heat map (vehicles per 500 m per lane,
+time-averaged and at the end), in the paper's coordinates.
+
+## Arguments
+
+| key | default | meaning |
+|---|---|---|
+| `method` | `"formation"` | `formation`, `lane-lp`, `idm` |
+| `vgr` | 1/3 | vehicles/s per on-ramp, in (0, 1] |
+| `arrivals` | `"poisson"` | or `"fixed"` (constant interval, random phase per ramp) |
+| `exit_choices` | None | list of off-ramp indices (0 = the one at 1600 m) a vehicle may pick |
+| `duration` | 600 | seconds |
+| `road_length`, `ramps`, `ramp_spacing`, `first_on_ramp`, `first_off_ramp` | 10000, 5, 2000, 0, 1600 | layout (metres) |
+| `merge_length`, `diverge_length`, `on_ramp_approach`, `off_ramp_length` | 100, 50, 200, 100 | metres |
+| `lane_speeds` | [25, 25, 25, 20] | desired speed per main lane; `ramp_speed` 15 |
+| `speed_range` | [15, 30] | main-road speeds (a control floor, not physics) |
+| `formation_lanes` | [0, 1, 2] | lanes formations may use |
+| `formation_size` | 12 | most members per formation |
+| `seam` | 1000 | paper position of the ring's seam (keep it off the ramps) |
+| `max_vehicles` | None | possible agents (arrivals beyond are counted in `not_spawned`) |
+
+and the keys of `highway_formation_v0` (formation parameters, frequencies,
+observation, reward, rendering). Invalid values raise `ValueError` naming
+the key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
+
+from icv_envs.envs.highway_ramps import HighwayRampsEnv
+from icv_envs.envs.parallel import CoreParallelEnv
+
+__all__ = ["env", "parallel_env", "raw_env", "HighwayRampsParallelEnv"]
+
+
+class HighwayRampsParallelEnv(CoreParallelEnv):
+    core_cls = HighwayRampsEnv
+    metadata = {
+        "name": "highway_ramps_v0",
+        "render_modes": ["human", "rgb_array"],
+        "is_parallelizable": True,
+        "render_fps": 10,
+    }
+
+
+def parallel_env(render_mode: str | None = None, **config) -> HighwayRampsParallelEnv:
+    return HighwayRampsParallelEnv(render_mode=render_mode, **config)
+
+
+def raw_env(render_mode: str | None = None, **config):
+    return parallel_to_aec_wrapper(parallel_env(render_mode=render_mode, **config))
+
+
+def env(render_mode: str | None = None, **config):
+    return OrderEnforcingWrapper(raw_env(render_mode=render_mode, **config))

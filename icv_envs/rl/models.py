@@ -1,0 +1,153 @@
+"""The model format of the ``baselines/`` scripts and its loader.
+
+Every script writes, into its ``--out`` directory,
+
+* ``model.zip``: a Stable-Baselines3 PPO model (``PPO.load``-able). The
+  behaviour-cloning baseline stores its network as the actor of an SB3 PPO
+  ``MlpPolicy`` too (the mean of the Gaussian is the cloned action), so the
+  three baselines load the same way and a BC model can be fine-tuned with PPO;
+* ``run.json``: ``{"algo": "ppo_single" | "ppo_shared" | "bc_expert",
+  "env": <canonical id>, "env_kind": "gym" | "pettingzoo", "config": {...},
+  "observation_shape": [...], "action_shape": [...], "args": {...},
+  "train": {...}, "eval": {...}}``; enough to rebuild the env.
+
+:func:`load_model` accepts the directory, the ``model.zip`` path, or the path
+without ``.zip``; ``run.json`` next to the model is optional (without it the
+model counts as a generic SB3 model).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["LoadedModel", "load_model", "resolve_model_path", "write_run_json", "json_safe", "platform_info"]
+
+ALGOS = ("ppo_single", "ppo_shared", "bc_expert")
+
+
+def resolve_model_path(path) -> tuple[Path, Path | None]:
+    """``(model.zip, run.json or None)`` for a model directory or file;
+    ``ValueError`` if there is no model there."""
+    p = Path(path)
+    if p.is_dir():
+        z = p / "model.zip"
+        if not z.is_file():
+            raise ValueError(f"policy directory {str(p)!r} holds no model.zip; allowed: expert, zero, random, "
+                             f"or a directory / model.zip written by baselines/ppo_single.py, ppo_shared.py or bc_expert.py")
+    elif p.is_file():
+        z = p
+    elif p.with_name(p.name + ".zip").is_file():
+        z = p.with_name(p.name + ".zip")
+    else:
+        raise ValueError(f"policy {str(path)!r} is neither a known policy nor an existing path; allowed: expert, zero, "
+                         f"random, or a directory / model.zip written by baselines/ppo_single.py, ppo_shared.py or "
+                         f"bc_expert.py")
+    meta = z.parent / "run.json"
+    return z, meta if meta.is_file() else None
+
+
+@dataclass
+class LoadedModel:
+    """A saved policy: ``act(obs_batch) -> actions`` (deterministic by default)."""
+
+    path: Path
+    model: object
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def algo(self) -> str:
+        return str(self.meta.get("algo", "sb3"))
+
+    @property
+    def observation_space(self):
+        return self.model.observation_space
+
+    @property
+    def action_space(self):
+        return self.model.action_space
+
+    def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
+        """Actions for a batch of observations ``(n, *obs_shape)``, clipped to
+        the action space."""
+        obs = np.asarray(obs, dtype=np.float32)
+        if len(obs) == 0:
+            return np.zeros((0, *self.action_space.shape), dtype=np.float32)
+        actions, _ = self.model.predict(obs, deterministic=deterministic)
+        return np.asarray(actions, dtype=np.float32).reshape(len(obs), *self.action_space.shape)
+
+    def check_spaces(self, env_name: str, obs_space, act_space) -> None:
+        """``ValueError`` naming both if the model was built for other spaces."""
+        mo, ma = tuple(self.observation_space.shape or ()), tuple(self.action_space.shape or ())
+        eo, ea = tuple(obs_space.shape or ()), tuple(act_space.shape or ())
+        if mo != eo or ma != ea or type(self.action_space).__name__ != type(act_space).__name__:
+            raise ValueError(
+                f"model {str(self.path)!r} was built for observation shape {mo} and action space "
+                f"{type(self.action_space).__name__}{ma}, but env {env_name!r} (with this config) has observation "
+                f"shape {eo} and action space {type(act_space).__name__}{ea}"
+            )
+
+
+def load_model(path) -> LoadedModel:
+    """Load a model written by one of the ``baselines/`` scripts (or any SB3
+    PPO zip)."""
+    z, meta_path = resolve_model_path(path)
+    meta = {}
+    if meta_path is not None:
+        try:
+            meta = json.loads(meta_path.read_text())
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{str(meta_path)!r} is not valid JSON: {exc}") from None
+    try:
+        from stable_baselines3 import PPO
+    except ImportError as exc:  # pragma: no cover
+        raise ValueError(f"loading a model needs stable-baselines3 and torch: pip install torch==2.13.0 && "
+                         f"pip install stable-baselines3 ({exc})") from None
+    import torch
+
+    torch.set_num_threads(1)
+    try:
+        model = PPO.load(str(z), device="cpu")
+    except Exception as exc:  # noqa: BLE001 - a corrupt or foreign file
+        raise ValueError(f"cannot load {str(z)!r} as a Stable-Baselines3 PPO model: {type(exc).__name__}: {exc}") from None
+    return LoadedModel(z, model, meta)
+
+
+def json_safe(obj):
+    """Replace NaN/inf by None and numpy scalars/arrays by Python values."""
+    if isinstance(obj, dict):
+        return {str(k): json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return json_safe(obj.tolist())
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def write_run_json(out, meta: dict) -> Path:
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    p = out / "run.json"
+    p.write_text(json.dumps(json_safe(meta), indent=2))
+    return p
+
+
+def platform_info() -> dict:
+    info = {"python": platform.python_version(), "numpy": np.__version__}
+    try:
+        import stable_baselines3
+        import torch
+
+        info.update({"torch": torch.__version__, "stable_baselines3": stable_baselines3.__version__})
+    except ImportError:  # pragma: no cover
+        pass
+    return info
