@@ -230,9 +230,9 @@ def main(argv=None) -> int:
         if args.scenario_list:
             run["eval_by_scenario"] = {s: final_eval(c) for s, c in zip(args.scenario_list, cfgs)}
         write_run_json(out, run)
+    by_scenario = {k: v["collisions"] for k, v in run.get("eval_by_scenario", {}).items()}
     print(json.dumps({"algo": ALGO, "out": str(out), "samples": int(len(X)), "final_fit": history[-1]["fit"],
-                      "eval": run.get("eval"),
-                      "collisions_by_scenario": {k: v["collisions"] for k, v in run.get("eval_by_scenario", {}).items()}}))
+                      "eval": run.get("eval"), "collisions_by_scenario": by_scenario}))
     return 0
 
 

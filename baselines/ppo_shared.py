@@ -106,6 +106,7 @@ def main(argv=None) -> int:
         "env_steps": int(model.num_timesteps // venv.num_envs) * venv.n_copies,
         "wall_seconds": wall,
         "slot_steps_per_second": model.num_timesteps / wall,
+        "placeholder_fraction": venv.placeholder_fraction,  # share of slot-steps of absent agents
         "agent_episodes_in_buffer": len(eps),
         "ep_rew_mean": float(np.mean([e["r"] for e in eps])) if eps else None,
         "ep_len_mean": float(np.mean([e["l"] for e in eps])) if eps else None,

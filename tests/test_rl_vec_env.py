@@ -263,3 +263,13 @@ def test_sb3_ppo_runs_on_the_adapter():
     assert model.num_timesteps == venv.num_envs * 40
     assert len(model.ep_info_buffer) >= 9  # one entry per finished agent-episode
     venv.close()
+
+
+def test_placeholder_fraction_counts_absent_slot_steps():
+    venv = ParallelVecEnv(ToyEnv, seed=0)
+    venv.reset()
+    assert venv.placeholder_fraction == 0.0
+    for _ in range(4):  # inactive slots per step: b; none; a; a, b
+        venv.step(np.zeros((3, 2), dtype=np.float32))
+    assert venv.slot_steps == 12 and venv.placeholder_steps == 4
+    assert venv.placeholder_fraction == pytest.approx(4 / 12)

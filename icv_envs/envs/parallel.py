@@ -47,6 +47,14 @@ class CoreParallelEnv(ParallelEnv):
         self.agents = [a for a in obs if not (term[a] or trunc[a])]
         return obs, rew, term, trunc, infos
 
+    @property
+    def episode_over(self) -> bool:
+        """True once the episode's time is up. On an open road (vehicles
+        arriving at a rate) ``agents`` can be empty for a while before that:
+        ``step({})`` then just advances time."""
+        c = self.core
+        return c.world is None or c.world.time >= float(c.config["duration"]) - 1e-9
+
     def state(self) -> np.ndarray:
         return self.core.global_state(self.possible_agents)
 

@@ -161,7 +161,10 @@ class FormationExpert:
                 tr.x[a_rows], tr.lc_x0[a_rows], tr.lc_y0[a_rows], tr.lc_y1[a_rows], tr.lc_len[a_rows]
             )
             stray = np.abs(y_plan - tr.y[a_rows]) > p.replan_tolerance
-            done = tr.x[a_rows] >= tr.lc_x0[a_rows] + tr.lc_len[a_rows]
+            # a lane change ends once past the curve AND settled on the new
+            # lane centre (until then the vehicle keeps steering for it)
+            done = (tr.x[a_rows] >= tr.lc_x0[a_rows] + tr.lc_len[a_rows]) & (
+                np.abs(tr.y[a_rows] - tr.lc_y1[a_rows]) < 0.3)
             tr.lc_lane[a_rows[stray | done]] = -1
             active = tr.lc_lane >= 0
 
@@ -186,7 +189,9 @@ class FormationExpert:
                 ok &= ~from_ramp | road.in_merge(xw)
                 # a merge must end before the ramp lane does
                 rend = road.interval_end(lane[w_rows], xw)
-                length = np.where(from_ramp, np.clip(np.minimum(length, rend - xw - 5.0), 10.0, None), length)
+                room = rend - xw - 5.0
+                length = np.where(from_ramp, np.minimum(length, room), length)
+                ok &= ~from_ramp | (room >= p.lc_min_length)
             # gap acceptance in the target lane
             lead, lx = leaders(index, w_rows, nxt, cx, return_x=True)
             foll, fx = followers(index, w_rows, nxt, cx, return_x=True)
@@ -199,6 +204,7 @@ class FormationExpert:
             Tf = np.where(member[np.maximum(foll, 0)] & (foll >= 0), p.member_time_gap, p.idm_T)
             own = idm_acceleration(vw, p.v_max, gap_f, vw - vl, p.a_max, p.idm_b, Tw, p.idm_s0, free_term=False)
             fol = idm_acceleration(vf, p.v_max, gap_r, vf - vw, p.a_max, p.idm_b, Tf, p.idm_s0, free_term=False)
+            possible = ok.copy()  # the manoeuvre is allowed here; only the gaps may refuse it
             ok &= (gap_f > p.lc_min_gap) & (gap_r > p.lc_min_gap) & (own > -p.b_safe) & (fol > -p.b_safe)
             # two vehicles must not start into the same lane side by side in
             # one step (neither sees the other yet): keep the front one
@@ -213,7 +219,7 @@ class FormationExpert:
                 ok[o[drop]] = False
             start = w_rows[ok]
             blocked = np.zeros(n, dtype=bool)
-            blocked[w_rows[~ok]] = True
+            blocked[w_rows[possible & ~ok]] = True
             if len(start):
                 tr.lc_lane[start] = nxt[ok]
                 tr.lc_x0[start] = tr.x[start]
@@ -275,6 +281,10 @@ class FormationExpert:
         leaving = (tr.lc_lane[q_rows] >= 0) & (tr.lc_lane[q_rows] != q_lanes)
         exit_ramp_end = (q_lanes == road.n_lanes) & exiting[q_rows]  # exits: leave at the ramp end
         gap_end = np.where(leaving | exit_ramp_end, np.inf, end - cx[q_rows] - 0.5 * tr.length[q_rows])
+        # a vehicle waiting to merge stops early enough to keep room for a
+        # full-length lane change (``lc_min_length``) before the ramp ends
+        waiting = (q_lanes == road.n_lanes) & ~exiting[q_rows] & ~leaving
+        gap_end = np.where(waiting, gap_end - p.lc_min_length - 5.0, gap_end)
         use_end = gap_end < gap
         gap = np.where(use_end, gap_end, gap)
         dv = np.where(use_end, v[q_rows], dv)

@@ -38,8 +38,9 @@ def resolve_model_path(path) -> tuple[Path, Path | None]:
     if p.is_dir():
         z = p / "model.zip"
         if not z.is_file():
-            raise ValueError(f"policy directory {str(p)!r} holds no model.zip; allowed: expert, zero, random, "
-                             f"or a directory / model.zip written by baselines/ppo_single.py, ppo_shared.py or bc_expert.py")
+            raise ValueError(f"policy directory {str(p)!r} holds no model.zip; allowed: expert, zero, random, or a "
+                             f"directory / model.zip written by baselines/ppo_single.py, ppo_shared.py or "
+                             f"bc_expert.py")
     elif p.is_file():
         z = p
     elif p.with_name(p.name + ".zip").is_file():
@@ -114,7 +115,8 @@ def load_model(path) -> LoadedModel:
     try:
         model = PPO.load(str(z), device="cpu")
     except Exception as exc:  # noqa: BLE001 - a corrupt or foreign file
-        raise ValueError(f"cannot load {str(z)!r} as a Stable-Baselines3 PPO model: {type(exc).__name__}: {exc}") from None
+        raise ValueError(f"cannot load {str(z)!r} as a Stable-Baselines3 PPO model: "
+                         f"{type(exc).__name__}: {exc}") from None
     return LoadedModel(z, model, meta)
 
 

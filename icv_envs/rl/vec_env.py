@@ -46,7 +46,12 @@ normalisation statistics and minibatches. SB3's ``num_timesteps`` (and
 ``total_timesteps``) counts slot-steps, placeholders included. A departing
 agent's own last step is ``done=True`` with its terminal observation, and the
 first observation of a spawned agent follows a ``done=True`` step, so it is an
-episode start: no value ever crosses an absence.
+episode start: no value ever crosses an absence. Early in training, when most
+agents crash within a few steps and one survivor keeps the episode going,
+placeholders can fill most of the buffer; :attr:`ParallelVecEnv.placeholder_fraction`
+reports the share of placeholder slot-steps so far. Do not wrap the adapter in
+SB3's ``VecMonitor``: it would count every placeholder step as an episode (the
+adapter already reports ``infos[i]["episode"]`` for real agent-episodes).
 
 Termination and truncation
 --------------------------
@@ -134,6 +139,13 @@ class ParallelVecEnv(VecEnv):
         self._base_seed = None if seed is None else int(seed)
         self._episode = [0] * self.n_copies
         self._restart_episodes = True
+        self.slot_steps = 0  # slot-steps stepped so far
+        self.placeholder_steps = 0  # of which placeholders (inactive slots)
+
+    @property
+    def placeholder_fraction(self) -> float:
+        """Share of the slot-steps so far whose slot was inactive (a placeholder)."""
+        return self.placeholder_steps / self.slot_steps if self.slot_steps else 0.0
 
     # ------------------------------------------------------------------ slots
     def slot(self, copy: int, agent: str) -> int:
@@ -212,6 +224,8 @@ class ParallelVecEnv(VecEnv):
             raise RuntimeError("step_wait() without step_async()")
         actions, self._actions = self._actions, None
         n = self.num_envs
+        self.slot_steps += n
+        self.placeholder_steps += int(n - self.active.sum())
         rewards = np.zeros(n, dtype=np.float32)
         dones = np.zeros(n, dtype=bool)
         infos: list[dict[str, Any]] = [{} for _ in range(n)]

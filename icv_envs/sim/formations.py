@@ -149,6 +149,11 @@ class FormationManager:
         """Rows of free vehicles that may join or found a formation: not
         crashed, not heading for an exit within ``exit_lookahead + 100 m``."""
         free = np.flatnonzero((traffic.group < 0) & ~traffic.crashed)
+        if len(free) and road.has_ramp_lane:
+            # vehicles still on a ramp merge first, as free vehicles, and join
+            # from the main road (a formation cannot help them merge)
+            _, cy = traffic.center()
+            free = free[road.lane_of(cy[free]) < road.n_lanes]
         if len(free) and road.n_exits:
             ex = traffic.exit[free]
             has = ex >= 0
@@ -232,23 +237,35 @@ class FormationManager:
                     traffic.group[r] = gid
                     changed.add(gid)
         gids = list(self.anchor)
-        # front targets: behind the formation ahead, and not running away
-        order = sorted(gids, key=lambda g: self.anchor[g])
-        for gid in gids:
-            rows = np.flatnonzero(traffic.group == gid) if traffic.n else np.zeros(0, dtype=np.int64)
+        # front targets: behind the formation ahead, and not running away.
+        # room[i]: distance from formation i's front target to the rear of
+        # the nearest formation ahead, minus formation_gap (vectorised)
+        room = {}
+        if len(gids) > 1:
+            A = np.array([self.anchor[g] for g in gids])
+            Lf = np.array([self.length[g] for g in gids])
+            rel = wrap(A[None, :] - Lf[None, :] - A[:, None])
+            np.fill_diagonal(rel, np.inf)
+            rel = np.where(rel > -Lf[:, None], rel, np.inf)
+            nearest = rel.min(axis=1)
+            room = {g: float(r) - self.formation_gap for g, r in zip(gids, nearest) if np.isfinite(r)}
+        if traffic.n:
+            grp = traffic.group
+            order_rows = np.argsort(grp, kind="stable")
+            sorted_g = grp[order_rows]
+            starts = np.searchsorted(sorted_g, gids, side="left")
+            ends = np.searchsorted(sorted_g, gids, side="right")
+        for k, gid in enumerate(gids):
+            rows = order_rows[starts[k]:ends[k]] if traffic.n else np.zeros(0, dtype=np.int64)
             if not len(rows):
                 continue
             if gid not in changed:
                 implied = float(wrap(cx[rows] + traffic.tgt_behind[rows] - self.anchor[gid]).max())
                 if implied < -self.max_anchor_lead:
                     self.anchor[gid] = float(road.mod(self.anchor[gid] + implied + self.max_anchor_lead))
-            if len(order) > 1:
-                ahead = [float(wrap(self.anchor[o] - self.length[o] - self.anchor[gid])) for o in order if o != gid]
-                ahead = [a for a in ahead if a > -self.length[gid]]
-                if ahead:
-                    room = min(ahead) - self.formation_gap
-                    if room < 0:
-                        self.anchor[gid] = float(road.mod(self.anchor[gid] + room))
+            r = room.get(gid)
+            if r is not None and r < 0:
+                self.anchor[gid] = float(road.mod(self.anchor[gid] + r))
             if gid not in changed and self._lane_set(road, self.anchor[gid], self.length[gid]) != self.lanes[gid]:
                 changed.add(gid)
             # a member that stays far from its target (e.g. it joined ahead of

@@ -61,15 +61,19 @@ class World:
         }
 
     # ---------------------------------------------------------------- queries
-    def lane_index(self):
-        """Lane-sorted index of the current state (cached until the next step)."""
+    def lane_index(self, reserved: bool = True):
+        """Lane-sorted index of the current state (cached until the next
+        step). With ``reserved`` (the controllers' view) a vehicle changing
+        lanes is also listed in its target lane; without, only where its body
+        is (the view used for gaps in metrics and rewards)."""
         if self._index is None:
             cx, cy = self.traffic.center()
-            self._index = lane_index(
-                cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length,
-                periodic=self.road.periodic, reserved_lane=self.traffic.lc_lane,
+            args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
+            self._index = (
+                lane_index(*args, periodic=self.road.periodic, reserved_lane=self.traffic.lc_lane),
+                lane_index(*args, periodic=self.road.periodic),
             )
-        return self._index
+        return self._index[0] if reserved else self._index[1]
 
     def invalidate(self) -> None:
         self._index = None
@@ -80,7 +84,7 @@ class World:
         tr = self.traffic
         cx, cy = tr.center()
         lane = self.road.lane_of(cy)
-        lead, lx = leaders(self.lane_index(), np.arange(tr.n), lane, cx, return_x=True)
+        lead, lx = leaders(self.lane_index(reserved=False), np.arange(tr.n), lane, cx, return_x=True)
         gap = np.full(tr.n, np.inf)
         ok = lead >= 0
         gap[ok] = lx[ok] - cx[ok] - 0.5 * (tr.length[lead[ok]] + tr.length[ok])
@@ -138,7 +142,7 @@ class World:
                 ex_x = np.full(tr.n, np.inf)
                 ex_x[has] = self.road.exit_position(tr.exit[has])
                 past = self.road.wrap(cx - ex_x)
-                exit_now = has & (lane == self.road.ramp_lane) & (past >= -1.0) & (past < 100.0)
+                exit_now = has & (lane == self.road.ramp_lane) & (past >= -1.0) & (past < 10.0)
                 # a vehicle that drives past the end of its diverge segment on
                 # the main road has missed its exit (on a ring it tries again
                 # next time round)

@@ -1,0 +1,178 @@
+"""Training-throughput benchmark: env steps per second of the single-agent
+HighwayFormation env alone and inside Stable-Baselines3 PPO training, with
+highway-env's ``highway-fast-v0`` measured in the same run as the reference
+(machines are noisy: compare the ratios, never assert wall times).
+
+    python -m icv_envs.rl.bench [--vehicles 20] [--env-steps 2000] [--ppo-steps 4096] [--out DIR]
+
+Both envs get ``vehicles_count = vehicles`` (20 by default, highway-fast-v0's
+own default) and the same driving: the "do nothing" action (icv_envs: ``[0, 0]``,
+coast straight; highway-fast-v0: ``IDLE``) for the env-alone measurement, and
+PPO ``MlpPolicy`` with the same hyper-parameters (``n_steps=512``,
+``batch_size=64``, ``n_epochs=10``, one torch thread, CPU) for training.
+Episode resets are included in the timings. Reported per env:
+
+* ``env_sps``: env steps per second, env alone;
+* ``ppo_sps``: env steps per second of ``PPO.learn`` (rollouts + updates);
+* ``ppo_rollout_sps``: env steps per second of the rollout phase alone
+  (env + policy inference), timed by a callback.
+
+* ``env_sim_seconds_per_second``: simulated seconds per wall second, env
+  alone (``env_sps / policy_frequency``).
+
+A step is not the same amount of driving in both: icv_envs acts at 5 Hz
+(0.2 s per step, physics at 25 Hz), highway-fast-v0 at 1 Hz (1 s per step,
+physics at 5 Hz). ``env_speedup`` / ``ppo_speedup`` compare steps (what an RL
+budget counts); ``sim_speedup`` compares simulated time. 20 ICVs do not fit
+behind the default ``initial_position`` (150 m), so the icv env gets
+``initial_position=None`` (automatic placement).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from icv_envs.rl.models import platform_info
+
+__all__ = ["bench_train", "env_sps", "ppo_sps", "main"]
+
+ICV_ID = "icv_envs/HighwayFormation-v0"
+REFERENCE_ID = "highway-fast-v0"
+
+
+def _make(env_id: str, vehicles: int):
+    import gymnasium as gym
+
+    if env_id == ICV_ID:
+        import icv_envs  # noqa: F401
+
+        return gym.make(env_id, config={"vehicles_count": int(vehicles), "initial_position": None})
+    import highway_env  # noqa: F401  (registers highway-fast-v0)
+
+    return gym.make(env_id, config={"vehicles_count": int(vehicles)})
+
+
+def _idle_action(env):
+    space = env.action_space
+    if hasattr(space, "n"):  # highway-env DiscreteMetaAction: 1 = IDLE
+        return 1
+    return np.zeros(space.shape, dtype=space.dtype)
+
+
+def env_sps(env_id: str, vehicles: int = 20, steps: int = 2000, seed: int = 0) -> dict:
+    """Env steps per second with the idle action, resets included."""
+    env = _make(env_id, vehicles)
+    action = _idle_action(env)
+    env.reset(seed=seed)
+    episodes = 1
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        _, _, term, trunc, _ = env.step(action)
+        if term or trunc:
+            env.reset()
+            episodes += 1
+    wall = time.perf_counter() - t0
+    cfg = env.unwrapped.config
+    env.close()
+    return {"env_sps": steps / wall, "env_sim_seconds_per_second": steps / wall / cfg["policy_frequency"],
+            "steps": steps, "episodes": episodes,
+            "policy_frequency": cfg["policy_frequency"], "simulation_frequency": cfg["simulation_frequency"]}
+
+
+def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -> dict:
+    """Env steps per second inside SB3 PPO training (total and rollout phase)."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    torch.set_num_threads(1)
+
+    class RolloutTimer(BaseCallback):
+        def __init__(self):
+            super().__init__()
+            self.rollout_seconds = 0.0
+            self._t = 0.0
+
+        def _on_rollout_start(self) -> None:
+            self._t = time.perf_counter()
+
+        def _on_rollout_end(self) -> None:
+            self.rollout_seconds += time.perf_counter() - self._t
+
+        def _on_step(self) -> bool:
+            return True
+
+    venv = DummyVecEnv([lambda: _make(env_id, vehicles)])
+    model = PPO("MlpPolicy", venv, n_steps=512, batch_size=64, n_epochs=10, seed=seed, device="cpu", verbose=0)
+    timer = RolloutTimer()
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=steps, callback=timer)
+    wall = time.perf_counter() - t0
+    n = model.num_timesteps
+    venv.close()
+    return {"ppo_sps": n / wall, "ppo_rollout_sps": n / timer.rollout_seconds, "ppo_steps": n,
+            "ppo_wall_seconds": wall}
+
+
+def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096, seed: int = 0,
+                reference: bool = True, echo=None) -> dict:
+    """Measure this package's single-agent env and (``reference=True``)
+    highway-fast-v0, alone and inside PPO; returns one JSON-able dict."""
+    for name, v in (("vehicles", vehicles), ("env_steps", env_steps), ("ppo_steps", ppo_steps)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ValueError(f"{name} = {v!r} is invalid; allowed: an integer >= 1")
+    ids = [ICV_ID] + ([REFERENCE_ID] if reference else [])
+    rows = {}
+    for env_id in ids:
+        row = {"env": env_id}
+        row.update(env_sps(env_id, vehicles, env_steps, seed))
+        row.update(ppo_sps(env_id, vehicles, ppo_steps, seed))
+        rows[env_id] = row
+        if echo is not None:
+            echo(f"{env_id:32s} env {row['env_sps']:8.1f} steps/s   PPO {row['ppo_sps']:7.1f} steps/s "
+                 f"(rollouts {row['ppo_rollout_sps']:7.1f} steps/s)")
+    icv = rows[ICV_ID]
+    res = {"bench": "rl-train", "vehicles": int(vehicles), "icv_envs": icv}
+    if reference:
+        ref = rows[REFERENCE_ID]
+        res["highway_fast_v0"] = ref
+        res["env_speedup"] = icv["env_sps"] / ref["env_sps"]
+        res["ppo_speedup"] = icv["ppo_sps"] / ref["ppo_sps"]
+        res["ppo_rollout_speedup"] = icv["ppo_rollout_sps"] / ref["ppo_rollout_sps"]
+        res["sim_speedup"] = icv["env_sim_seconds_per_second"] / ref["env_sim_seconds_per_second"]
+    res["platform"] = platform_info()
+    return res
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m icv_envs.rl.bench", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--vehicles", type=int, default=20)
+    p.add_argument("--env-steps", type=int, default=2000)
+    p.add_argument("--ppo-steps", type=int, default=4096)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--no-reference", action="store_true", help="skip highway-fast-v0")
+    p.add_argument("--out", default=None, help="also write DIR/bench_rl.json")
+    args = p.parse_args(argv)
+    try:
+        res = bench_train(args.vehicles, args.env_steps, args.ppo_steps, args.seed, not args.no_reference,
+                          echo=lambda s: print(s, flush=True))
+    except ValueError as exc:
+        print(f"icv-envs bench: error: {exc}", file=sys.stderr)
+        return 2
+    if args.out:
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        (Path(args.out) / "bench_rl.json").write_text(json.dumps(res, indent=2))
+    print(json.dumps(res))
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
