@@ -9,6 +9,10 @@ policy shared by every agent of an icv_envs PettingZoo env.
    observation with the expert action the env puts in ``infos``, add them to
    the data set, refit. This fixes the covariate shift of plain BC (the
    learner's small errors lead to states the expert never visits).
+4. Each learner rollout scores the fit that drove it (collisions per 1000
+   agent-steps, ties by reward); one more rollout scores the last fit, and
+   the best fit is saved (``--no-select-best``: the last). Clones vary a lot
+   from fit to fit; this keeps a bad last fit from being the result.
 
 The network is the actor of a Stable-Baselines3 PPO ``MlpPolicy`` (the mean
 of its Gaussian is the cloned action; ``log_std`` is set to ``--log-std``), so
@@ -61,13 +65,15 @@ def parse_args(argv=None) -> argparse.Namespace:
                    "of --config, or 'config' for --config alone (default: all five, or only the --config scenario "
                    f"if it names one); allowed: {', '.join(sorted(SCENARIOS))}")
     p.add_argument("--expert-steps", type=int, default=6000, help="env steps with the expert driving")
-    p.add_argument("--dagger-iters", type=int, default=3, help="DAgger iterations (0: plain BC)")
+    p.add_argument("--dagger-iters", type=int, default=6, help="DAgger iterations (0: plain BC)")
     p.add_argument("--dagger-steps", type=int, default=3000, help="env steps of learner rollouts per iteration")
     p.add_argument("--epochs", type=int, default=10, help="passes over the data set per fit")
     p.add_argument("--batch-size", type=int, default=256)
     p.add_argument("--lr", type=float, default=1e-3)
     p.add_argument("--net-arch", default="256,256", help="hidden sizes of the MLP")
     p.add_argument("--log-std", type=float, default=-2.0, help="log std of the saved Gaussian policy")
+    p.add_argument("--no-select-best", dest="select_best", action="store_false",
+                   help="save the last fit instead of the fit with the fewest collisions in its learner rollout")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="runs/bc_expert", help="output directory (model.zip, run.json)")
     p.add_argument("--eval-episodes", type=int, default=3, help="final evaluation episodes (0: skip)")
@@ -118,8 +124,10 @@ def collect(envs, n_steps: int, seed: int, policy=None) -> tuple[np.ndarray, np.
             steps += 1
         collisions += env.metrics()["collisions"]
         episodes += 1
-    stats = {"env_steps": steps, "episodes": episodes, "samples": int(sum(len(x) for x in X)),
-             "return_per_episode": ret / episodes, "collisions": int(collisions)}
+    samples = int(sum(len(x) for x in X))
+    stats = {"env_steps": steps, "episodes": episodes, "samples": samples,
+             "return_per_episode": ret / episodes, "reward_per_agent_step": ret / max(samples, 1),
+             "collisions": int(collisions), "collisions_per_1000_agent_steps": 1000.0 * collisions / max(samples, 1)}
     return np.concatenate(X), np.clip(np.concatenate(Y), -1.0, 1.0), stats
 
 
@@ -187,14 +195,27 @@ def main(argv=None) -> int:
     history = [{"round": 0, "driver": "expert", "rollout": stats,
                 "fit": fit(policy, X, Y, args.epochs, args.batch_size, args.lr, rng)}]
 
-    # 4. DAgger: learner drives, the expert labels, aggregate, refit
-    for it in range(1, args.dagger_iters + 1):
-        if args.dagger_steps == 0:
-            break
+    # 4. DAgger: learner drives, the expert labels, aggregate, refit. Each
+    #    learner rollout also scores the fit that drove it (collisions per
+    #    1000 agent-steps, then reward per agent-step); a last rollout scores
+    #    the last fit, and the best-scoring fit is saved (--no-select-best: the last).
+    snapshots = [{k: v.clone() for k, v in policy.state_dict().items()}]
+    scores = []
+    n_iters = args.dagger_iters if args.dagger_steps > 0 else 0
+    for it in range(1, n_iters + 2 if args.select_best and n_iters else n_iters + 1):
         Xn, Yn, stats = collect(envs, args.dagger_steps, seed=args.seed * 100_000 + 10_000 * it, policy=learner)
+        scores.append((stats["collisions_per_1000_agent_steps"], -stats["reward_per_agent_step"]))
+        if it > n_iters:  # the scoring rollout of the last fit
+            history[-1]["score_rollout"] = stats
+            break
         X, Y = np.concatenate([X, Xn]), np.concatenate([Y, Yn])
         history.append({"round": it, "driver": "learner", "rollout": stats,
                         "fit": fit(policy, X, Y, args.epochs, args.batch_size, args.lr, rng)})
+        snapshots.append({k: v.clone() for k, v in policy.state_dict().items()})
+    chosen = len(history) - 1
+    if args.select_best and len(scores) == len(snapshots):
+        chosen = min(range(len(scores)), key=lambda k: scores[k])
+        policy.load_state_dict(snapshots[chosen])
     for env in envs:
         env.close()
     wall = time.perf_counter() - t0
@@ -203,7 +224,8 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     model.save(out / "model.zip")
     shell.close()
-    train = {"samples": int(len(X)), "wall_seconds": wall, "final": history[-1]["fit"], "rounds": history}
+    train = {"samples": int(len(X)), "wall_seconds": wall, "saved_round": chosen, "final": history[chosen]["fit"],
+             "rounds": history}
     run = {
         "algo": ALGO,
         "env": args.spec.id,
@@ -231,7 +253,8 @@ def main(argv=None) -> int:
             run["eval_by_scenario"] = {s: final_eval(c) for s, c in zip(args.scenario_list, cfgs)}
         write_run_json(out, run)
     by_scenario = {k: v["collisions"] for k, v in run.get("eval_by_scenario", {}).items()}
-    print(json.dumps({"algo": ALGO, "out": str(out), "samples": int(len(X)), "final_fit": history[-1]["fit"],
+    print(json.dumps({"algo": ALGO, "out": str(out), "samples": int(len(X)), "saved_round": chosen,
+                      "final_fit": history[chosen]["fit"],
                       "eval": run.get("eval"), "collisions_by_scenario": by_scenario}))
     return 0
 

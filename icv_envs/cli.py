@@ -2,7 +2,10 @@
 
     icv-envs demo [--out DIR] [--seed S] [--no-video]
     icv-envs run highway-formation --scenario lane-drop --policy expert --seconds 60 --seed 0 --out DIR [--video]
+    icv-envs run highway-ramps --method formation --vgr 0.333 --seconds 600 --seed 0 --out DIR
+    icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
+    icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333]
     icv-envs list
 
 Every command prints one JSON line last (metrics or benchmark results).
@@ -20,8 +23,9 @@ from pathlib import Path
 from icv_envs.envs.scenarios import SCENARIOS
 from icv_envs.policies import POLICIES
 
-ENVS = ("highway-formation",)
-BENCHES = ("highway-formation",)
+ENVS = ("highway-formation", "highway-ramps")
+BENCHES = ("highway-formation", "highway-ramps")
+COMPARES = ("highway-ramps",)
 
 
 def _positive_float(name):
@@ -35,6 +39,23 @@ def _positive_float(name):
         return v
 
     return parse
+
+
+def _floats(name):
+    def parse(text):
+        try:
+            vals = [float(v) for v in text.split(",") if v.strip()]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be comma-separated numbers, got {text!r}") from None
+        if not vals:
+            raise argparse.ArgumentTypeError(f"{name} is empty")
+        return vals
+
+    return parse
+
+
+def _names(text):
+    return [v.strip() for v in text.split(",") if v.strip()]
 
 
 def _sizes(text):
@@ -75,14 +96,27 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default=None, help="directory for metrics.json (and video.gif)")
     r.add_argument("--video", action="store_true", help="also write video.gif to --out")
     r.add_argument("--config", default=None, help="JSON dict of extra env config")
+    r.add_argument("--method", default="formation", help="highway-ramps: formation, lane-lp or idm")
+    r.add_argument("--vgr", type=float, default=1.0 / 3.0, help="highway-ramps: vehicles/s per on-ramp")
+
+    c = sub.add_parser("compare", help="methods x parameters x seeds sweep, in parallel, CSV + plots")
+    c.add_argument("target", type=_choice("comparison", COMPARES))
+    c.add_argument("--methods", type=_names, default=["formation", "lane-lp", "idm"])
+    c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5])
+    c.add_argument("--seeds", type=int, default=3, help="runs use seeds 0..N-1")
+    c.add_argument("--seconds", type=float, default=600.0)
+    c.add_argument("--out", default="compare_out")
+    c.add_argument("--backend", default="process", help="process (local pool, default) or ray")
+    c.add_argument("--workers", type=int, default=None, help="local pool size (default: all cores)")
 
     b = sub.add_parser("bench", help="speed benchmarks (ratios against a reference measured in the same run)")
     b.add_argument("target", type=_choice("benchmark", BENCHES))
     b.add_argument("--sizes", type=_sizes, default=[50, 200, 800])
-    b.add_argument("--seconds", type=_positive_float("--seconds"), default=10.0,
-                   help="simulated seconds of icv_envs per size")
+    b.add_argument("--seconds", type=_positive_float("--seconds"), default=None,
+                   help="simulated seconds (highway-formation: per size, default 10; highway-ramps: default 600)")
     b.add_argument("--stock-seconds", type=_positive_float("--stock-seconds"), default=1.0,
                    help="simulated seconds of highway-v0 per size (it is slow)")
+    b.add_argument("--vgr", type=float, default=1.0 / 3.0, help="highway-ramps: vehicles/s per on-ramp")
     b.add_argument("--out", default=None, help="also write the JSON to DIR/bench.json")
 
     sub.add_parser("list", help="list environments, scenarios and policies")
@@ -106,6 +140,31 @@ def _dispatch(args) -> int:
         out = {"gymnasium": sorted(icv_envs.GYM_IDS), "pettingzoo": sorted(icv_envs.PETTINGZOO_IDS),
                "scenarios": sorted(SCENARIOS), "policies": list(POLICIES)}
         print(json.dumps(out))
+        return 0
+    if args.command == "run" and args.env == "highway-ramps":
+        from icv_envs.experiments.compare import run_ramps, validate_grid
+
+        validate_grid([args.method], [args.vgr], 1, args.seconds)
+        m = run_ramps(args.method, args.vgr, args.seed, args.seconds,
+                      json.loads(args.config) if args.config else None)
+        if args.out:
+            Path(args.out).mkdir(parents=True, exist_ok=True)
+            (Path(args.out) / "metrics.json").write_text(json.dumps(m))
+        for k in ("timeseries", "heatmap_mean", "heatmap_final"):
+            m.pop(k, None)
+        print(json.dumps(m))
+        return 0
+    if args.command == "compare":
+        from icv_envs.experiments.compare import compare_highway_ramps
+
+        summary = compare_highway_ramps(args.methods, args.vgr, args.seeds, args.seconds, args.out,
+                                        backend=args.backend, workers=args.workers, progress=True)
+        for row in summary["table"]:
+            print(f"{row['method']:10s} vgr={row['vgr']:<5g} remaining={row['remaining']:7.1f} "
+                  f"mean_speed={row['mean_speed']:6.2f} speed_fluctuation={row['speed_fluctuation']:.3f} "
+                  f"collisions={row['collisions']} lost={row['lost']}", flush=True)
+        summary["out"] = args.out
+        print(json.dumps(summary))
         return 0
     if args.command == "run":
         from icv_envs.experiments.run import run_highway_formation
@@ -145,10 +204,15 @@ def _dispatch(args) -> int:
         print(json.dumps(summary))
         return 0
     if args.command == "bench":
-        from icv_envs.experiments.bench import bench_highway_formation
+        from icv_envs.experiments.bench import bench_highway_formation, bench_highway_ramps
 
-        res = bench_highway_formation(args.sizes, args.seconds, args.stock_seconds,
-                                      echo=lambda s: print(s, flush=True))
+        if args.target == "highway-ramps":
+            if not 0 < args.vgr <= 1.0:
+                raise ValueError(f"--vgr {args.vgr!r}; allowed: 0 < vgr <= 1")
+            res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))
+        else:
+            res = bench_highway_formation(args.sizes, args.seconds or 10.0, args.stock_seconds,
+                                          echo=lambda s: print(s, flush=True))
         if args.out:
             Path(args.out).mkdir(parents=True, exist_ok=True)
             (Path(args.out) / "bench.json").write_text(json.dumps(res, indent=2))

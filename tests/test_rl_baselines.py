@@ -69,6 +69,8 @@ def test_script_outputs(trained, name):
         assert set(run["eval_by_scenario"]) == {"free", "on-ramp"}
         assert [r["driver"] for r in run["train"]["rounds"]] == ["expert", "learner"]
         assert run["train"]["final"]["train_mse"] < 1.0
+        assert run["train"]["saved_round"] in (0, 1)  # the better-scoring fit
+        assert "score_rollout" in run["train"]["rounds"][-1]
 
 
 @pytest.mark.parametrize("name", ["ppo_single", "ppo_shared", "bc_expert"])

@@ -98,3 +98,32 @@ def _platform() -> str:
     import platform
 
     return f"{platform.python_implementation()} {platform.python_version()} numpy {np.__version__}"
+
+
+def bench_highway_ramps(seconds: float = 600.0, vgr: float = 1.0 / 3.0, seed: int = 0, echo=print) -> dict:
+    """600 simulated seconds of HighwayRamps at VGR 1/3 under the formation
+    expert, in this process (one core): real-time factor, vehicles on the road
+    at the end, vehicle-steps per wall second and peak resident memory."""
+    import resource
+
+    from icv_envs.experiments.compare import run_ramps
+
+    m = run_ramps("formation", vgr, seed, seconds)
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    steps = m["vehicle_steps"] if "vehicle_steps" in m else None
+    res = {
+        "bench": "highway-ramps",
+        "method": "formation",
+        "vgr": vgr,
+        "sim_seconds": seconds,
+        "wall_seconds": m["wall_seconds"],
+        "real_time_factor": m["real_time_factor"],
+        "vehicles": m["remaining"],
+        "vehicle_steps_per_s": (steps / m["wall_seconds"]) if steps else None,
+        "peak_rss_mb": peak_mb,
+        "collisions": m["collisions"],
+        "lost": m["lost"],
+    }
+    echo(f"highway-ramps: {seconds:g} s at VGR {vgr:.3g} in {m['wall_seconds']:.1f} s wall "
+         f"(x{res['real_time_factor']:.1f} real time), {res['vehicles']} vehicles at the end, peak RSS {peak_mb:.0f} MB")
+    return res

@@ -34,4 +34,5 @@ def run_metrics(world) -> dict:
         "exited": int(st["exited"]),
         "left_road": int(st["left_road"]),
         "sim_seconds": float(world.time),
+        "vehicle_steps": int(st["vehicle_steps"]),
     }

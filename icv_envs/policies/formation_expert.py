@@ -55,6 +55,9 @@ class ExpertParams:
     kp: float = -0.3
     kv: float = -1.1
     ref_error_clip: float = 50.0  # [m] position error fed to the feedback law is clipped to +-this
+    # formation keeping uses comfortable limits; the safety envelope may still
+    # brake down to a_min
+    comfort_accel: tuple = (-2.0, 1.5)
     # IDM safety envelope
     idm_T: float = 1.0  # time gap of the IDM safety envelope, free ICVs [s]
     member_time_gap: float = 0.5  # ... and inside a formation, where lane changes pass 15 m gaps [s]
@@ -257,7 +260,8 @@ class FormationExpert:
             # errors beyond ~100 m; clipping the error to +-ref_error_clip keeps
             # the closing speed small enough that it never does
             x_eff = cx[m] + np.clip(road.wrap(x_ref[m] - cx[m]), -p.ref_error_clip, p.ref_error_clip)
-            acc[m] = longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], p.kp, p.kv, p.a_min, p.a_max)
+            acc[m] = longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], p.kp, p.kv,
+                                           max(p.a_min, p.comfort_accel[0]), min(p.a_max, p.comfort_accel[1]))
             # control floor: do not command speeds below the configured minimum
             # (braking is faded out as v approaches v_min; the safety cap below still wins)
             acc[m] = np.maximum(acc[m], 1.0 * (p.v_min - v[m]))

@@ -60,6 +60,7 @@ class FormationManager:
         create: bool = False,
         new_formation_gap: float = 60.0,
         formation_gap: float = 40.0,
+        anchor_brake: float = 5.0,
     ) -> None:
         self.spacing = float(spacing)
         self.geometry = geometry
@@ -76,6 +77,7 @@ class FormationManager:
         self.create_new = bool(create)
         self.new_formation_gap = float(new_formation_gap)
         self.formation_gap = float(formation_gap)
+        self.anchor_brake = float(anchor_brake)
         self.allowed_lanes = None if allowed_lanes is None else tuple(int(v) for v in allowed_lanes)
         self.anchor: dict[int, float] = {}
         self.lanes: dict[int, tuple[int, ...]] = {}
@@ -259,13 +261,18 @@ class FormationManager:
             rows = order_rows[starts[k]:ends[k]] if traffic.n else np.zeros(0, dtype=np.int64)
             if not len(rows):
                 continue
+            # the front target slows down (by at most ``anchor_brake`` m/s) rather
+            # than jumping back, so members see a smooth reference
+            back = 0.0
             if gid not in changed:
                 implied = float(wrap(cx[rows] + traffic.tgt_behind[rows] - self.anchor[gid]).max())
                 if implied < -self.max_anchor_lead:
-                    self.anchor[gid] = float(road.mod(self.anchor[gid] + implied + self.max_anchor_lead))
+                    back = min(back, implied + self.max_anchor_lead)
             r = room.get(gid)
             if r is not None and r < 0:
-                self.anchor[gid] = float(road.mod(self.anchor[gid] + r))
+                back = min(back, r)
+            if back < 0:
+                self.anchor[gid] = float(road.mod(self.anchor[gid] + max(back, -self.anchor_brake * dt)))
             if gid not in changed and self._lane_set(road, self.anchor[gid], self.length[gid]) != self.lanes[gid]:
                 changed.add(gid)
             # a member that stays far from its target (e.g. it joined ahead of
