@@ -6,6 +6,8 @@
     icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
     icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333]
+    icv-envs bench train
+    icv-envs evaluate --env ID --policy expert|zero|random|PATH --episodes N --seed S [--out DIR]
     icv-envs list
 
 Every command prints one JSON line last (metrics or benchmark results).
@@ -24,7 +26,7 @@ from icv_envs.envs.scenarios import SCENARIOS
 from icv_envs.policies import POLICIES
 
 ENVS = ("highway-formation", "highway-ramps")
-BENCHES = ("highway-formation", "highway-ramps")
+BENCHES = ("highway-formation", "highway-ramps", "train")
 COMPARES = ("highway-ramps",)
 
 
@@ -119,6 +121,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--vgr", type=float, default=1.0 / 3.0, help="highway-ramps: vehicles/s per on-ramp")
     b.add_argument("--out", default=None, help="also write the JSON to DIR/bench.json")
 
+    from icv_envs.rl.evaluate import add_arguments as _eval_args
+
+    _eval_args(sub.add_parser("evaluate", help="evaluate expert/zero/random or a model saved by baselines/"))
     sub.add_parser("list", help="list environments, scenarios and policies")
     return p
 
@@ -134,6 +139,10 @@ def main(argv=None) -> int:
 
 
 def _dispatch(args) -> int:
+    if args.command == "evaluate":
+        from icv_envs.rl.evaluate import run
+
+        return run(args)
     if args.command == "list":
         import icv_envs
 
@@ -206,7 +215,11 @@ def _dispatch(args) -> int:
     if args.command == "bench":
         from icv_envs.experiments.bench import bench_highway_formation, bench_highway_ramps
 
-        if args.target == "highway-ramps":
+        if args.target == "train":
+            from icv_envs.rl.bench import bench_train
+
+            res = bench_train(echo=lambda s: print(s, flush=True))
+        elif args.target == "highway-ramps":
             if not 0 < args.vgr <= 1.0:
                 raise ValueError(f"--vgr {args.vgr!r}; allowed: 0 < vgr <= 1")
             res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))

@@ -49,7 +49,7 @@ def test_gymnasium_check_env_and_make():
     env2 = gym.make("icv_envs:icv_envs/HighwayFormation-v0", config={"scenario": "lane-drop"})
     obs, info = env2.reset(seed=3)
     assert env2.observation_space.contains(obs)
-    assert obs.dtype == np.float32 and obs.shape == (8, 11)
+    assert obs.dtype == np.float32 and obs.shape == (8, 13)
     obs, r, term, trunc, info = env2.step(info["expert_action"])
     assert env2.observation_space.contains(obs)
     assert isinstance(r, float) and set(info["rewards"]) == {"progress", "safety", "comfort", "formation"}
@@ -83,7 +83,7 @@ def test_spaces_same_object_and_match_returns():
             np.testing.assert_array_equal(act, ex[a])
         obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
     s = env.state()
-    assert env.state_space.contains(s) and s.shape == (len(env.possible_agents), 11)
+    assert env.state_space.contains(s) and s.shape == (len(env.possible_agents), 13)
     assert s[:, 0].sum() == len(env.agents)
 
 

@@ -27,7 +27,7 @@ def test_gym_check_env_and_ids():
     env = gym.make("icv_envs/HighwayRamps-v0", config={"duration": 20.0, "vgr": 0.2})
     check_env(env.unwrapped, skip_render_check=True)
     obs, info = env.reset(seed=0)
-    assert obs.shape == (8, 11) and "expert_action" in info
+    assert obs.shape == (8, 13) and "expert_action" in info
     import pettingzoo
 
     p = pettingzoo.make("parallel", "icv_envs/highway_ramps-v0", duration=10.0)

@@ -61,7 +61,7 @@ def test_script_outputs(trained, name):
     run = json.loads((d / "run.json").read_text())
     assert run["algo"] == name
     assert run["config"] == SHORT
-    assert run["observation_shape"] == [8, 11] and run["action_shape"] == [2]
+    assert run["observation_shape"] == [8, 13] and run["action_shape"] == [2]
     assert run["env_kind"] == ("gym" if name == "ppo_single" else "pettingzoo")
     for k in METRICS:
         assert k in run["eval"]
@@ -124,8 +124,8 @@ def test_bad_inputs(trained, capsys):
         evaluate("highway_formation_v0", str(trained["ppo_shared"].parent), episodes=1)
     # the same model against an env whose observation has 4 rows instead of 8
     other = {"observation": {"vehicles_count": 4}, **SHORT}
-    with pytest.raises(ValueError, match=r"observation shape \(8, 11\).*env 'icv_envs/highway_formation-v0'.*"
-                                         r"observation shape \(4, 11\)"):
+    with pytest.raises(ValueError, match=r"observation shape \(8, 13\).*env 'icv_envs/highway_formation-v0'.*"
+                                         r"observation shape \(4, 13\)"):
         evaluate("highway_formation_v0", str(trained["ppo_shared"]), episodes=1, config=other)
     with pytest.raises(ValueError, match=r"episodes"):
         evaluate("highway_formation_v0", "expert", episodes=0)

@@ -41,6 +41,8 @@ OBS_FEATURES = (
     "target_dy",
     "target_dv",
     "member",
+    "exit_dx",
+    "lane_end_dx",
 )
 STATE_FEATURES = OBS_FEATURES
 
@@ -125,7 +127,7 @@ class HighwayFormationEnv(AbstractEnv):
                 "vehicles_count": 8,
                 "formation_size": 12,
                 "formation_gap": 60.0,
-                "initial_position": 150.0,
+                "initial_position": None,
                 "initial_jitter": 1.5,
                 "initial_speed_jitter": 1.0,
                 "spawns": [],
@@ -437,6 +439,16 @@ class HighwayFormationEnv(AbstractEnv):
         F[:, 8] = np.where(member, lane_ref * w.road.lane_width - cy, 0.0)
         F[:, 9] = np.where(member, v_ref - tr.speed, 0.0)
         F[:, 10] = member
+        # exit_dx: metres to the own exit's diverge segment / 1000 (1 = no exit);
+        # lane_end_dx: metres to the end of the current lane / 200 (1 = none near)
+        road = w.road
+        F[:, 11] = 1.0
+        if road.n_exits:
+            has = tr.exit >= 0
+            if has.any():
+                F[has, 11] = road.exit_ahead(tr.exit[has], cx[has]) / 1000.0
+        lane = road.lane_of(cy)
+        F[:, 12] = np.clip((road.interval_end(lane, cx) - cx) / 200.0, 0.0, 1.0)
         return F
 
     def _observe_rows(self, rows: np.ndarray) -> np.ndarray:
@@ -456,8 +468,8 @@ class HighwayFormationEnv(AbstractEnv):
         F = self._features()
         vmax = float(c["speed_range"][1])
         width = w.road.total_lanes * w.road.lane_width
-        scale_abs = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1])
-        scale_rel = np.array([1, pd, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1])
+        scale_abs = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
+        scale_rel = np.array([1, pd, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
         out[:, 0, :] = np.clip(F[rows] / scale_abs, -1, 1)
         if V > 1 and n > 1:
             cx = F[:, 1]
@@ -527,7 +539,7 @@ class HighwayFormationEnv(AbstractEnv):
             F = self._features()
             vmax = float(c["speed_range"][1])
             width = w.road.total_lanes * w.road.lane_width
-            scale = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1])
+            scale = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
             slot_of = {name: i for i, name in enumerate(slots)}
             idx = np.array([slot_of.get(f"icv_{v}", -1) for v in tr.vid])
             ok = idx >= 0
@@ -573,6 +585,7 @@ class HighwayFormationEnv(AbstractEnv):
         agents = [f"icv_{v}" for v in self.world.traffic.vid]
         obs = self._observe_rows(rows)
         infos = self._ma_infos(agents, rows, {})
+        self._last_obs = {a: obs[i] for i, a in enumerate(agents)}
         return {a: obs[i] for i, a in enumerate(agents)}, infos
 
     def _ma_infos(self, agents, rows, parts) -> dict:
@@ -675,9 +688,11 @@ class HighwayFormationEnv(AbstractEnv):
         # vehicles that left the simulation during the step: exits are
         # terminal successes, the end of the road is a truncation
         gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        last = getattr(self, "_last_obs", {})
         for vid in sorted(events.exited | events.left_road):
             a = f"icv_{vid}"
-            observations[a] = gone_obs.copy()
+            # the last observation it had (its state just before it left)
+            observations[a] = last.get(a, gone_obs).copy()
             rewards[a] = 0.0
             terms[a] = vid in events.exited
             truncs[a] = vid in events.left_road
@@ -699,6 +714,7 @@ class HighwayFormationEnv(AbstractEnv):
                 terms[a] = False
                 truncs[a] = bool(truncated_all)
                 infos[a] = inf2[a]
+        self._last_obs = {a: o for a, o in observations.items() if not (terms[a] or truncs[a])}
         self._on_step_end(events)
         if self.render_mode == "human":
             self.render()
@@ -755,7 +771,7 @@ class HighwayFormationEnv(AbstractEnv):
         terminated = bool(terms.get(a, True))
         truncated = bool(truncs.get(a, False))
         info = infos.get(a, {})
-        info["ego_present"] = a in observations
+        info["ego_present"] = self._ego_row() >= 0
         if terminated or truncated:
             self._ego_done = True
         return obs, reward, terminated, truncated, info

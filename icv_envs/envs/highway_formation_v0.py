@@ -11,10 +11,10 @@
 | Number of agents | `vehicles_count` + scheduled `spawns` (8 by default) |
 | Action Shape | `(2,)` |
 | Action Values | `Box(-1, 1, (2,), float32)`: `[acceleration, steering]` |
-| Observation Shape | `(V, 11)`, `V = observation["vehicles_count"]` (8) |
-| Observation Values | `Box(-1, 1, (V, 11), float32)` |
-| State Shape | `(len(possible_agents), 11)` |
-| State Values | `Box(-1, 1, (len(possible_agents), 11), float32)` |
+| Observation Shape | `(V, 13)`, `V = observation["vehicles_count"]` (8) |
+| Observation Values | `Box(-1, 1, (V, 13), float32)` |
+| State Shape | `(len(possible_agents), 13)` |
+| State Values | `Box(-1, 1, (len(possible_agents), 13), float32)` |
 | Gymnasium id | `icv_envs/HighwayFormation-v0` (one learned ego among expert ICVs) |
 | PettingZoo id | `icv_envs/highway_formation-v0` (`pettingzoo.make("parallel", ...)`) |
 
@@ -44,7 +44,7 @@ road drawing, rendering and the observation conventions.
 
 ## Observations
 
-A `(V, 11)` float32 array in highway-env's `Kinematics` layout. Row 0 is the
+A `(V, 13)` float32 array in highway-env's `Kinematics` layout. Row 0 is the
 observing vehicle in absolute terms; rows 1..V-1 are the V-1 vehicles nearest
 by longitudinal distance within `perception_distance` (150 m), relative to the
 observer (x, y, vx, vy differences), zero-padded (presence 0). Columns:
@@ -60,6 +60,8 @@ observer (x, y, vx, vy differences), zero-padded (presence 0). Columns:
 | 8 | target_dy | (y_ref - y) / (lanes x lane_width) |
 | 9 | target_dv | (v_ref - v) / v_max |
 | 10 | member | 1 if the vehicle holds a formation target |
+| 11 | exit_dx | metres to the start of the vehicle's exit (diverge segment) / 1000; 1 for a vehicle with no exit |
+| 12 | lane_end_dx | metres to the end of the vehicle's lane (lane drop, obstacle, ramp end) / 200, clipped to [0, 1] |
 
 All values are clipped to [-1, 1].
 

@@ -11,10 +11,10 @@
 | Number of agents | up to `max_vehicles` (default: mean arrivals + 6 sigma + 20, about 1,250 for 600 s at VGR 1/3) |
 | Action Shape | `(2,)` |
 | Action Values | `Box(-1, 1, (2,), float32)`: `[acceleration, steering]` |
-| Observation Shape | `(V, 11)`, `V = observation["vehicles_count"]` (8) |
-| Observation Values | `Box(-1, 1, (V, 11), float32)` |
-| State Shape | `(len(possible_agents), 11)` |
-| State Values | `Box(-1, 1, (len(possible_agents), 11), float32)` |
+| Observation Shape | `(V, 13)`, `V = observation["vehicles_count"]` (8) |
+| Observation Values | `Box(-1, 1, (V, 13), float32)` |
+| State Shape | `(len(possible_agents), 13)` |
+| State Values | `Box(-1, 1, (len(possible_agents), 13), float32)` |
 | Gymnasium id | `icv_envs/HighwayRamps-v0` (the first vehicle, arriving at t = 0 on the first on-ramp, is the learned ego) |
 | PettingZoo id | `icv_envs/highway_ramps-v0` |
 

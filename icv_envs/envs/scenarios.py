@@ -30,22 +30,26 @@ SCENARIOS: dict[str, dict] = {
     "free": {},
     "lane-drop": {
         "lanes_count": 4,
+        "initial_position": 150.0,
         "vehicles_count": 8,
         "lane_drop": {"position": 700.0, "lanes": 3},
     },
     "lane-change": {
         "lanes_count": 4,
+        "initial_position": 150.0,
         "vehicles_count": 8,
         "obstacle": {"lane": 1, "position": 900.0, "length": 4.0},
     },
     "off-ramp": {
         "lanes_count": 4,
+        "initial_position": 150.0,
         "vehicles_count": 7,
         "off_ramp": {"position": 900.0, "length": 50.0, "ramp_length": 150.0},
         "exits": {1: 0},
     },
     "on-ramp": {
         "lanes_count": 4,
+        "initial_position": 150.0,
         "vehicles_count": 6,
         "on_ramp": {"position": 650.0, "length": 100.0, "approach": 350.0},
         "spawns": [{"time": 0.0, "position": 320.0, "lane": "ramp", "speed": 15.0}],
