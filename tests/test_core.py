@@ -309,12 +309,18 @@ def test_leaders_empty_and_ties():
     e = np.zeros(0)
     index = lane_index(e, e, e, 4.0, 3, 1000.0)
     assert leaders(index, np.zeros(0, int), np.zeros(0, int), e).shape == (0,)
-    # two co-located vehicles never lead (or follow) each other
+    # two co-located vehicles see each other as leaders (at a negative gap),
+    # never as followers, and never themselves
     cx = np.array([10.0, 10.0, 30.0, -5.0])
     cy = np.zeros(4)
     index = lane_index(cx, cy, np.full(4, 2.0), 4.0, 2, 1000.0)
-    assert leaders(index, [0, 1], [0, 0], cx).tolist() == [2, 2]
+    assert leaders(index, [0, 1], [0, 0], cx).tolist() == [1, 0]
     assert followers(index, [0, 1], [0, 0], cx).tolist() == [3, 3]
+    # alongside in the next lane: visible from that lane too
+    cx2 = np.array([10.0, 10.0])
+    cy2 = np.array([0.0, 4.0])
+    index = lane_index(cx2, cy2, np.full(2, 2.0), 4.0, 2, 1000.0)
+    assert leaders(index, [0, 1], [1, 0], cx2).tolist() == [1, 0]
     # vehicle straddling lanes 0 and 1 is seen from both
     cx = np.array([0.0, 20.0, 40.0])
     cy = np.array([0.0, 2.0, 4.0])

@@ -233,31 +233,33 @@ def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool =
 
 
 def leaders(index: LaneIndex, q_rows, q_lanes, cx, return_x: bool = False):
-    """Row of the nearest vehicle strictly ahead (larger body-centre x) of
-    vehicle ``q_rows`` in lane ``q_lanes``; -1 if none. A vehicle at exactly
-    the same x is not a leader (so two vehicles never lead each other); x
-    values closer than about 1e-11 m count as equal (the sort key is
-    ``lane * offset + x``)."""
+    """Row of the nearest other vehicle at or ahead of vehicle ``q_rows``
+    (body-centre x greater or EQUAL) in lane ``q_lanes``; -1 if none. A
+    vehicle exactly alongside counts as a leader (at a negative gap), so two
+    vehicles that keep identical x (members of one sublayer) always see each
+    other. With ``return_x`` also the leader's (unfolded) position."""
     q_rows = np.asarray(q_rows, dtype=np.int64)
     q_lanes = np.asarray(q_lanes, dtype=np.int64)
     out = np.full(len(q_rows), -1, dtype=np.int64)
     xo = np.full(len(q_rows), np.inf)
-    if not len(index.keys):
+    nk = len(index.keys)
+    if not nk:
         return (out, xo) if return_x else out
     qk = q_lanes * index.offset + cx[q_rows]
-    pos = np.searchsorted(index.keys, qk, side="right")
-    # a vehicle at exactly the same x is skipped by side="right"; acceptable
-    # (two co-located vehicles are a collision anyway)
-    ok = pos < len(index.keys)
-    p = np.minimum(pos, len(index.keys) - 1)
-    ok &= index.lanes[p] == q_lanes
-    out[ok] = index.rows[p[ok]]
-    xo[ok] = index.x[p[ok]]
+    pos = np.searchsorted(index.keys, qk, side="left")
+    todo = np.ones(len(q_rows), dtype=bool)
+    for j in range(3):  # skip the vehicle's own entry (it appears at most once per lane)
+        p = np.minimum(pos + j, nk - 1)
+        ok = todo & (pos + j < nk) & (index.lanes[p] == q_lanes) & (index.rows[p] != q_rows)
+        out[ok] = index.rows[p[ok]]
+        xo[ok] = index.x[p[ok]]
+        todo &= ~ok & (pos + j < nk) & (index.lanes[p] == q_lanes)
     return (out, xo) if return_x else out
 
 
 def followers(index: LaneIndex, q_rows, q_lanes, cx, return_x: bool = False):
-    """Row of the nearest vehicle strictly behind ``q_rows`` in ``q_lanes``; -1 if none."""
+    """Row of the nearest other vehicle strictly behind ``q_rows`` in
+    ``q_lanes`` (a vehicle exactly alongside is a leader, see :func:`leaders`); -1 if none."""
     q_rows = np.asarray(q_rows, dtype=np.int64)
     q_lanes = np.asarray(q_lanes, dtype=np.int64)
     out = np.full(len(q_rows), -1, dtype=np.int64)
@@ -268,7 +270,7 @@ def followers(index: LaneIndex, q_rows, q_lanes, cx, return_x: bool = False):
     pos = np.searchsorted(index.keys, qk, side="left") - 1
     ok = pos >= 0
     p = np.maximum(pos, 0)
-    ok &= index.lanes[p] == q_lanes
+    ok &= (index.lanes[p] == q_lanes) & (index.rows[p] != q_rows)
     out[ok] = index.rows[p[ok]]
     xo[ok] = index.x[p[ok]]
     return (out, xo) if return_x else out
