@@ -15,7 +15,10 @@ observation is flattened by RLlib's ``FlattenObservations`` connector.
 
 One local env runner, no remote workers, one CPU (``ray.init(num_cpus=1)``).
 ``--train-batch-size`` counts env steps (every live agent acts in each);
-``--minibatch-size`` and the PPO updates count agent steps.
+``--minibatch-size`` and the PPO updates count agent steps. Episodes are
+sampled whole (``batch_mode="complete_episodes"``): with episodes cut at the
+batch boundary, RLlib 2.60 sends no action for an agent that joins on the
+very step another agent finishes, if that step ends the batch.
 
 Writes ``OUT/checkpoint/`` (``Algorithm.save_to_path``; the shared policy is
 the RLModule in ``OUT/checkpoint/learner_group/learner/rl_module/shared``) and
@@ -52,6 +55,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="runs/rllib_shared", help="output directory (checkpoint/, run.json)")
     p.add_argument("--train-batch-size", type=int, default=4000, help="env steps sampled per iteration")
+    p.add_argument("--batch-mode", default="complete_episodes", choices=["complete_episodes", "truncate_episodes"],
+                   help="complete_episodes (default) samples whole episodes, at least --train-batch-size env steps; "
+                        "truncate_episodes cuts episodes at the batch boundary, which RLlib 2.60 mishandles when an "
+                        "agent joins on the step another one finishes (the joiner gets no action)")
     p.add_argument("--minibatch-size", type=int, default=128, help="agent steps per SGD minibatch")
     p.add_argument("--num-epochs", type=int, default=10, help="passes over each train batch")
     p.add_argument("--lr", type=float, default=3e-4)
@@ -138,7 +145,7 @@ def main(argv=None) -> int:
         .environment(ENV_NAME, env_config=env_config)
         .framework("torch")
         .env_runners(
-            num_env_runners=0, num_envs_per_env_runner=1,
+            num_env_runners=0, num_envs_per_env_runner=1, batch_mode=args.batch_mode,
             env_to_module_connector=lambda env, spaces=None, device=None: FlattenObservations(multi_agent=True),
         )
         .learners(num_learners=0)

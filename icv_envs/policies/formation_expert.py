@@ -1,5 +1,12 @@
 """The formation expert: the paper's vehicle controller as a policy.
 
+Division of labour (a design decision): the paper's target generation
+(Sec. 3.2) and Hungarian assignment (Sec. 3.3) run in the formation layer
+(:class:`icv_envs.sim.formations.FormationManager`), which the environment
+runs whatever policy drives, so that every agent's target is part of its
+observation and of the formation-keeping reward; this expert turns those
+targets into controls.
+
 For every ICV it returns an action in the agents' action space
 (``[acceleration, steering]`` scaled to ``[-1, 1]``, see
 :func:`icv_envs.envs.highway_formation.action_to_controls`):

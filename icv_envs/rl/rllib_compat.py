@@ -57,7 +57,7 @@ import numpy as np
 
 from icv_envs.rl.envs import make_parallel_env, resolve_env
 
-__all__ = ["IcvParallelPettingZooEnv", "make_rllib_env", "ENV_NAME", "load_rllib_policy", "evaluate_checkpoint"]
+__all__ = ["ENV_NAME", "IcvParallelPettingZooEnv", "evaluate_checkpoint", "load_rllib_policy", "make_rllib_env"]
 
 ENV_NAME = "icv_envs_pettingzoo"  # the name make_rllib_env is registered under by baselines/rllib_shared.py
 
@@ -175,12 +175,12 @@ def evaluate_checkpoint(path, episodes: int = 5, seed: int = 0, config: dict | N
     rows = []
     try:
         for ep in range(int(episodes)):
-            obs, infos = par.reset(seed=seed + ep)
+            obs, _ = par.reset(seed=seed + ep)
             total, steps = 0.0, 0
             while par.agents:
                 agents = list(par.agents)
                 acts = act(np.stack([obs[a] for a in agents]))
-                obs, rew, term, trunc, infos = par.step({a: acts[i] for i, a in enumerate(agents)})
+                obs, rew, _, _, _ = par.step({a: acts[i] for i, a in enumerate(agents)})
                 total += float(sum(rew.values()))
                 steps += 1
             m = dict(par.metrics())
