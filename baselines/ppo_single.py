@@ -82,7 +82,7 @@ def main(argv=None) -> int:
 
     venv = DummyVecEnv([make_env for _ in range(args.n_envs)])
 
-    # 2. the agent: PPO with an MLP actor-critic on the flattened (V, 11) observation
+    # 2. the agent: PPO with an MLP actor-critic on the flattened (V, 13) observation
     model = PPO(
         "MlpPolicy", venv,
         n_steps=args.n_steps, batch_size=args.batch_size, n_epochs=args.n_epochs,

@@ -395,13 +395,13 @@ class IntersectionEnv(AbstractEnv):
         F[:, 4] = f.speed * np.sin(f.heading)
         F[:, 5] = np.cos(f.heading)
         F[:, 6] = np.sin(f.heading)
-        F[:, 7] = rs.X
+        F[:, 7] = rs.dist
         F[:, 8] = np.where(has, d, 0.0)
         F[:, 9] = np.where(has, dv, 0.0)
         appr = rs.phase == 0
         F[:, 10] = np.where(appr, rs.lat_leg - (np.clip(f.klane, 0, 2) + 0.5) * lay.lane_width, rs.lat)
         F[:, 11] = (f.mv % 3) - 1.0
-        zone = np.where(rs.X > lay.R2, 0.0, np.where(rs.X > lay.R1, 1.0 / 3.0, 2.0 / 3.0))
+        zone = np.where(rs.dist > lay.R2, 0.0, np.where(rs.dist > lay.R1, 1.0 / 3.0, 2.0 / 3.0))
         F[:, 12] = np.where(appr, zone, 1.0)
         F[:, 13] = go
         return F
@@ -548,7 +548,7 @@ class IntersectionEnv(AbstractEnv):
         mvs = f.mv.tolist()
         nodes = f.node.tolist()
         depth = self.expert.node_depth
-        X = rs.X.tolist()
+        X = rs.dist.tolist()
         for i, a in enumerate(agents):
             r = int(rows[i])
             info = {"speed": speeds[r], "movement": mvs[r], "distance": X[r], "node": nodes[r],
@@ -715,7 +715,7 @@ class IntersectionEnv(AbstractEnv):
         st = w.stats
         n = max(st["vehicle_steps"], 1)
         remaining = int(w.fleet.n)
-        queued = int(sum(len(q) for q in self._queues.values())) + len(self._pending)
+        queued = int(sum(len(q) for q in self._queues.values()))
         sim = max(w.time, 1e-9)
         ex = self.expert.stats
         m = {
@@ -928,7 +928,7 @@ def _viewer_class():
                 rows = rows[rows >= 0]
                 if not len(rows):
                     continue
-                rows = rows[np.argsort(rs.X[rows])]
+                rows = rows[np.argsort(rs.dist[rows])]
                 if kind == "node" and depth > 0:
                     col = env.LAYER_COLOURS[(depth - 1) % len(env.LAYER_COLOURS)]
                 elif kind == "reserved":

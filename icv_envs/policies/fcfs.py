@@ -92,9 +92,9 @@ class FcfsExpert(PlatoonExpert):
     def _coordinate(self, world, rs) -> None:
         f = world.fleet
         lay = world.layout
-        new = np.flatnonzero((rs.X <= lay.R1) & (f.stage < ST_COORD))
+        new = np.flatnonzero((rs.dist <= lay.R1) & (f.stage < ST_COORD))
         if len(new):
-            new = new[np.argsort(rs.X[new], kind="stable")]
+            new = new[np.argsort(rs.dist[new], kind="stable")]
             for r in new:
                 f.order[r] = self._order_counter
                 self._order_counter += 1
@@ -232,6 +232,9 @@ class FcfsExpert(PlatoonExpert):
             acc[r] = a_ff + self.plan_kp * err + self.plan_kv * (float(f.speed[r]) - float(P["v"][k]))
         self.stats["max_plan_error"] = max(self.stats["max_plan_error"], worst)
         return np.clip(acc, p.a_min, p.a_max)
+
+    def _coordinated(self, f) -> np.ndarray:
+        return np.isin(f.vid, np.fromiter(self.plans, dtype=np.int64, count=len(self.plans)))
 
     def references(self, world):
         self._check_stamp(world)

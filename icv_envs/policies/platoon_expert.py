@@ -307,7 +307,7 @@ class PlatoonExpert:
         self._tree = None
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self._vcap = np.zeros(0)
-        self.stats = {"envelope_box_binding": 0, "virtual_cap_binding": 0, "merges": 0, "divisions": 0, "subformations": 0,
+        self.stats = {"envelope_box_binding": 0, "virtual_cap_binding": 0, "detached": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0}
 
     # ---------------------------------------------------------------- fields
@@ -466,7 +466,7 @@ class PlatoonExpert:
                 continue
             rows = f.rows(F["members"])
             front = rows[np.argmax(rs.u[rows])]
-            if rs.X[front] <= world.layout.R2:
+            if rs.dist[front] <= world.layout.R2:
                 self._divide(world, rs, F, rows)
                 continue
             # approaching: members track the front with their spawn slots
@@ -573,7 +573,7 @@ class PlatoonExpert:
         info = []
         for sid, S in self.subs.items():
             rows = f.rows(S["members"])
-            info.append((sid, S["leg"], S["mv"], float(rs.X[rows].min()), float(rs.X[rows].max()), S["state"]))
+            info.append((sid, S["leg"], S["mv"], float(rs.dist[rows].min()), float(rs.dist[rows].max()), S["state"]))
         info.sort(key=lambda t: (t[1], t[3]))
         merged = set()
         for i, (sa, leg, mv, xa0, xa1, st) in enumerate(info):
@@ -635,29 +635,76 @@ class PlatoonExpert:
         for sid, S in list(self.subs.items()):
             rows = f.rows(S["members"])
             if single:
-                new = rows[(rs.X[rows] <= R1) & (f.node[rows] < 0)]
+                new = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0)]
                 for r in new:
                     self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
                 if np.all(f.node[rows] >= 0):
                     del self.subs[sid]
                 continue
-            first = rows[np.argmin(rs.X[rows])]
-            if rs.X[first] <= R1:
+            first = rows[np.argmin(rs.dist[rows])]
+            if rs.dist[first] <= R1:
                 n_l = len(S["lanes"])
                 length = formation_length(len(rows), n_l, self.p.gap_in)
                 self._set_sub_targets(world, S)
                 self._new_node(world, list(S["members"]), S["mv"], n_lanes=n_l, length=length)
                 del self.subs[sid]
         # vehicles in the zone without a sub-formation (not expected, but safe)
-        orphan = np.flatnonzero((rs.X <= R1) & (f.node < 0) & (f.sub < 0) & (rs.phase < 2) & ~f.cleared)
+        orphan = np.flatnonzero((rs.dist <= R1) & (f.node < 0) & (f.sub < 0) & (rs.phase < 2) & ~f.cleared)
         for r in orphan:
             self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
+        if not single:
+            self._detach_inverted(world, rs)
         for nid, N in list(self.nodes.items()):
             rows = f.rows(N["members"])
             if np.all(f.cleared[rows]):
                 f.node[rows] = -1
                 f.ref[rows] = -1
                 del self.nodes[nid]
+
+    def _detach_inverted(self, world, rs) -> None:
+        """A node member whose leader in its approach lane is a vehicle of
+        another group (still before the box) would be ordered before it but
+        cannot pass it: that member and every member of its node further
+        from the centre leave the node and form a node of their own (ordered
+        after the foreign vehicle)."""
+        f = world.fleet
+        rows = np.flatnonzero((f.node >= 0) & (rs.phase == 0))
+        if not len(rows):
+            return
+        cor = Corridors(world, rs, np.full(f.n, -1))
+        lr, _, _, _ = cor.neighbours(rows, 3 * f.leg[rows] + rs.lane[rows], rs.s[rows])
+        lr0 = np.maximum(lr, 0)
+        bad = (lr >= 0) & (f.node[lr0] != f.node[rows]) & (rs.phase[lr0] == 0)
+        if not bad.any():
+            return
+        # only a foreign vehicle between the node's first vehicle and this member counts
+        first_d = {nid: float(rs.dist[f.rows(N["members"])].min()) for nid, N in self.nodes.items()}
+        fd = np.array([first_d.get(int(nd), np.inf) for nd in f.node[rows]])
+        bad &= (rs.dist[lr0] > fd + 1e-9) & (rs.dist[rows] > fd + 1e-9)
+        if not bad.any():
+            return
+        for nid in sorted(set(f.node[rows[bad]].tolist())):
+            N = self.nodes.get(nid)
+            if N is None:
+                continue
+            mrows = f.rows(N["members"])
+            cut = float(rs.dist[rows[bad & (f.node[rows] == nid)]].min())
+            first = mrows[np.argmin(rs.dist[mrows])]
+            out = mrows[(rs.dist[mrows] >= cut) & (mrows != first)]
+            if not len(out):
+                continue
+            keep = [int(v) for v in f.vid[mrows] if v not in set(f.vid[out].tolist())]
+            N["members"] = keep
+            N["length"] = formation_length(len(keep), N["n_lanes"], self.p.gap_in)
+            n_out = len(out)
+            out = out[np.argsort(rs.dist[out])]
+            tx, _ = interlaced_targets(n_out, N["n_lanes"], self.p.gap_in)
+            f.ref[out] = f.vid[out[0]]
+            f.xg[out] = tx
+            f.ref[out[0]] = -1
+            self._new_node(world, [int(v) for v in f.vid[out]], N["mv"], N["n_lanes"],
+                           formation_length(n_out, N["n_lanes"], self.p.gap_in))
+            self.stats["detached"] += n_out
 
     def _new_node(self, world, members, mv, n_lanes, length) -> None:
         f = world.fleet
@@ -686,19 +733,22 @@ class PlatoonExpert:
         rear_row = np.empty(K, dtype=np.int64)
         mvs = np.empty(K, dtype=np.int64)
         lens = np.empty(K)
+        key = np.empty(K)
         for k, nid in enumerate(ids):
             N = self.nodes[nid]
             rows = f.rows(N["members"])
             X = rs.X[rows]
-            i0 = int(np.argmin(X))
+            i0 = int(np.argmin(rs.dist[rows]))
             i1 = int(np.argmax(X))
             first[k] = rows[i0]
             rear_row[k] = rows[i1]
+            key[k] = rs.dist[rows[i0]]
             xf[k] = X[i0]
             rear[k] = X[i1]
             mvs[k] = N["mv"]
             lens[k] = N["length"]
-        o = np.argsort(xf, kind="stable")
+        # nodes in the order of their first vehicle's distance to the centre
+        o = np.lexsort((ids, key))
         xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
         ids = [ids[i] for i in o]
         C = world.layout.conflict[np.ix_(mvs, mvs)]
@@ -754,7 +804,10 @@ class PlatoonExpert:
             self._tree, self._tree_rows = T, (rows_all, kk)
             first = T["first"][kk]
             is_first = rows_all == first
-            paper = np.where(is_first, T["refs"][kk + 1], rs.X[first] + f.xg[rows_all])
+            # a node's first vehicle never chases a reference ahead of it: it
+            # then drives at v0 (the virtual platoon only holds vehicles back)
+            paper = np.where(is_first, np.maximum(T["refs"][kk + 1], rs.X[rows_all]),
+                             rs.X[first] + f.xg[rows_all])
             vpaper = np.where(is_first, p.v0, f.speed[first])
             lb = T["lb"][kk]
             bind = lb > paper
@@ -886,6 +939,10 @@ class PlatoonExpert:
             gap = cor.coord[cor.lead[e]] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
             grp = self._group(f)
             member = (grp[me] == grp[ld]) & (grp[me] >= 0)
+            # two coordinated vehicles (tree / reservation) past the stop line
+            # are kept apart by the coordination: short time gap
+            co = self._coordinated(f)
+            member |= co[me] & co[ld] & (rs.phase[ld] >= 1)
             T = np.where(member, p.member_T, p.idm_T)
             s0 = np.where(member, p.member_s0, p.idm_s0)
             v = f.speed[me]
@@ -904,6 +961,9 @@ class PlatoonExpert:
         box = (rs.phase == 1) & (cap < acc_ref - 0.5)
         self.stats["envelope_box_binding"] += int(box.sum())
         return cap
+
+    def _coordinated(self, f) -> np.ndarray:
+        return f.node >= 0
 
     def _group(self, f) -> np.ndarray:
         return np.where(f.node >= 0, f.node, np.where(f.sub >= 0, f.sub, f.form))

@@ -34,13 +34,17 @@ Every vehicle has one route: the approach lane of its leg, then the path
 ``(movement, lane)`` through the box, then the departure lane.  ``s`` is the
 arc length of the body centre along that route from the stop line (negative
 before it).  ``X = L / 2 - s`` (``L`` the path length) is the distance to the
-centre used by the virtual platoon (the convention of
+centre used for the virtual platoon's *spacing* (the convention of
 :func:`~icv_envs.platoon.conflicts.required_layer_gap`: exact for straight
-movements, the path midpoint counts as the centre of a turn); the zones are
-decided on ``X`` too (approaching ``X > R2``, adjusting ``R2 >= X > R1``,
-coordinating ``X <= R1``), so that the order in which nodes enter the
-coordinating zone is their order in ``X``.  Vehicles are generated at ``R3``
-measured along the leg's axis (``s = -(R3 - box_half)``).
+movements, the path midpoint counts as the centre of a turn).  ``dist =
+box_half - s`` is the literal distance to the centre along the leg's axis on
+the approach (continued along the path after the stop line); the zones
+(approaching ``dist > R2``, adjusting ``R2 >= dist > R1``, coordinating
+``dist <= R1``) and the *order* of the virtual platoon's nodes use it, so
+that the order of two vehicles in one approach lane is their physical order
+(``X`` can invert it: a right turn's path is 16 m shorter than a straight
+one's, so a right-turner 8 m behind a straight vehicle in the shared middle
+lane has the smaller ``X``).  Vehicles are generated at ``dist = R3``.
 
 Before a vehicle enters the box its path is the one of its *expected* lane
 (``tlane``, set by the coordination layer); the lane it actually enters from
@@ -396,7 +400,7 @@ class Fleet:
 class RouteState:
     """Derived per-vehicle route quantities of the current state (cached)."""
 
-    __slots__ = ("cx", "cy", "u", "lat_leg", "lane", "pid", "s", "lat", "X", "phase", "L")
+    __slots__ = ("cx", "cy", "u", "lat_leg", "lane", "pid", "s", "lat", "X", "dist", "phase", "L")
 
     def __init__(self, **kw) -> None:
         for k, v in kw.items():
@@ -500,7 +504,7 @@ class IntersectionWorld:
         s, lat = lay.project(pid, cx, cy, phase)
         L = lay.L[pid]
         self._route = RouteState(cx=cx, cy=cy, u=u, lat_leg=lat_leg, lane=lane, pid=pid, s=s, lat=lat,
-                                 X=0.5 * L - s, phase=phase, L=L)
+                                 X=0.5 * L - s, dist=lay.box_half - s, phase=phase, L=L)
         return self._route
 
     def invalidate(self) -> None:
