@@ -192,3 +192,16 @@ def test_ring_neighbours_and_collisions_across_the_seam():
     i, j = find_collisions(np.array([990.0, 5.0]), np.zeros(2), np.zeros(2), np.full(2, 5.0), np.full(2, 2.0),
                            period=1000.0)
     assert len(i) == 0
+
+
+def test_compare_on_ray_backend(tmp_path):
+    pytest.importorskip("ray")
+    summary = compare_highway_ramps(["idm"], [0.2], 2, 10.0, tmp_path, backend="ray", progress=False)
+    assert summary["runs"] == 2
+    rows = list(csv.DictReader(open(tmp_path / "results.csv")))
+    assert [r["seed"] for r in rows] == ["0", "1"]
+
+
+def test_compare_unknown_backend(tmp_path):
+    with pytest.raises(ValueError, match="backend 'spark'"):
+        compare_highway_ramps(["idm"], [0.2], 1, 10.0, tmp_path, backend="spark")

@@ -295,6 +295,17 @@ class IntersectionEnv(AbstractEnv):
         out.sort(key=lambda a: (a[0], a[1], a[2]))
         return out
 
+    def _max_vehicles(self) -> int:
+        """Possible agents: ``max_vehicles`` or, independent of the seed, the mean
+        number of arrivals plus six standard deviations (formations arrive
+        together: variance ``formation_size * mean``) plus four formations."""
+        c = self.config
+        if c["max_vehicles"] is not None:
+            return int(c["max_vehicles"])
+        mean = float(c["throughput"]) * float(c["duration"]) / 3600.0
+        n = int(c["formation_size"])
+        return int(math.ceil(mean + 6.0 * math.sqrt(n * mean) + 4 * n + 20))
+
     def _reset(self) -> None:
         c = self.config
         lay = self.layout
@@ -311,14 +322,14 @@ class IntersectionEnv(AbstractEnv):
             self.expert = PlatoonExpert(lay, params, method=c["method"], frames=self._frames())
         self.expert.attach(world)
         arrivals = self._arrivals()
-        cap = c["max_vehicles"]
+        cap = self._max_vehicles()
         self._not_spawned = 0
-        if cap is not None and len(arrivals) > cap:
-            self._not_spawned = len(arrivals) - int(cap)
-            arrivals = arrivals[: int(cap)]
+        if len(arrivals) > cap:
+            self._not_spawned = len(arrivals) - cap
+            arrivals = arrivals[:cap]
         self._pending = arrivals
         self._queues: dict[tuple[int, int], list] = {(lg, ln): [] for lg in range(4) for ln in range(3)}
-        self.possible_agents = [f"icv_{i}" for i in range(len(arrivals))]
+        self.possible_agents = [f"icv_{i}" for i in range(cap)]
         self._proxies: dict[int, Any] = {}
         self._last_actions = np.zeros((0, 2))
         self._expert_cache = None

@@ -20,7 +20,7 @@ There every vehicle drives on its own (IDM, 1 s time gap, towards ``v0``):
 * requests are answered in arrival order (the order in which vehicles
   entered the coordinating zone): a request is granted iff none of its tiles
   is held by another vehicle at that step or within ``time_buffer`` steps
-  (0.2 s) of it, and a proposal that would not keep 2 m + 0.3 s of headway
+  (0.2 s) of it, and a proposal that would not keep 2 m + 0.5 s of headway
   behind the reserved plan of the vehicle ahead in the same lane is not
   sent;
 * a rejected vehicle slows down (it brakes for the stop line, IDM towards a
@@ -195,7 +195,7 @@ class FcfsExpert(PlatoonExpert):
         ls = L["s"]
         last = len(ls) - 1
         s_l = np.where(idx <= last, ls[np.minimum(idx, last)], ls[last] + (idx - last) * self.dt * L["v"][last])
-        need = 0.5 * (L["length"] + length) + 2.0 + 0.3 * v
+        need = 0.5 * (L["length"] + length) + 2.0 + 0.5 * v
         check = np.ones(n, dtype=bool) if L["pid"] == pid else s <= 10.0
         return bool(np.all((s_l - s >= need) | ~check))
 

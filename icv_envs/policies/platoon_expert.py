@@ -939,10 +939,11 @@ class PlatoonExpert:
             gap = cor.coord[cor.lead[e]] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
             grp = self._group(f)
             member = (grp[me] == grp[ld]) & (grp[me] >= 0)
-            # two coordinated vehicles (tree / reservation) past the stop line
-            # are kept apart by the coordination: short time gap
+            # a coordinated vehicle (tree / reservation) behind a coordinated
+            # vehicle in the box, or behind one that has left the box, is kept
+            # apart by the coordination: short time gap
             co = self._coordinated(f)
-            member |= co[me] & co[ld] & (rs.phase[ld] >= 1)
+            member |= co[me] & ((co[ld] & (rs.phase[ld] == 1)) | (rs.phase[ld] == 2))
             T = np.where(member, p.member_T, p.idm_T)
             s0 = np.where(member, p.member_s0, p.idm_s0)
             v = f.speed[me]
