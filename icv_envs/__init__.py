@@ -15,10 +15,12 @@ __version__ = "0.1.0"
 GYM_IDS = {
     "icv_envs/HighwayFormation-v0": "icv_envs.envs.highway_formation:HighwayFormationEnv",
     "icv_envs/HighwayRamps-v0": "icv_envs.envs.highway_ramps:HighwayRampsEnv",
+    "icv_envs/Intersection-v0": "icv_envs.envs.intersection:IntersectionEnv",
 }
 PETTINGZOO_IDS = {
     "icv_envs/highway_formation-v0": "icv_envs.envs.highway_formation_v0",
     "icv_envs/highway_ramps-v0": "icv_envs.envs.highway_ramps_v0",
+    "icv_envs/intersection-v0": "icv_envs.envs.intersection_v0",
 }
 
 
@@ -41,6 +43,6 @@ def _register() -> None:
 
 _register()
 
-from icv_envs.envs import highway_formation_v0, highway_ramps_v0  # noqa: E402
+from icv_envs.envs import highway_formation_v0, highway_ramps_v0, intersection_v0  # noqa: E402
 
-__all__ = ["highway_formation_v0", "highway_ramps_v0", "GYM_IDS", "PETTINGZOO_IDS", "__version__"]
+__all__ = ["highway_formation_v0", "highway_ramps_v0", "intersection_v0", "GYM_IDS", "PETTINGZOO_IDS", "__version__"]

@@ -6,6 +6,9 @@
     icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
     icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333]
+    icv-envs compare intersection --methods multi-vp,single-vp,fcfs --throughput 1000,1500,2000,2500,3000 --seeds 3 --seconds 600 --out DIR [--lane-use paper|exclusive] [--backend ray]
+    icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
+    icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
     icv-envs evaluate --env ID --policy expert|zero|random|PATH --episodes N --seed S [--out DIR]
     icv-envs list
@@ -26,8 +29,8 @@ from icv_envs.envs.scenarios import SCENARIOS
 from icv_envs.policies import POLICIES
 
 ENVS = ("highway-formation", "highway-ramps")
-BENCHES = ("highway-formation", "highway-ramps", "train")
-COMPARES = ("highway-ramps",)
+BENCHES = ("highway-formation", "highway-ramps", "train", "intersection")
+COMPARES = ("highway-ramps", "intersection")
 
 
 def _positive_float(name):
@@ -103,7 +106,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("compare", help="methods x parameters x seeds sweep, in parallel, CSV + plots")
     c.add_argument("target", type=_choice("comparison", COMPARES))
-    c.add_argument("--methods", type=_names, default=["formation", "lane-lp", "idm"])
+    c.add_argument("--methods", type=_names, default=None,
+                   help="highway-ramps: formation,lane-lp,idm (default); intersection: multi-vp,single-vp,fcfs (default)")
+    c.add_argument("--throughput", default=None,
+                   help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,...,3000)")
+    c.add_argument("--lane-use", dest="lane_use", default=None, help="intersection: paper (default) or exclusive")
     c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5])
     c.add_argument("--seeds", type=int, default=3, help="runs use seeds 0..N-1")
     c.add_argument("--seconds", type=float, default=600.0)
@@ -119,11 +126,16 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--stock-seconds", type=_positive_float("--stock-seconds"), default=1.0,
                    help="simulated seconds of highway-v0 per size (it is slow)")
     b.add_argument("--vgr", type=float, default=1.0 / 3.0, help="highway-ramps: vehicles/s per on-ramp")
+    b.add_argument("--throughput", type=float, default=None, help="intersection: vehicles/h (default 2200: about 60-70 vehicles)")
+    b.add_argument("--method", default=None, help="intersection: multi-vp (default), single-vp or fcfs")
     b.add_argument("--out", default=None, help="also write the JSON to DIR/bench.json")
 
     from icv_envs.rl.evaluate import add_arguments as _eval_args
 
     _eval_args(sub.add_parser("evaluate", help="evaluate expert/zero/random or a model saved by baselines/"))
+    k = sub.add_parser("conflicts", help="conflict matrix of the 12 intersection movements (derived from the lane use)")
+    k.add_argument("--lane-use", dest="lane_use", default="paper", help="paper (default) or exclusive")
+    k.add_argument("--json", action="store_true", help="print only the JSON report")
     sub.add_parser("list", help="list environments, scenarios and policies")
     return p
 
@@ -163,8 +175,24 @@ def _dispatch(args) -> int:
             m.pop(k, None)
         print(json.dumps(m))
         return 0
+    if args.command == "conflicts":
+        from icv_envs.platoon import conflict_model, conflicts_report, format_matrix
+
+        report = conflicts_report(args.lane_use)  # ValueError (exit 2) for an unknown lane use
+        if not args.json:
+            print(format_matrix(conflict_model(args.lane_use)))
+        print(json.dumps(report))
+        return 0
+    if args.command == "compare" and args.target == "intersection":
+        from icv_envs.experiments.intersection_compare import run_cli as compare_intersection_cli
+
+        summary = compare_intersection_cli(args, echo=lambda s: print(s, flush=True))
+        print(json.dumps(summary))
+        return 0
     if args.command == "compare":
         from icv_envs.experiments.compare import compare_highway_ramps
+
+        args.methods = args.methods or ["formation", "lane-lp", "idm"]
 
         summary = compare_highway_ramps(args.methods, args.vgr, args.seeds, args.seconds, args.out,
                                         backend=args.backend, workers=args.workers, progress=True)
@@ -215,7 +243,11 @@ def _dispatch(args) -> int:
     if args.command == "bench":
         from icv_envs.experiments.bench import bench_highway_formation, bench_highway_ramps
 
-        if args.target == "train":
+        if args.target == "intersection":
+            from icv_envs.experiments.intersection_bench import run_cli as bench_intersection_cli
+
+            res = bench_intersection_cli(args, echo=lambda s: print(s, flush=True))
+        elif args.target == "train":
             from icv_envs.rl.bench import bench_train
 
             res = bench_train(echo=lambda s: print(s, flush=True))

@@ -1,0 +1,1016 @@
+"""Intersection: the multi-lane unsignalized intersection of the paper (Sec. 4-5, Table 2).
+
+A highway-env :class:`~highway_env.envs.common.abstract.AbstractEnv` subclass
+(``default_config()`` / ``configure()``, highway-env's road network, viewer
+and ``RecordVideo`` support) over the vectorised core
+:class:`icv_envs.sim.intersection_world.IntersectionWorld`.  The
+single-agent Gymnasium API (``gym.make("icv_envs/Intersection-v0")``) drives
+one learned ego among expert-driven vehicles; ``ma_reset`` / ``ma_step``
+back the PettingZoo module :mod:`icv_envs.envs.intersection_v0`, whose
+docstring documents observations, actions, rewards and arguments.
+
+Traffic generation (our choices where the paper is silent): on every leg,
+formations of ``formation_size`` vehicles arrive at ``R3`` in the interlaced
+layout of :func:`icv_envs.formation.targets.interlaced_targets` (3 lanes,
+``L_s = 15 m``) at ``v0 = 10 m/s``; each vehicle appears when its slot passes
+``R3`` (a slot ``x_g`` behind the front appears ``x_g / v0`` later).  The
+requested ``throughput`` (vehicles/h entering the intersection, all legs) is
+split evenly over the four legs; formation heads follow a shifted
+exponential (``arrivals="poisson"``: a minimum headway of the formation's
+length plus two slots, at ``v0``, plus an exponential with the rest of the
+mean) or a constant interval (``"fixed"``), legs 1-3 with a random phase,
+leg N's first formation at t = 0 (its front vehicle is the Gymnasium ego).
+Movements are drawn per vehicle with ``turn_shares`` (left, straight,
+right).  A vehicle whose spawn point is occupied (a vehicle within 8 m
+behind or 14 m ahead in its lane) waits in a queue for its (leg, lane); it
+appears at ``min(v0, speed of the vehicle ahead within 50 m)``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from highway_env.envs.common.abstract import AbstractEnv
+
+from icv_envs.envs.highway_formation import _num, action_to_controls
+from icv_envs.formation.targets import formation_length, interlaced_targets
+from icv_envs.platoon.conflicts import required_layer_gap
+from icv_envs.platoon.geometry import LANE_USE_PRESETS, LEGS, movement_name
+from icv_envs.policies.fcfs import FcfsExpert
+from icv_envs.policies.platoon_expert import Corridors, PlatoonExpert, PlatoonParams
+from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents
+
+__all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "MAX_THROUGHPUT"]
+
+METHODS = ("multi-vp", "single-vp", "fcfs")
+MAX_THROUGHPUT = 20000.0  # veh/h: beyond any lane's capacity; a sanity bound for the config
+
+OBS_FEATURES = (
+    "presence",
+    "x",
+    "y",
+    "vx",
+    "vy",
+    "cos_h",
+    "sin_h",
+    "dist",
+    "ref_dx",
+    "ref_dv",
+    "lane_err",
+    "turn",
+    "zone",
+    "go",
+)
+STATE_FEATURES = OBS_FEATURES
+
+_REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "tracking": 0.5}
+_FCFS_DEFAULTS = {"tile": 1.0, "time_buffer": 5, "space_buffer": 0.5, "request_distance": 80.0, "a_plan": 1.5}
+_OBS_DEFAULTS = {"vehicles_count": 8, "perception_distance": 100.0}
+
+
+class IntersectionEnv(AbstractEnv):
+    """Four-leg, three-lane unsignalized intersection with the paper's coordination methods.
+
+    See :mod:`icv_envs.envs.intersection_v0` for the full documentation.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+
+    def __init__(self, config: dict | None = None, render_mode: str | None = None) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode={render_mode!r} is invalid; allowed: {self.metadata['render_modes']} or None")
+        self.world: IntersectionWorld | None = None
+        self.expert = None
+        self._ma_mode = False
+        self.possible_agents: list[str] = []
+        super().__init__(config, render_mode)
+
+    # ------------------------------------------------------------------ config
+    @classmethod
+    def default_config(cls) -> dict:
+        config = super().default_config()
+        config.update(
+            {
+                "method": "multi-vp",
+                "lane_use": "paper",
+                "throughput": 1500.0,
+                "turn_shares": [1 / 3, 1 / 3, 1 / 3],
+                "arrivals": "poisson",
+                "formation_size": 6,
+                "R1": 300.0,
+                "R2": 500.0,
+                "R3": 800.0,
+                "lane_width": 4.0,
+                "box_half": 16.0,
+                "departure_length": 40.0,
+                "opposing_left_conflict": False,
+                "D_t": "auto",
+                "desired_speed": 10.0,
+                "speed_range": [0.0, 20.0],
+                "acceleration_range": [-6.0, 3.0],
+                "max_steering_deg": 30.0,
+                "wheelbase": 2.8,
+                "gap_outside": 15.0,
+                "gap_inside": 9.0,
+                "merge_range": 60.0,
+                "max_node_size": 12,
+                "fcfs": dict(_FCFS_DEFAULTS),
+                "envelope_in_box": True,
+                "simulation_frequency": 25,
+                "policy_frequency": 5,
+                "duration": 120.0,
+                "warmup": 0.0,
+                "max_vehicles": None,
+                "observation": dict(_OBS_DEFAULTS),
+                "action": {"type": "ContinuousAcceleration+Steering"},
+                "reward": dict(_REWARD_DEFAULTS),
+                "expert_in_info": True,
+                "missing_action": "error",
+                "show_zones": True,
+                "show_groups": True,
+                "screen_width": 900,
+                "screen_height": 900,
+                "scaling": 1.4,
+                "centering_position": [0.5, 0.5],
+            }
+        )
+        return config
+
+    def configure(self, config: dict | None) -> None:
+        """highway-env's ``configure``; nested ``fcfs``, ``reward`` and
+        ``observation`` dicts are merged key by key; then validated."""
+        config = dict(config or {})
+        for key in ("fcfs", "reward", "observation"):
+            if key in config and isinstance(config[key], dict) and isinstance(self.config.get(key), dict):
+                merged = dict(self.config[key])
+                merged.update(config[key])
+                config[key] = merged
+        super().configure(config)
+        self._validate_config()
+
+    def _validate_config(self) -> None:
+        c = self.config
+        unknown = set(c) - set(self.default_config())
+        if unknown:
+            raise ValueError(f"unknown config keys {sorted(unknown)}; allowed: {sorted(self.default_config())}")
+        if c["method"] not in METHODS:
+            raise ValueError(f"unknown method {c['method']!r}; allowed: {list(METHODS)}")
+        lu = c["lane_use"]
+        if isinstance(lu, str) and lu not in LANE_USE_PRESETS:
+            raise ValueError(f"unknown lane_use {lu!r}; allowed: {list(LANE_USE_PRESETS)} or a dict movement -> lanes")
+        tp = c["throughput"]
+        if isinstance(tp, bool) or not isinstance(tp, (int, float, np.integer, np.floating)) or not math.isfinite(tp) \
+                or not 0 < tp <= MAX_THROUGHPUT:
+            raise ValueError(f"throughput = {tp!r} vehicles/h is invalid; allowed: a number in (0, {MAX_THROUGHPUT:g}] "
+                             f"(vehicles per hour entering the intersection, all legs)")
+        sh = c["turn_shares"]
+        if not (isinstance(sh, (list, tuple)) and len(sh) == 3
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0 for v in sh)
+                and sum(sh) > 0):
+            raise ValueError(f"turn_shares = {sh!r}; allowed: three numbers >= 0 (left, straight, right) with a positive sum")
+        if c["arrivals"] not in ("poisson", "fixed"):
+            raise ValueError(f"arrivals = {c['arrivals']!r}; allowed: 'poisson', 'fixed'")
+        _num(c, "formation_size", 1, 30, integer=True, allowed="an integer in [1, 30]")
+        for k in ("R1", "R2", "R3"):
+            _num(c, k, 0.0, 1e5, lo_open=True, allowed="a number of metres in (0, 100000]")
+        _num(c, "lane_width", 2.5, 6.0, allowed="a number in [2.5, 6] metres")
+        _num(c, "box_half", 3 * c["lane_width"], 100.0, allowed=f"a number in [3 * lane_width = {3 * c['lane_width']:g}, 100] metres")
+        _num(c, "departure_length", 5.0, 1000.0, allowed="a number in [5, 1000] metres")
+        if not isinstance(c["opposing_left_conflict"], (bool, np.bool_)):
+            raise ValueError(f"config['opposing_left_conflict'] = {c['opposing_left_conflict']!r}; allowed: True or False")
+        if c["D_t"] != "auto":
+            _num(c, "D_t", 0.0, 500.0, lo_open=True, allowed="'auto' or a number of metres in (0, 500]")
+        sr = c["speed_range"]
+        if not (isinstance(sr, (list, tuple)) and len(sr) == 2 and all(isinstance(v, (int, float)) for v in sr)
+                and 0 <= sr[0] < sr[1] and math.isfinite(sr[1])):
+            raise ValueError(f"config['speed_range'] = {sr!r} is invalid; allowed: [v_min, v_max] with 0 <= v_min < v_max")
+        _num(c, "desired_speed", 0.0, sr[1], lo_open=True, allowed=f"a number in (0, v_max = {sr[1]}] m/s")
+        ar = c["acceleration_range"]
+        if not (isinstance(ar, (list, tuple)) and len(ar) == 2 and all(isinstance(v, (int, float)) for v in ar)
+                and ar[0] < 0 < ar[1]):
+            raise ValueError(f"config['acceleration_range'] = {ar!r} is invalid; allowed: [a_min < 0, a_max > 0]")
+        _num(c, "max_steering_deg", 0.0, 60.0, lo_open=True, allowed="a number in (0, 60] degrees")
+        _num(c, "wheelbase", 0.5, 10.0, allowed="a number in [0.5, 10] metres")
+        _num(c, "gap_outside", 0.0, 100.0, lo_open=True, allowed="a number in (0, 100] metres")
+        _num(c, "gap_inside", 0.0, 100.0, lo_open=True, allowed="a number in (0, 100] metres")
+        _num(c, "merge_range", 0.0, 1000.0, allowed="a number in [0, 1000] metres")
+        _num(c, "max_node_size", 1, 100, integer=True, allowed="an integer in [1, 100]")
+        fc = c["fcfs"]
+        unknown = set(fc) - set(_FCFS_DEFAULTS)
+        if unknown:
+            raise ValueError(f"unknown fcfs keys {sorted(unknown)}; allowed: {sorted(_FCFS_DEFAULTS)}")
+        _num(fc, "tile", 0.1, 5.0, allowed="a number in [0.1, 5] metres")
+        _num(fc, "time_buffer", 0, 100, integer=True, allowed="an integer number of steps in [0, 100]")
+        _num(fc, "space_buffer", 0.0, 5.0, allowed="a number in [0, 5] metres")
+        _num(fc, "request_distance", 1.0, 1000.0, allowed="a number in [1, 1000] metres")
+        _num(fc, "a_plan", 0.0, ar[1], lo_open=True, allowed=f"a number in (0, a_max = {ar[1]}] m/s^2")
+        _num(c, "simulation_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
+        _num(c, "policy_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
+        if c["simulation_frequency"] % c["policy_frequency"]:
+            raise ValueError(
+                f"policy_frequency={c['policy_frequency']} must divide simulation_frequency={c['simulation_frequency']}"
+            )
+        _num(c, "duration", 0.0, lo_open=True, allowed="a number > 0 seconds")
+        _num(c, "warmup", 0.0, 3600.0, allowed="a number of seconds in [0, 3600]")
+        mv = c["max_vehicles"]
+        if mv is not None and not (isinstance(mv, (int, np.integer)) and not isinstance(mv, bool) and mv >= 1):
+            raise ValueError(f"max_vehicles = {mv!r}; allowed: None (all arrivals) or an integer >= 1")
+        r = c["reward"]
+        unknown = set(r) - set(_REWARD_DEFAULTS)
+        if unknown:
+            raise ValueError(f"unknown reward keys {sorted(unknown)}; allowed: {sorted(_REWARD_DEFAULTS)}")
+        for k in _REWARD_DEFAULTS:
+            _num(r, k, allowed="a finite number")
+        o = c["observation"]
+        unknown = set(o) - set(_OBS_DEFAULTS) - {"type"}
+        if unknown:
+            raise ValueError(f"unknown observation keys {sorted(unknown)}; allowed: {sorted(_OBS_DEFAULTS)}")
+        _num(o, "vehicles_count", 1, 64, integer=True, allowed="an integer in [1, 64]")
+        _num(o, "perception_distance", 0.0, lo_open=True, allowed="a number > 0 metres")
+        if c["missing_action"] not in ("error", "expert"):
+            raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
+        # geometry, lane use, radii (raise ValueError with their own messages)
+        self.layout = IntersectionLayout(
+            lu, c["lane_width"], c["box_half"], c["R1"], c["R2"], c["R3"], c["departure_length"],
+            bool(c["opposing_left_conflict"]),
+        )
+        need = required_layer_gap(self.layout.model)
+        self.layout.model_gap = need
+        if c["D_t"] == "auto":
+            # the hard spacing plus the reaction margin of the safe-speed cap at v0
+            self.D_t = need + float(c["desired_speed"]) / float(c["policy_frequency"])
+        else:
+            self.D_t = float(c["D_t"])
+        if self.D_t < need - 1e-9:
+            raise ValueError(
+                f"config['D_t'] = {c['D_t']!r} m is too small for this geometry; allowed: D_t >= {need:.2f} m "
+                f"(vehicle length + 2 m + the largest conflict-point offset, see required_layer_gap)"
+            )
+
+    # ------------------------------------------------------------------ build
+    def _params(self) -> PlatoonParams:
+        c = self.config
+        return PlatoonParams(
+            v0=float(c["desired_speed"]), v_max=float(c["speed_range"][1]),
+            a_min=float(c["acceleration_range"][0]), a_max=float(c["acceleration_range"][1]),
+            comfort=(max(float(c["acceleration_range"][0]), -3.0), min(float(c["acceleration_range"][1]), 2.0)),
+            wheelbase=float(c["wheelbase"]), steer_max=math.radians(c["max_steering_deg"]),
+            gap_out=float(c["gap_outside"]), gap_in=float(c["gap_inside"]), D_t=float(self.D_t),
+            merge_range=float(c["merge_range"]), max_node_size=int(c["max_node_size"]),
+            envelope_in_box=bool(c["envelope_in_box"]), D_safe=float(self.layout.model_gap),
+            cap_tau=1.0 / float(c["policy_frequency"]),
+        )
+
+    def _frames(self) -> int:
+        c = self.config
+        return int(c["simulation_frequency"] // c["policy_frequency"])
+
+    def _arrivals(self) -> list[tuple]:
+        """All vehicle arrivals ``(due_time, leg, lane, movement, formation_key, slot)`` of the episode."""
+        c = self.config
+        rng = self.np_random
+        T = float(c["duration"]) + float(c["warmup"])
+        v0 = float(c["desired_speed"])
+        n = int(c["formation_size"])
+        gap = float(c["gap_outside"])
+        lam = float(c["throughput"]) / 4.0 / 3600.0  # vehicles/s per leg
+        mean_h = n / lam
+        h_min = (formation_length(n, 3, gap) + 2.0 * gap) / v0
+        xg, lane_id = interlaced_targets(n, 3, gap)
+        shares = np.asarray(c["turn_shares"], dtype=np.float64)
+        shares = shares / shares.sum()
+        out = []
+        for leg in range(4):
+            if c["arrivals"] == "poisson" and mean_h > h_min:
+                k = int(T / mean_h * 2 + 20)
+                gaps = h_min + rng.exponential(mean_h - h_min, size=k)
+            else:
+                k = int(T / mean_h + 3)
+                gaps = np.full(k, mean_h)
+            phase = 0.0 if leg == 0 else rng.uniform(0.0, mean_h)
+            heads = phase + np.concatenate([[0.0], np.cumsum(gaps[:-1])])
+            heads = heads[heads < T]
+            for fi, t0 in enumerate(heads):
+                mvs = 3 * leg + rng.choice(3, size=n, p=shares)
+                for j in range(n):
+                    due = float(t0 + xg[j] / v0)
+                    if due < T:
+                        out.append((due, leg, int(lane_id[j] - 1), int(mvs[j]), (leg, fi), float(xg[j])))
+        out.sort(key=lambda a: (a[0], a[1], a[2]))
+        return out
+
+    def _max_vehicles(self) -> int:
+        """Possible agents: ``max_vehicles`` or, independent of the seed, the mean
+        number of arrivals plus six standard deviations (formations arrive
+        together: variance ``formation_size * mean``) plus four formations."""
+        c = self.config
+        if c["max_vehicles"] is not None:
+            return int(c["max_vehicles"])
+        mean = float(c["throughput"]) * (float(c["duration"]) + float(c["warmup"])) / 3600.0
+        n = int(c["formation_size"])
+        return int(math.ceil(mean + 6.0 * math.sqrt(n * mean) + 4 * n + 20))
+
+    def _reset(self) -> None:
+        c = self.config
+        lay = self.layout
+        world = IntersectionWorld(lay, dt=1.0 / c["simulation_frequency"], wheelbase=c["wheelbase"],
+                                  v_max=float(c["speed_range"][1]), v_free=float(c["desired_speed"]))
+        self.world = world
+        params = self._params()
+        if c["method"] == "fcfs":
+            fc = c["fcfs"]
+            self.expert = FcfsExpert(lay, params, frames=self._frames(), dt=world.dt, tile=fc["tile"],
+                                     time_buffer=int(fc["time_buffer"]), space_buffer=fc["space_buffer"],
+                                     request_distance=fc["request_distance"], a_plan=fc["a_plan"])
+        else:
+            self.expert = PlatoonExpert(lay, params, method=c["method"], frames=self._frames())
+        self.expert.attach(world)
+        arrivals = self._arrivals()
+        cap = self._max_vehicles()
+        self._not_spawned = 0
+        if len(arrivals) > cap:
+            self._not_spawned = len(arrivals) - cap
+            arrivals = arrivals[:cap]
+        self._pending = arrivals
+        self._queues: dict[tuple[int, int], list] = {(lg, ln): [] for lg in range(4) for ln in range(3)}
+        self.possible_agents = [f"icv_{i}" for i in range(cap)]
+        self._proxies: dict[int, Any] = {}
+        self._last_actions = np.zeros((0, 2))
+        self._expert_cache = None
+        self._ego_vid = 0
+        self._ego_done = False
+        self.warmup_collisions = 0
+        self._last_obs: dict = {}
+        self._series: list[dict] = []
+        self._spawn_due()
+        self.expert.update(world)
+        if c["warmup"] > 0:
+            self._warm_up(float(c["warmup"]))
+        self._sync_render_road(force=True)
+
+    def _warm_up(self, seconds: float) -> None:
+        """Run the expert for ``seconds`` before the episode starts, then restart
+        the clock at 0 and the run statistics with the vehicles present as
+        spawned; the Gymnasium ego is then the vehicle spawned last."""
+        w = self.world
+        while w.time < seconds - 1e-9:
+            self._advance(self.expert.compute(w))
+            w.remove_crashed_vehicles()
+            self._spawn_due()
+            self.expert.update(w)
+        f = w.fleet
+        shift = w.time
+        w.time = 0.0
+        f.spawn_time = f.spawn_time - shift
+        f.enter_time = f.enter_time - shift
+        self._pending = [(a[0] - shift,) + tuple(a[1:]) for a in self._pending]
+        for q in self._queues.values():
+            q[:] = [(a[0] - shift,) + tuple(a[1:]) for a in q]
+        self.warmup_collisions = int(w.stats["collisions"])
+        for k in w.stats:
+            w.stats[k] = math.inf if k == "min_speed_in_box" else (0.0 if isinstance(w.stats[k], float) else 0)
+        w.stats["spawned"] = int(f.n)
+        w.collision_log.clear()
+        for k in self.expert.stats:
+            self.expert.stats[k] = 0.0 if isinstance(self.expert.stats[k], float) else 0
+        self._ego_vid = int(f.vid[-1]) if f.n else int(f.next_vid)
+        self._expert_cache = None
+
+    def _spawn_due(self) -> list[int]:
+        """Move due arrivals into their lane queues and spawn queue heads whose spawn point is free."""
+        c = self.config
+        w = self.world
+        lay = self.layout
+        t = w.time
+        while self._pending and self._pending[0][0] <= t + 1e-9:
+            a = self._pending.pop(0)
+            self._queues[(a[1], a[2])].append(a)
+        if not any(self._queues.values()):
+            return []
+        f = w.fleet
+        s_spawn = -(lay.R3 - lay.box_half)
+        v0 = float(c["desired_speed"])
+        new = []
+        rs = w.route() if f.n else None
+        for (leg, lane), q in self._queues.items():
+            if not q:
+                continue
+            if f.n:
+                on = (f.leg == leg) & (rs.phase == 0) & (np.abs(rs.lat_leg - (lane + 0.5) * lay.lane_width)
+                                                          < 0.5 * (lay.lane_width + f.width))
+                d = rs.u[on] - s_spawn
+                if np.any((d > -8.0) & (d < 14.0)):
+                    continue
+                ahead = (d >= 14.0) & (d < 50.0)
+                speed = min(v0, float(f.speed[on][ahead].min())) if ahead.any() else v0
+            else:
+                speed = v0
+            due, lg, ln, mv, key, slot = q.pop(0)
+            default_lane = lay.lane_use[mv][-1]
+            vid = w.spawn(lg, ln, mv, speed, s_spawn, tlane=default_lane)
+            self.expert.on_spawn(w, vid, key, slot, ln)
+            new.append(vid)
+            rs = w.route()
+        return new
+
+    # ------------------------------------------------------------------ spaces
+    def define_spaces(self) -> None:
+        c = self.config
+        V = int(c["observation"]["vehicles_count"])
+        self.observation_space = spaces.Box(-1.0, 1.0, (V, len(OBS_FEATURES)), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
+        self.observation_type = _ObservationStub(self)
+        self.action_type = None
+
+    def state_space_for(self, n_slots: int) -> spaces.Box:
+        return spaces.Box(-1.0, 1.0, (n_slots, len(STATE_FEATURES)), dtype=np.float32)
+
+    # ------------------------------------------------------------ observations
+    def _features(self) -> np.ndarray:
+        """Per-vehicle absolute features (n, F) before normalisation."""
+        w = self.world
+        f = w.fleet
+        lay = self.layout
+        rs = w.route()
+        has, d, dv, go = self.expert.references(w)
+        F = np.zeros((f.n, len(OBS_FEATURES)))
+        F[:, 0] = 1.0
+        F[:, 1] = rs.cx
+        F[:, 2] = rs.cy
+        F[:, 3] = f.speed * np.cos(f.heading)
+        F[:, 4] = f.speed * np.sin(f.heading)
+        F[:, 5] = np.cos(f.heading)
+        F[:, 6] = np.sin(f.heading)
+        F[:, 7] = rs.dist
+        F[:, 8] = np.where(has, d, 0.0)
+        F[:, 9] = np.where(has, dv, 0.0)
+        appr = rs.phase == 0
+        F[:, 10] = np.where(appr, rs.lat_leg - (np.clip(f.klane, 0, 2) + 0.5) * lay.lane_width, rs.lat)
+        F[:, 11] = (f.mv % 3) - 1.0
+        zone = np.where(rs.dist > lay.R2, 0.0, np.where(rs.dist > lay.R1, 1.0 / 3.0, 2.0 / 3.0))
+        F[:, 12] = np.where(appr, zone, 1.0)
+        F[:, 13] = go
+        return F
+
+    def _scales(self, relative: bool) -> np.ndarray:
+        c = self.config
+        lay = self.layout
+        vmax = float(c["speed_range"][1])
+        pos = float(c["observation"]["perception_distance"]) if relative else lay.R3
+        return np.array([1.0, pos, pos, vmax, vmax, 1.0, 1.0, lay.R3, 100.0, vmax, lay.lane_width * 3, 1.0, 1.0, 1.0])
+
+    def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
+        """highway-env ``Kinematics`` convention: row 0 the observer (absolute,
+        normalised), rows 1.. the ``V - 1`` nearest vehicles (Euclidean
+        distance of body centres) within the perception distance, relative
+        x, y, vx, vy; zero rows (presence 0) pad."""
+        c = self.config
+        V = int(c["observation"]["vehicles_count"])
+        pd = float(c["observation"]["perception_distance"])
+        n = self.world.fleet.n
+        out = np.zeros((len(rows), V, len(OBS_FEATURES)), dtype=np.float32)
+        if not len(rows):
+            return out
+        if F is None:
+            F = self._features()
+        out[:, 0, :] = np.clip(F[rows] / self._scales(False), -1, 1)
+        if V > 1 and n > 1:
+            K = min(V - 1, n - 1)
+            dx = F[None, :, 1] - F[rows, 1][:, None]
+            dy = F[None, :, 2] - F[rows, 2][:, None]
+            dist = np.hypot(dx, dy)
+            dist[np.arange(len(rows)), rows] = np.inf
+            dist[dist > pd] = np.inf
+            pick = np.argpartition(dist, K - 1, axis=1)[:, :K] if K < n else np.argsort(dist, axis=1)[:, :K]
+            pd_sel = np.take_along_axis(dist, pick, axis=1)
+            o = np.argsort(pd_sel, axis=1, kind="stable")
+            pick = np.take_along_axis(pick, o, axis=1)
+            pd_sel = np.take_along_axis(pd_sel, o, axis=1)
+            present = np.isfinite(pd_sel)
+            rel = F[pick].copy()
+            rel[..., 1:5] -= F[rows][:, None, 1:5]
+            rel = np.clip(rel / self._scales(True), -1, 1)
+            rel[~present] = 0.0
+            out[:, 1:1 + K, :] = rel
+        return out
+
+    def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
+        """Per agent: progress (speed / v_max), safety (-1 on a collision, else
+        ``-max(0, 1 - gap / (2 m + v * 1 s))`` towards the leader in its
+        corridors), comfort (``-(u_a^2 + u_s^2) / 2``), tracking
+        (``exp(-(dx / 10 m)^2)`` of the reference error for vehicles with a
+        reference, else 0)."""
+        c = self.config
+        w = self.world
+        f = w.fleet
+        wts = c["reward"]
+        vmax = float(c["speed_range"][1])
+        progress = f.speed[rows] / vmax
+        gap = self._leader_gaps()
+        safety = -np.clip(1.0 - gap[rows] / (2.0 + f.speed[rows]), 0.0, 1.0)
+        safety = np.where(crashed_now[rows], -1.0, safety)
+        ua = self._last_actions[rows] if len(self._last_actions) == f.n else np.zeros((len(rows), 2))
+        comfort = -0.5 * (ua[:, 0] ** 2 + ua[:, 1] ** 2)
+        track = np.where(F[rows, 8] != 0.0, np.exp(-(F[rows, 8] / 10.0) ** 2), 0.0)
+        total = wts["progress"] * progress + wts["safety"] * safety + wts["comfort"] * comfort + wts["tracking"] * track
+        return total, {"progress": progress, "safety": safety, "comfort": comfort, "tracking": track}
+
+    def _leader_gaps(self) -> np.ndarray:
+        w = self.world
+        f = w.fleet
+        gap = np.full(f.n, np.inf)
+        if f.n < 2:
+            return gap
+        cor = Corridors(w, w.route(), np.full(f.n, -1))
+        e = np.flatnonzero(cor.lead >= 0)
+        if len(e):
+            me = cor.rows[e]
+            ld = cor.rows[cor.lead[e]]
+            g = cor.coord[cor.lead[e]] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
+            np.minimum.at(gap, me, g)
+        return gap
+
+    def global_state(self, slots: list[str]) -> np.ndarray:
+        """One row per possible agent (slot order), absolute normalised features, zeros for absent vehicles."""
+        out = np.zeros((len(slots), len(STATE_FEATURES)), dtype=np.float32)
+        f = self.world.fleet
+        if f.n:
+            F = self._features()
+            slot_of = {name: i for i, name in enumerate(slots)}
+            idx = np.array([slot_of.get(f"icv_{v}", -1) for v in f.vid])
+            ok = idx >= 0
+            out[idx[ok]] = np.clip(F[ok] / self._scales(False), -1, 1)
+        return out
+
+    # ------------------------------------------------------------------ expert
+    def expert_actions(self) -> np.ndarray:
+        """The method's controller's normalised actions for every vehicle now (rows in fleet order)."""
+        key = (self.world.step_count, self.world.fleet.n, self.world.fleet.next_vid)
+        if self._expert_cache is None or self._expert_cache[0] != key:
+            self._expert_cache = (key, self.expert.compute(self.world).astype(np.float32))
+        return self._expert_cache[1]
+
+    # -------------------------------------------------------------- stepping
+    def _advance(self, actions: np.ndarray) -> StepEvents:
+        c = self.config
+        w = self.world
+        events = StepEvents()
+        frames = self._frames()
+        acts = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
+        vids = w.fleet.vid.copy()
+        a, phi = action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
+                                    math.radians(c["max_steering_deg"]))
+        for frame in range(frames):
+            f = w.fleet
+            if f.n != len(vids) or not np.array_equal(f.vid, vids):
+                keep = np.isin(vids, f.vid)
+                vids, a, phi = vids[keep], a[keep], phi[keep]
+            w.substep(a, phi, events)
+            if frame < frames - 1:
+                self._automatic_rendering()
+        return events
+
+    def ma_reset(self, seed: int | None = None, options: dict | None = None):
+        self._ma_mode = True
+        self.reset(seed=seed, options=options)
+        f = self.world.fleet
+        rows = np.arange(f.n)
+        agents = [f"icv_{v}" for v in f.vid]
+        F = self._features() if f.n else None
+        obs = self._observe_rows(rows, F)
+        infos = self._ma_infos(agents, rows, {})
+        self._last_obs = {a: obs[i] for i, a in enumerate(agents)}
+        return {a: obs[i] for i, a in enumerate(agents)}, infos
+
+    def _ma_infos(self, agents, rows, parts) -> dict:
+        c = self.config
+        infos = {}
+        if not len(rows):
+            return infos
+        ex = self.expert_actions() if c["expert_in_info"] else None
+        f = self.world.fleet
+        rs = self.world.route()
+        speeds = f.speed.tolist()
+        mvs = f.mv.tolist()
+        nodes = f.node.tolist()
+        depth = self.expert.node_depth
+        X = rs.dist.tolist()
+        for i, a in enumerate(agents):
+            r = int(rows[i])
+            info = {"speed": speeds[r], "movement": mvs[r], "distance": X[r], "node": nodes[r],
+                    "tree_layer": depth.get(nodes[r], -1), "crashed": False}
+            if ex is not None:
+                info["expert_action"] = ex[r].copy()
+            if parts:
+                info["rewards"] = {k: float(v[i]) for k, v in parts.items()}
+            infos[a] = info
+        return infos
+
+    def ma_step(self, actions: dict):
+        """Multi-agent step: ``actions`` maps live agent names to actions."""
+        c = self.config
+        f = self.world.fleet
+        live = [f"icv_{v}" for v in f.vid]
+        live_set = set(live)
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+        unknown = [a for a in actions if a not in live_set]
+        if unknown:
+            raise ValueError(f"actions for agents that are not live: {unknown[:5]}; live agents: {live[:5]}...")
+        missing = [a for a in live if a not in actions]
+        if missing and c["missing_action"] == "error":
+            raise ValueError(
+                f"no action for live agents {missing[:5]} ({len(missing)} missing); pass an action for every agent "
+                f"or configure missing_action='expert'"
+            )
+        acts = np.zeros((f.n, 2), dtype=np.float64)
+        if missing:
+            acts[:] = self.expert_actions()
+        given = [i for i, a in enumerate(live) if a in actions]
+        if given:
+            vals = []
+            for i in given:
+                arr = np.asarray(actions[live[i]], dtype=np.float64)
+                if arr.shape != (2,) or not np.all(np.isfinite(arr)):
+                    self._check_action(arr, live[i])
+                vals.append(arr)
+            acts[given] = np.clip(np.stack(vals), -1.0, 1.0)
+        return self._ma_advance(acts)
+
+    def _check_action(self, action, who: str = "agent") -> np.ndarray:
+        arr = np.asarray(action, dtype=np.float64)
+        if arr.shape != (2,):
+            raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, steering] in [-1, 1]")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"action of {who} = {arr.tolist()} holds NaN or inf; allowed: finite values in [-1, 1]")
+        return np.clip(arr, -1.0, 1.0)
+
+    def _ma_advance(self, acts: np.ndarray):
+        c = self.config
+        w = self.world
+        f = w.fleet
+        before = f.vid.copy()
+        acts_by_vid = {int(v): acts[i] for i, v in enumerate(before)}
+        events = self._advance(acts)
+        self.time += 1.0 / c["policy_frequency"]
+        self.steps += 1
+        crashed_now = f.crashed.copy()
+        truncated_all = w.time >= float(c["duration"]) - 1e-9
+        # new arrivals appear, the coordination layer reacts, then everyone observes
+        new = self._spawn_due()
+        self.expert.update(w)
+        f = w.fleet
+        crashed_now = np.concatenate([crashed_now, np.zeros(f.n - len(crashed_now), dtype=bool)])
+        self._last_actions = np.array([acts_by_vid.get(int(v), np.zeros(2)) for v in f.vid]).reshape(-1, 2)
+        rows = np.arange(f.n)
+        agents = [f"icv_{v}" for v in f.vid]
+        F = self._features() if f.n else np.zeros((0, len(OBS_FEATURES)))
+        rew, parts = self._rewards_rows(rows, crashed_now, F)
+        obs = self._observe_rows(rows, F)
+        observations = {a: obs[i] for i, a in enumerate(agents)}
+        rewards = {a: float(rew[i]) for i, a in enumerate(agents)}
+        terms = {a: bool(crashed_now[i]) for i, a in enumerate(agents)}
+        truncs = {a: bool(truncated_all) and not crashed_now[i] for i, a in enumerate(agents)}
+        infos = self._ma_infos(agents, rows, parts)
+        newset = set(new)
+        for i, a in enumerate(agents):
+            if crashed_now[i]:
+                infos[a]["crashed"] = True
+            if int(f.vid[i]) in newset:
+                rewards[a] = 0.0
+        # vehicles that left during the step: the departure end is a terminal
+        # success, driving back out of the approach road a truncation
+        gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        for vid in sorted(events.removed | events.left_road):
+            a = f"icv_{vid}"
+            observations[a] = self._last_obs.get(a, gone_obs).copy()
+            rewards[a] = 0.0
+            terms[a] = vid in events.removed
+            truncs[a] = vid in events.left_road
+            infos[a] = {"exited": vid in events.removed, "left_road": vid in events.left_road, "crashed": False,
+                        "wrong_exit": vid in events.wrong_exit}
+            if c["expert_in_info"]:
+                infos[a]["expert_action"] = np.zeros(2, dtype=np.float32)
+        if crashed_now.any():
+            w.remove_crashed_vehicles()
+            self.expert.update(w)
+        self._last_obs = {a: o for a, o in observations.items() if not (terms[a] or truncs[a])}
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terms, truncs, infos
+
+    # ------------------------------------------------------- gymnasium (ego)
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        gym.Env.reset(self, seed=seed, options=options)
+        if options and "config" in options:
+            self.configure(options["config"])
+        self.update_metadata()
+        self.define_spaces()
+        self.time = self.steps = 0
+        self.done = False
+        self._reset()
+        obs, info = self._ego_obs_info()
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def _ego_row(self) -> int:
+        r = int(self.world.fleet.rows([self._ego_vid])[0])
+        return r
+
+    def _ego_obs_info(self):
+        r = self._ego_row()
+        if r < 0:
+            return np.zeros(self.observation_space.shape, dtype=np.float32), {}
+        obs = self._observe_rows(np.array([r]))[0]
+        info = self._ma_infos([f"icv_{self._ego_vid}"], np.array([r]), {})[f"icv_{self._ego_vid}"]
+        return obs, info
+
+    def step(self, action):
+        """Single-agent step: ``action`` drives the ego (the first vehicle,
+        arriving on leg N at t = 0); every other vehicle follows the method's expert."""
+        if self.world is None:
+            raise RuntimeError("call reset() before step()")
+        if self._ego_done:
+            raise RuntimeError("the ego's episode has ended (terminated or truncated): call reset()")
+        act = self._check_action(action, "the ego")
+        f = self.world.fleet
+        acts = self.expert_actions().astype(np.float64).copy() if f.n else np.zeros((0, 2))
+        r = self._ego_row()
+        if r >= 0:
+            acts[r] = act
+        observations, rewards, terms, truncs, infos = self._ma_advance(acts)
+        a = f"icv_{self._ego_vid}"
+        obs = observations.get(a, np.zeros(self.observation_space.shape, dtype=np.float32))
+        reward = float(rewards.get(a, 0.0))
+        terminated = bool(terms.get(a, True))
+        truncated = bool(truncs.get(a, False))
+        info = infos.get(a, {})
+        info["ego_present"] = self._ego_row() >= 0
+        if terminated or truncated:
+            self._ego_done = True
+        return obs, reward, terminated, truncated, info
+
+    # --------------------------------------------------------------- metrics
+    def metrics(self, **kwargs) -> dict:
+        """Run totals (see :mod:`icv_envs.experiments.intersection_compare` for definitions).
+
+        ``lost`` = spawned - removed - left_road - remaining - crashed_removed:
+        a bookkeeping check that must be 0."""
+        w = self.world
+        st = w.stats
+        n = max(st["vehicle_steps"], 1)
+        remaining = int(w.fleet.n)
+        queued = int(sum(len(q) for q in self._queues.values()))
+        sim = max(w.time, 1e-9)
+        ex = self.expert.stats
+        m = {
+            "method": self.config["method"],
+            "lane_use": self.layout.lane_use_name,
+            "throughput": float(self.config["throughput"]),
+            "collisions": int(st["collisions"]),
+            "spawned": int(st["spawned"]),
+            "cleared": int(st["cleared"]),
+            "exited": int(st["removed"]),
+            "remaining": remaining,
+            "queued": queued,
+            "not_spawned": int(self._not_spawned),
+            "crashed_removed": int(st["crashed_removed"]),
+            "left_road": int(st["left_road"]),
+            "wrong_exits": int(st["wrong_exits"]),
+            "lost": int(st["spawned"] - st["removed"] - st["left_road"] - remaining - st["crashed_removed"]),
+            "achieved_throughput": st["cleared"] * 3600.0 / sim,
+            "mean_speed": st["speed_sum"] / n,
+            "speed_fluctuation": st["abs_accel_sum"] / n,
+            "mean_delay": st["delay_sum"] / st["cleared"] if st["cleared"] else None,
+            "mean_travel_time": st["travel_time_sum"] / st["cleared"] if st["cleared"] else None,
+            "sim_seconds": float(w.time),
+            "vehicle_steps": int(st["vehicle_steps"]),
+            "envelope_box_binding": int(ex.get("envelope_box_binding", 0)),
+            "envelope_box_binding_member": int(ex.get("envelope_box_binding_member", 0)),
+            "virtual_cap_binding": int(ex.get("virtual_cap_binding", 0)),
+            "nodes": int(ex.get("nodes", 0)),
+            "merges": int(ex.get("merges", 0)),
+            "lane_changes": int(ex.get("lane_changes", 0)),
+        }
+        if self.config["method"] == "fcfs":
+            m.update({k: ex[k] for k in ("requests", "granted", "rejected", "cancelled", "max_plan_error")})
+        return m
+
+    # -------------------------------------------------------------- rendering
+    def _sync_render_road(self, force: bool = False) -> None:
+        """Refresh highway-env objects (road network, vehicle views) from the arrays."""
+        from highway_env.road.road import Road
+
+        from icv_envs.sim.vehicle import ICVVehicle
+
+        w = self.world
+        if force or self.road is None or getattr(self, "_road_world", None) is not w:
+            self.road = Road(network=self.layout.to_network(), np_random=self.np_random, record_history=False)
+            self._road_world = w
+            self._proxies = {}
+        f = w.fleet
+        rs = w.route()
+        alive = set(int(v) for v in f.vid)
+        for vid in list(self._proxies):
+            if vid not in alive:
+                del self._proxies[vid]
+        colours = self._colours()
+        vehicles = []
+        for i, vid in enumerate(f.vid.tolist()):
+            p = self._proxies.get(vid)
+            if p is None:
+                p = object.__new__(ICVVehicle)
+                p.road = self.road
+                p.vid = vid
+                p.history = []
+                p.LENGTH = float(f.length[i])
+                p.WIDTH = float(f.width[i])
+                p.lane_index = None
+                p.lane = None
+                p.impact = None
+                self._proxies[vid] = p
+            p.position = np.array([rs.cx[i], -rs.cy[i]])  # highway-env's screen frame: y down
+            p.heading = float(-f.heading[i])
+            p.speed = float(f.speed[i])
+            p.crashed = bool(f.crashed[i])
+            p.action = {"steering": float(-f.steer[i]), "acceleration": float(f.accel[i])}
+            p.color = colours[i]
+            vehicles.append(p)
+        self.road.vehicles = vehicles
+        ego = self._proxies.get(self._ego_vid)
+        self.controlled_vehicles = [ego] if ego is not None else []
+
+    #: colours of tree-layers 1, 2, ... (cycled)
+    LAYER_COLOURS = [(255, 200, 0), (0, 190, 255), (255, 90, 200), (120, 230, 90), (255, 140, 40), (170, 120, 255)]
+
+    def _colours(self) -> list:
+        f = self.world.fleet
+        cols = [(200, 200, 200)] * f.n
+        stage = getattr(f, "stage", np.zeros(f.n, dtype=np.int64))
+        node = getattr(f, "node", np.full(f.n, -1))
+        depth = self.expert.node_depth if self.expert is not None else {}
+        reserved = set(getattr(self.expert, "plans", {}))
+        for i in range(f.n):
+            if f.crashed[i]:
+                cols[i] = (255, 60, 60)
+            elif not self._ma_mode and int(f.vid[i]) == self._ego_vid:
+                cols[i] = (50, 200, 0)
+            elif int(f.vid[i]) in reserved:
+                cols[i] = (120, 230, 90)
+            elif node[i] >= 0 and depth.get(int(node[i]), 0) > 0:
+                cols[i] = self.LAYER_COLOURS[(depth[int(node[i])] - 1) % len(self.LAYER_COLOURS)]
+            elif stage[i] >= 1 and not f.cleared[i]:
+                cols[i] = (150, 200, 255)
+        return cols
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self.world is None:
+            raise RuntimeError("call reset() before render()")
+        self._sync_render_road()
+        if self.viewer is None:
+            self.viewer = _viewer_class()(self)
+        self.enable_auto_render = True
+        self.viewer.display()
+        if not self.viewer.offscreen:
+            self.viewer.handle_events()
+        if self.render_mode == "rgb_array":
+            return self.viewer.get_image()
+        return None
+
+    def _automatic_rendering(self) -> None:
+        if self.viewer is not None and self.enable_auto_render:
+            if self._record_video_wrapper:
+                self._sync_render_road()
+                self._record_video_wrapper._capture_frame()
+            else:
+                self.render()
+
+    def describe(self) -> dict:
+        """Geometry summary: legs, lanes, movements with their allowed lanes, radii, D_t."""
+        lay = self.layout
+        return {
+            "legs": list(LEGS),
+            "lane_use": lay.lane_use_name,
+            "movements": [{"id": m, "name": movement_name(m), "lanes": list(lay.lane_use[m])} for m in range(12)],
+            "R1": lay.R1, "R2": lay.R2, "R3": lay.R3, "box_half": lay.box_half,
+            "D_t": float(self.D_t), "required_layer_gap": float(lay.model_gap),
+        }
+
+
+_VIEWER_CLASS = None
+
+
+def _viewer_class():
+    """highway-env's viewer (via :class:`~icv_envs.envs.rendering.FormationViewer`,
+    which keeps drawing off-screen) drawing the intersection: grass, the legs
+    and the box, lane lines (highway-env's lane graphics), stop lines, the
+    zone circles ``R1`` (coordinating), ``R2`` (adjusting) and ``R3``
+    (generation), the vehicles coloured by tree-layer (fcfs: light green
+    with a reservation; light blue: in regrouping or waiting; grey:
+    approaching or past the box; green: the Gymnasium ego; red: crashed),
+    a line through the members of every group (nodes in their layer's
+    colour, sub-formations in white) and a ``T<layer>`` label at every node's
+    first vehicle.  Built lazily so that pygame is only imported to render."""
+    global _VIEWER_CLASS
+    if _VIEWER_CLASS is not None:
+        return _VIEWER_CLASS
+    import pygame
+    from highway_env.road.graphics import LaneGraphics, RoadGraphics
+
+    from icv_envs.envs.rendering import FormationViewer
+
+    class IntersectionViewer(FormationViewer):
+        GRASS = (70, 110, 60)
+        ROAD = (100, 100, 100)
+
+        def window_position(self) -> np.ndarray:
+            return np.array([0.0, 0.0])
+
+        def display(self) -> None:
+            if not self.enabled:
+                return
+            env = self.env
+            surf = self.sim_surface
+            surf.move_display_window_to(self.window_position())
+            surf.fill(self.GRASS)
+            lay = env.layout
+            b, far = lay.box_half, lay.R3 + 20.0
+            half = 3 * lay.lane_width
+            for x0, y0, x1, y1 in ((-half, -far, half, far), (-far, -half, far, half), (-b, -b, b, b)):
+                p0 = surf.pos2pix(x0, y0)
+                p1 = surf.pos2pix(x1, y1)
+                pygame.draw.rect(surf, self.ROAD, pygame.Rect(p0, (p1[0] - p0[0], p1[1] - p0[1])))
+            for _from in env.road.network.graph:
+                for _to in env.road.network.graph[_from]:
+                    for lane in env.road.network.graph[_from][_to]:
+                        LaneGraphics.display(lane, surf)
+            for leg in range(4):  # stop lines
+                o, r = lay.box_half * lay.out[leg], lay.app_right[leg]
+                a, c = o, o + half * r
+                pygame.draw.line(surf, (255, 255, 255), surf.pos2pix(a[0], -a[1]), surf.pos2pix(c[0], -c[1]),
+                                 max(1, surf.pix(0.5)))
+            if env.config.get("show_zones", True):
+                centre = surf.pos2pix(0.0, 0.0)
+                for R, col in ((lay.R1, (255, 220, 120)), (lay.R2, (160, 220, 255)), (lay.R3, (230, 230, 230))):
+                    pygame.draw.circle(surf, col, centre, surf.pix(R), 1)
+            if env.config.get("show_groups", True):
+                self._draw_groups()
+            RoadGraphics.display_traffic(env.road, surf, simulation_frequency=env.config["simulation_frequency"],
+                                         offscreen=self.offscreen)
+            if not self.offscreen:
+                self.screen.blit(surf, (0, 0))
+                if env.config["real_time_rendering"]:
+                    self.clock.tick(env.config["simulation_frequency"])
+                pygame.display.flip()
+
+        def _draw_groups(self) -> None:
+            env = self.env
+            w = env.world
+            if not w.fleet.n:
+                return
+            surf = self.sim_surface
+            rs = w.route()
+            if not hasattr(self, "_font"):
+                self._font = pygame.font.Font(None, 18)
+            for kind, gid, rows, depth in env.expert.groups(w):
+                rows = rows[rows >= 0]
+                if not len(rows):
+                    continue
+                rows = rows[np.argsort(rs.dist[rows])]
+                if kind == "node" and depth > 0:
+                    col = env.LAYER_COLOURS[(depth - 1) % len(env.LAYER_COLOURS)]
+                elif kind == "reserved":
+                    col = (120, 230, 90)
+                else:
+                    col = (255, 255, 255)
+                pts = [surf.pos2pix(rs.cx[r], -rs.cy[r]) for r in rows]
+                if len(pts) > 1 and kind != "reserved":
+                    pygame.draw.lines(surf, col, False, pts, 2)
+                if kind == "node":
+                    label = self._font.render(f"T{depth}", True, col)
+                    x, y = pts[0]
+                    surf.blit(label, (x + 6, y - 14))
+
+    _VIEWER_CLASS = IntersectionViewer
+    return _VIEWER_CLASS
+
+
+class _ObservationStub:
+    """Stands in for highway-env's observation type where its viewer expects one."""
+
+    def __init__(self, env):
+        self.env = env
+
+    def observe(self):  # pragma: no cover - highway-env compatibility
+        return self.env._ego_obs_info()[0]
+
+    def space(self):  # pragma: no cover
+        return self.env.observation_space

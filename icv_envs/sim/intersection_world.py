@@ -1,0 +1,655 @@
+"""Vectorised 2-D simulation core of the multi-lane unsignalized intersection.
+
+Paper Sec. 4-5 and Table 2 (Xu et al., IET ITS 2021), NOTES.md §4.  Knows
+nothing about Gymnasium, PettingZoo or the coordination methods: the
+environment :mod:`icv_envs.envs.intersection` and the policies in
+:mod:`icv_envs.policies.platoon_expert` / :mod:`icv_envs.policies.fcfs` are
+layers over it.
+
+Geometry (:class:`IntersectionLayout`)
+--------------------------------------
+Coordinates and numbering are those of :mod:`icv_envs.platoon.geometry`:
+origin at the centre, ``x`` east, ``y`` NORTH, legs ``N, E, S, W``, approach
+lanes 0 (next to the centre line) .. 2 (kerb), movements ``3 * leg + turn``.
+Every (movement, approach lane) has a centreline path through the box
+(departure rule ``"same"``: a straight line or an exact quarter circle), held
+analytically (start, direction, end, centre, radius) so that points, headings
+and projections are closed-form and vectorised.  The lane-use table decides
+which (movement, lane) paths exist in the road network; the derived conflict
+model (:func:`icv_envs.platoon.conflicts.conflict_model`) comes with the
+layout.
+
+``box_half`` defaults to 16 m, not the 12 m of three 4 m lanes: a right turn
+from the kerb lane is a quarter circle of radius ``box_half - 2.5 w``, 2 m
+for a 12 m box, which the paper's vehicle (wheelbase 2.8 m, steering within
++-30 deg, minimum turning radius 4.85 m) cannot drive.  With 16 m it is 6 m
+(25 deg of steering); the box is then the usual square with 4 m of rounded
+kerb beyond the lane edges.  The conflict matrix is the same for 12 and
+16 m (checked in the tests) and :func:`~icv_envs.platoon.conflicts.
+required_layer_gap` stays 19 m, so ``D_t = 20 m`` remains valid.
+
+Route coordinates
+-----------------
+Every vehicle has one route: the approach lane of its leg, then the path
+``(movement, lane)`` through the box, then the departure lane.  ``s`` is the
+arc length of the body centre along that route from the stop line (negative
+before it).  ``X = L / 2 - s`` (``L`` the path length) is the distance to the
+centre used for the virtual platoon's *spacing* (the convention of
+:func:`~icv_envs.platoon.conflicts.required_layer_gap`: exact for straight
+movements, the path midpoint counts as the centre of a turn).  ``dist =
+box_half - s`` is the literal distance to the centre along the leg's axis on
+the approach (continued along the path after the stop line); the zones
+(approaching ``dist > R2``, adjusting ``R2 >= dist > R1``, coordinating
+``dist <= R1``) and the *order* of the virtual platoon's nodes use it, so
+that the order of two vehicles in one approach lane is their physical order
+(``X`` can invert it: a right turn's path is 16 m shorter than a straight
+one's, so a right-turner 8 m behind a straight vehicle in the shared middle
+lane has the smaller ``X``).  Vehicles are generated at ``dist = R3``.
+
+Before a vehicle enters the box its path is the one of its *expected* lane
+(``tlane``, set by the coordination layer); the lane it actually enters from
+is locked in ``plane`` when its centre crosses the stop line.
+
+Events, checked every substep: entering the box; leaving it (the exit leg is
+recorded, a wrong one is counted); *clearing* it (whole body out, the
+throughput counts these); removal at ``departure_length`` past the box;
+collisions (exact rectangle test, sweep and prune run twice: along ``x`` for
+the east-west legs and along ``y`` for the north-south legs, the box region
+in both); leaving the drivable surface (the centre more than 0.5 m outside
+the approach lanes of its leg or the departure lanes of its exit) counts as
+a crash; a vehicle driving back out of its approach road is removed as
+``left_road``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from icv_envs.platoon.conflicts import conflict_model
+from icv_envs.platoon.geometry import LEGS, N_LANES, lane_use_table
+from icv_envs.sim.traffic import bicycle_step, find_collisions
+
+__all__ = [
+    "IntersectionLayout",
+    "IntersectionWorld",
+    "Fleet",
+    "RouteState",
+    "StepEvents",
+    "DEFAULT_BOX_HALF",
+    "validate_radii",
+]
+
+#: Default half side of the box (metres), see the module docstring.
+DEFAULT_BOX_HALF: float = 16.0
+
+# outward unit vector of each leg (from the centre towards that leg), as in platoon.geometry
+_OUT = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, -1.0], [-1.0, 0.0]])
+_OFFROAD_MARGIN = 0.5
+
+
+def _right_of(d: np.ndarray) -> np.ndarray:
+    """Unit vector(s) 90 degrees clockwise of ``d`` (the right-hand side)."""
+    d = np.asarray(d, dtype=np.float64)
+    return np.stack([d[..., 1], -d[..., 0]], axis=-1)
+
+
+def _real(name, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(float(value)):
+        raise ValueError(f"{name} must be a finite number (metres), got {value!r}")
+    return float(value)
+
+
+def validate_radii(R1, R2, R3, box_half: float = DEFAULT_BOX_HALF) -> tuple[float, float, float]:
+    """Check the zone radii: ``box_half < R1 < R2 < R3`` (metres).
+
+    Raises:
+        ValueError: naming the radii and the required order.
+    """
+    r1, r2, r3 = _real("R1", R1), _real("R2", R2), _real("R3", R3)
+    b = _real("box_half", box_half)
+    if not (b < r1 < r2 < r3):
+        raise ValueError(
+            f"zone radii must be ordered box_half < R1 < R2 < R3 (coordinating < adjusting < "
+            f"generation radius); got box_half={b:g}, R1={r1:g}, R2={r2:g}, R3={r3:g}"
+        )
+    return r1, r2, r3
+
+
+class IntersectionLayout:
+    """Geometry, lane use, paths and the conflict model of the intersection.
+
+    Args:
+        lane_use: ``"paper"``, ``"exclusive"`` or a table accepted by
+            :func:`~icv_envs.platoon.geometry.lane_use_table`.
+        lane_width: metres (4).
+        box_half: half side of the box (16 m, see the module docstring).
+        R1, R2, R3: coordinating / adjusting zone radii and generation radius
+            (300, 500, 800 m; Table 2).
+        departure_length: metres of departure lane after the box at whose
+            end vehicles leave the simulation.
+        opposing_left_conflict: passed to the conflict model.
+
+    Raises:
+        ValueError: bad lane use (unknown preset, a movement without a lane),
+            radii not ordered, bad lengths.
+    """
+
+    def __init__(self, lane_use="paper", lane_width: float = 4.0, box_half: float = DEFAULT_BOX_HALF,
+                 R1: float = 300.0, R2: float = 500.0, R3: float = 800.0, departure_length: float = 40.0,
+                 opposing_left_conflict: bool = False) -> None:
+        w = _real("lane_width", lane_width)
+        b = _real("box_half", box_half)
+        if w <= 0:
+            raise ValueError(f"lane_width must be > 0 metres, got {lane_width!r}")
+        if b < N_LANES * w:
+            raise ValueError(f"box_half must be >= {N_LANES} * lane_width = {N_LANES * w:g} m, got {box_half!r}")
+        self.R1, self.R2, self.R3 = validate_radii(R1, R2, R3, b)
+        dl = _real("departure_length", departure_length)
+        if dl <= 0:
+            raise ValueError(f"departure_length must be > 0 metres, got {departure_length!r}")
+        self.lane_use_name = lane_use if isinstance(lane_use, str) else "custom"
+        self.lane_use = lane_use_table(lane_use)
+        self.model = conflict_model(lane_use, opposing_left_conflict, lane_width=w, box_half=b)
+        self.conflict = np.asarray(self.model.matrix, dtype=bool)
+        self.lane_width = w
+        self.box_half = b
+        self.departure_length = dl
+        self.out = _OUT.copy()
+        self.app_dir = -_OUT
+        self.app_right = _right_of(self.app_dir)
+        self.dep_right = _right_of(_OUT)
+        self.allowed = np.zeros((12, N_LANES), dtype=bool)
+        for m, lanes in self.lane_use.items():
+            self.allowed[m, list(lanes)] = True
+        self.exit_of = np.array([(m // 3 + 1 + m % 3) % 4 for m in range(12)], dtype=np.int64)
+        self.leg_of = np.arange(12) // 3
+        self.turn_of = np.arange(12) % 3
+        self._build_paths()
+
+    # ------------------------------------------------------------------ paths
+    def _build_paths(self) -> None:
+        w, b = self.lane_width, self.box_half
+        n = 12 * N_LANES
+        self.P0 = np.zeros((n, 2))
+        self.D0 = np.zeros((n, 2))
+        self.P1 = np.zeros((n, 2))
+        self.D1 = np.zeros((n, 2))
+        self.C = np.zeros((n, 2))
+        self.R = np.ones(n)
+        self.TH0 = np.zeros(n)
+        self.SGN = np.zeros(n)
+        self.arc = np.zeros(n, dtype=bool)
+        self.L = np.zeros(n)
+        self.dlane = np.zeros(n, dtype=np.int64)
+        for m in range(12):
+            leg, turn = divmod(m, 3)
+            e = (leg + 1 + turn) % 4
+            for a in range(N_LANES):
+                p = 3 * m + a
+                d0 = self.app_dir[leg]
+                p0 = b * _OUT[leg] + (a + 0.5) * w * _right_of(d0)
+                d1 = _OUT[e]
+                p1 = b * _OUT[e] + (a + 0.5) * w * _right_of(d1)  # departure rule "same"
+                self.P0[p], self.D0[p], self.P1[p], self.D1[p] = p0, d0, p1, d1
+                self.dlane[p] = a
+                if turn == 1:
+                    self.L[p] = float(np.linalg.norm(p1 - p0))
+                    continue
+                r = float(np.dot(p1 - p0, d0))
+                side = _right_of(d0) if turn == 2 else -_right_of(d0)
+                c = p0 + r * side
+                self.arc[p] = True
+                self.C[p] = c
+                self.R[p] = r
+                self.TH0[p] = math.atan2(p0[1] - c[1], p0[0] - c[0])
+                self.SGN[p] = 1.0 if turn == 0 else -1.0  # left turns counter-clockwise
+                self.L[p] = r * math.pi / 2.0
+
+    @staticmethod
+    def path_id(movement, lane):
+        return 3 * np.asarray(movement) + np.asarray(lane)
+
+    def route_points(self, pid, s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Points ``(x, y)`` and headings at route coordinate ``s`` of paths ``pid``.
+
+        Before the stop line the route is the approach lane (straight), after
+        the box the departure lane; vectorised over vehicles.
+        """
+        pid = np.asarray(pid, dtype=np.int64)
+        s = np.asarray(s, dtype=np.float64)
+        L = self.L[pid]
+        after = s > L
+        base = np.where(after[:, None], self.P1[pid], self.P0[pid])
+        dirn = np.where(after[:, None], self.D1[pid], self.D0[pid])
+        t = np.where(after, s - L, s)
+        pts = base + t[:, None] * dirn
+        head = np.arctan2(dirn[:, 1], dirn[:, 0])
+        on_arc = self.arc[pid] & (s >= 0) & ~after
+        if on_arc.any():
+            k = np.flatnonzero(on_arc)
+            q = pid[k]
+            th = self.TH0[q] + self.SGN[q] * s[k] / self.R[q]
+            pts[k, 0] = self.C[q, 0] + self.R[q] * np.cos(th)
+            pts[k, 1] = self.C[q, 1] + self.R[q] * np.sin(th)
+            head[k] = th + self.SGN[q] * (0.5 * math.pi)
+        return pts[:, 0], pts[:, 1], head
+
+    def project(self, pid, cx, cy, phase):
+        """Route coordinate ``s`` and signed offset to the right of the path.
+
+        ``phase`` 0 (approach): along the approach lane line; 1 (in the box):
+        onto the path (angle around the arc centre for turns); 2 (departed):
+        along the departure lane line.
+        """
+        pid = np.asarray(pid, dtype=np.int64)
+        px = cx - self.P0[pid, 0]
+        py = cy - self.P0[pid, 1]
+        d0 = self.D0[pid]
+        s = px * d0[:, 0] + py * d0[:, 1]
+        lat = px * d0[:, 1] - py * d0[:, 0]  # dot with right_of(d0) = (d_y, -d_x)
+        dep = phase == 2
+        if dep.any():
+            k = np.flatnonzero(dep)
+            q = pid[k]
+            qx = cx[k] - self.P1[q, 0]
+            qy = cy[k] - self.P1[q, 1]
+            d1 = self.D1[q]
+            s[k] = self.L[q] + qx * d1[:, 0] + qy * d1[:, 1]
+            lat[k] = qx * d1[:, 1] - qy * d1[:, 0]
+        box = (phase == 1) & self.arc[pid]
+        if box.any():
+            k = np.flatnonzero(box)
+            q = pid[k]
+            qx = cx[k] - self.C[q, 0]
+            qy = cy[k] - self.C[q, 1]
+            ang = np.arctan2(qy, qx) - self.TH0[q]
+            ang = (ang + math.pi) % (2.0 * math.pi) - math.pi
+            s[k] = self.R[q] * ang * self.SGN[q]
+            lat[k] = self.SGN[q] * (np.hypot(qx, qy) - self.R[q])
+        return s, lat
+
+    # ---------------------------------------------------------------- network
+    def to_network(self, approach_extra: float = 20.0):
+        """highway-env :class:`~highway_env.road.road.RoadNetwork` of the intersection.
+
+        In highway-env's screen frame: ``(x, -y)`` of ours (``y`` points
+        SOUTH, so that north is up on screen).  Nodes (each approach lane and
+        each departure lane has its own, so that a turn edge starts only from
+        a lane the lane-use table allows for that movement):
+
+        * ``"{leg}:in{a}"`` -> ``"{leg}:stop{a}"``: approach lane ``a`` from
+          ``R3 + approach_extra`` to the stop line;
+        * ``"{leg}:stop{a}"`` -> ``"{exit}:exit{j}"``: the path of a movement
+          allowed from lane ``a`` (StraightLane or CircularLane);
+        * ``"{exit}:exit{j}"`` -> ``"{exit}:out{j}"``: departure lane ``j``
+          from the box edge, as long as the approach road.
+        """
+        from highway_env.road.lane import CircularLane, LineType, StraightLane
+        from highway_env.road.road import RoadNetwork
+
+        C, S, N, CL = LineType.CONTINUOUS, LineType.STRIPED, LineType.NONE, LineType.CONTINUOUS_LINE
+        w, b = self.lane_width, self.box_half
+        far = self.R3 + approach_extra - b
+
+        def flip(p):
+            return np.array([p[0], -p[1]])
+
+        net = RoadNetwork()
+        for leg in range(4):
+            lg = LEGS[leg]
+            d0 = self.app_dir[leg]
+            for a in range(N_LANES):
+                stop = b * _OUT[leg] + (a + 0.5) * w * self.app_right[leg]
+                start = stop - far * d0
+                lines = (C if a == 0 else S, CL if a == N_LANES - 1 else N)
+                net.add_lane(f"{lg}:in{a}", f"{lg}:stop{a}",
+                             StraightLane(flip(start), flip(stop), width=w, line_types=lines, speed_limit=20.0))
+            for j in range(N_LANES):
+                edge = b * _OUT[leg] + (j + 0.5) * w * self.dep_right[leg]
+                end = edge + far * _OUT[leg]
+                lines = (N if j == 0 else S, CL if j == N_LANES - 1 else N)
+                net.add_lane(f"{lg}:exit{j}", f"{lg}:out{j}",
+                             StraightLane(flip(edge), flip(end), width=w, line_types=lines, speed_limit=20.0))
+        for m in range(12):
+            leg, turn = divmod(m, 3)
+            e = self.exit_of[m]
+            for a in self.lane_use[m]:
+                p = 3 * m + a
+                j = int(self.dlane[p])
+                frm, to = f"{LEGS[leg]}:stop{a}", f"{LEGS[e]}:exit{j}"
+                if not self.arc[p]:
+                    lane = StraightLane(flip(self.P0[p]), flip(self.P1[p]), width=w, line_types=(N, N),
+                                        speed_limit=20.0)
+                else:
+                    sgn = self.SGN[p]
+                    start = -self.TH0[p]
+                    end = start - sgn * 0.5 * math.pi
+                    lane = CircularLane(flip(self.C[p]), float(self.R[p]), start, end, clockwise=bool(sgn < 0),
+                                        width=w, line_types=(N, N), speed_limit=20.0)
+                net.add_lane(frm, to, lane)
+        return net
+
+
+class StepEvents:
+    """What happened during one policy step (vehicle ids)."""
+
+    __slots__ = ("crashed", "removed", "left_road", "cleared", "collision_pairs", "wrong_exit")
+
+    def __init__(self) -> None:
+        self.crashed: set[int] = set()
+        self.removed: set[int] = set()
+        self.left_road: set[int] = set()
+        self.cleared: set[int] = set()
+        self.wrong_exit: set[int] = set()
+        self.collision_pairs: list[tuple[int, int]] = []
+
+
+class Fleet:
+    """Structure-of-arrays vehicle state, rows sorted by ``vid``.
+
+    Fields are declared with :meth:`define` (the coordination layers declare
+    their own per-vehicle memory the same way), so adding and removing
+    vehicles keeps every array aligned.
+    """
+
+    def __init__(self) -> None:
+        self._fields: dict[str, tuple[type, object]] = {}
+        self.next_vid = 0
+        self.vid = np.zeros(0, dtype=np.int64)
+
+    def define(self, name: str, dtype, default) -> None:
+        if name in self._fields:
+            return
+        self._fields[name] = (dtype, default)
+        setattr(self, name, np.full(len(self.vid), default, dtype=dtype))
+
+    @property
+    def n(self) -> int:
+        return len(self.vid)
+
+    def add(self, k: int, **values) -> np.ndarray:
+        ids = np.arange(self.next_vid, self.next_vid + k, dtype=np.int64)
+        self.next_vid += k
+        self.vid = np.concatenate([self.vid, ids])
+        for name, (dtype, default) in self._fields.items():
+            v = np.broadcast_to(np.asarray(values.get(name, default), dtype=dtype), (k,))
+            setattr(self, name, np.concatenate([getattr(self, name), v]))
+        unknown = set(values) - set(self._fields)
+        if unknown:
+            raise ValueError(f"unknown vehicle fields {sorted(unknown)}")
+        return ids
+
+    def remove(self, mask) -> None:
+        keep = ~np.asarray(mask, dtype=bool)
+        self.vid = self.vid[keep]
+        for name in self._fields:
+            setattr(self, name, getattr(self, name)[keep])
+
+    def rows(self, vids) -> np.ndarray:
+        """Rows of ``vids`` (-1 for vehicles not present)."""
+        vids = np.asarray(vids, dtype=np.int64)
+        r = np.searchsorted(self.vid, vids)
+        r = np.minimum(r, max(self.n - 1, 0))
+        ok = (self.n > 0) & (self.vid[r] == vids) if self.n else np.zeros(len(vids), dtype=bool)
+        return np.where(ok, r, -1)
+
+
+class RouteState:
+    """Derived per-vehicle route quantities of the current state (cached)."""
+
+    __slots__ = ("cx", "cy", "u", "lat_leg", "lane", "pid", "s", "lat", "X", "dist", "phase", "L")
+
+    def __init__(self, **kw) -> None:
+        for k, v in kw.items():
+            setattr(self, k, v)
+
+
+class IntersectionWorld:
+    """All vehicles of the intersection, advanced together with array operations.
+
+    Args:
+        layout: an :class:`IntersectionLayout`.
+        dt: simulation step (0.04 s, Table 2).
+        wheelbase: bicycle model wheelbase (2.8 m).
+        v_max: speed limit of the model (20 m/s, Table 2).
+        v_free: free-flow speed used for delays (10 m/s, the virtual
+            leader's desired speed).
+    """
+
+    def __init__(self, layout: IntersectionLayout, dt: float = 0.04, wheelbase: float = 2.8,
+                 v_max: float = 20.0, v_free: float = 10.0) -> None:
+        self.layout = layout
+        self.dt = float(dt)
+        self.wheelbase = float(wheelbase)
+        self.v_max = float(v_max)
+        self.v_free = float(v_free)
+        self.time = 0.0
+        self.step_count = 0
+        f = self.fleet = Fleet()
+        for name in ("x", "y", "heading", "speed", "accel", "steer", "spawn_time", "spawn_s", "enter_time"):
+            f.define(name, np.float64, 0.0)
+        f.define("length", np.float64, 5.0)
+        f.define("width", np.float64, 2.0)
+        for name in ("leg", "mv", "tlane"):
+            f.define(name, np.int64, 0)
+        f.define("plane", np.int64, -1)
+        f.define("exit_leg", np.int64, -1)
+        for name in ("entered", "departed", "cleared", "crashed", "wrong_exit"):
+            f.define(name, bool, False)
+        self._route: RouteState | None = None
+        self.stats = {
+            "vehicle_steps": 0,
+            "speed_sum": 0.0,
+            "abs_accel_sum": 0.0,
+            "collisions": 0,
+            "spawned": 0,
+            "cleared": 0,
+            "removed": 0,
+            "crashed_removed": 0,
+            "left_road": 0,
+            "wrong_exits": 0,
+            "travel_time_sum": 0.0,
+            "delay_sum": 0.0,
+            "min_speed_in_box": math.inf,
+        }
+        self.collision_log: list[tuple[float, int, int]] = []
+
+    # the highway env's code calls the fleet "traffic"
+    @property
+    def traffic(self) -> Fleet:
+        return self.fleet
+
+    # ----------------------------------------------------------------- spawn
+    def spawn(self, leg: int, lane: int, movement: int, speed: float, s: float, tlane: int,
+              length: float = 5.0, width: float = 2.0) -> int:
+        """Add one vehicle on approach ``lane`` of ``leg`` at route coordinate ``s`` (< 0)."""
+        lay = self.layout
+        d0 = lay.app_dir[leg]
+        centre = lay.box_half * _OUT[leg] + (lane + 0.5) * lay.lane_width * lay.app_right[leg] + s * d0
+        h = math.atan2(d0[1], d0[0])
+        rear = centre - 0.5 * self.wheelbase * d0
+        vid = self.fleet.add(1, x=rear[0], y=rear[1], heading=h, speed=speed, leg=leg, mv=movement,
+                             tlane=tlane, spawn_time=self.time, spawn_s=s, length=length, width=width)
+        self.stats["spawned"] += 1
+        self._route = None
+        return int(vid[0])
+
+    # ---------------------------------------------------------------- queries
+    def centers(self) -> tuple[np.ndarray, np.ndarray]:
+        f = self.fleet
+        h = 0.5 * self.wheelbase
+        return f.x + h * np.cos(f.heading), f.y + h * np.sin(f.heading)
+
+    def route(self) -> RouteState:
+        """Route coordinates of the current state (cached until the next change)."""
+        if self._route is not None:
+            return self._route
+        f = self.fleet
+        lay = self.layout
+        cx, cy = self.centers()
+        leg = f.leg
+        ox = lay.box_half * _OUT[leg, 0]
+        oy = lay.box_half * _OUT[leg, 1]
+        d = lay.app_dir[leg]
+        r = lay.app_right[leg]
+        u = (cx - ox) * d[:, 0] + (cy - oy) * d[:, 1]
+        lat_leg = (cx - ox) * r[:, 0] + (cy - oy) * r[:, 1]
+        lane = np.clip(np.floor(lat_leg / lay.lane_width), 0, N_LANES - 1).astype(np.int64)
+        phase = np.where(f.departed, 2, np.where(f.entered, 1, 0))
+        plane = np.where(f.plane >= 0, f.plane, f.tlane)
+        pid = 3 * f.mv + plane
+        s, lat = lay.project(pid, cx, cy, phase)
+        L = lay.L[pid]
+        self._route = RouteState(cx=cx, cy=cy, u=u, lat_leg=lat_leg, lane=lane, pid=pid, s=s, lat=lat,
+                                 X=0.5 * L - s, dist=lay.box_half - s, phase=phase, L=L)
+        return self._route
+
+    def invalidate(self) -> None:
+        self._route = None
+
+    # --------------------------------------------------------------- dynamics
+    def substep(self, accel: np.ndarray, steer: np.ndarray, events: StepEvents) -> None:
+        """One integration step of ``dt`` for all vehicles, then the events of
+        the module docstring."""
+        f = self.fleet
+        lay = self.layout
+        if f.n:
+            a = np.where(f.crashed, -6.0, accel)
+            st = np.where(f.crashed, 0.0, steer)
+            f.x, f.y, f.heading, f.speed = bicycle_step(f.x, f.y, f.heading, f.speed, a, st, self.dt,
+                                                        self.wheelbase, self.v_max)
+            f.accel = np.asarray(a, dtype=np.float64)
+            f.steer = np.asarray(st, dtype=np.float64)
+        self.time += self.dt
+        self.step_count += 1
+        self._route = None
+        if not f.n:
+            return
+        stt = self.stats
+        stt["vehicle_steps"] += f.n
+        stt["speed_sum"] += float(f.speed.sum())
+        stt["abs_accel_sum"] += float(np.abs(f.accel).sum())
+        cx, cy = self.centers()
+        b, w = lay.box_half, lay.lane_width
+        leg = f.leg
+        ox = b * _OUT[leg, 0]
+        oy = b * _OUT[leg, 1]
+        d = lay.app_dir[leg]
+        r = lay.app_right[leg]
+        u = (cx - ox) * d[:, 0] + (cy - oy) * d[:, 1]
+        lat_leg = (cx - ox) * r[:, 0] + (cy - oy) * r[:, 1]
+        crash = np.zeros(f.n, dtype=bool)
+        # entering the box: the centre crosses the stop line
+        newly = ~f.entered & (u >= 0.0)
+        if newly.any():
+            f.entered = f.entered | newly
+            f.plane = np.where(newly, np.clip(np.floor(lat_leg / w), 0, N_LANES - 1).astype(np.int64), f.plane)
+            f.enter_time = np.where(newly, self.time, f.enter_time)
+        appr = ~f.entered
+        crash |= appr & ((lat_leg < -_OFFROAD_MARGIN) | (lat_leg > N_LANES * w + _OFFROAD_MARGIN))
+        # leaving the box square
+        inside = np.maximum(np.abs(cx), np.abs(cy)) <= b
+        newdep = f.entered & ~f.departed & ~inside
+        if newdep.any():
+            k = np.flatnonzero(newdep)
+            proj = cx[k, None] * _OUT[None, :, 0] + cy[k, None] * _OUT[None, :, 1]
+            e = np.argmax(proj, axis=1)
+            f.exit_leg[k] = e
+            f.departed[k] = True
+            wrong = e != lay.exit_of[f.mv[k]]
+            if wrong.any():
+                f.wrong_exit[k[wrong]] = True
+                stt["wrong_exits"] += int(wrong.sum())
+                events.wrong_exit.update(int(v) for v in f.vid[k[wrong]])
+        dep = f.departed
+        removed = np.zeros(f.n, dtype=bool)
+        if dep.any():
+            k = np.flatnonzero(dep)
+            e = f.exit_leg[k]
+            past = cx[k] * _OUT[e, 0] + cy[k] * _OUT[e, 1] - b
+            lat_e = (cx[k] - b * _OUT[e, 0]) * lay.dep_right[e, 0] + (cy[k] - b * _OUT[e, 1]) * lay.dep_right[e, 1]
+            crash[k] |= (lat_e < -_OFFROAD_MARGIN) | (lat_e > N_LANES * w + _OFFROAD_MARGIN)
+            clear_now = ~f.cleared[k] & (past >= 0.5 * f.length[k])
+            if clear_now.any():
+                kc = k[clear_now]
+                f.cleared[kc] = True
+                good = kc[~f.wrong_exit[kc]]
+                stt["cleared"] += len(good)
+                if len(good):
+                    pid = 3 * f.mv[good] + np.maximum(f.plane[good], 0)
+                    dist = -f.spawn_s[good] + lay.L[pid] + 0.5 * f.length[good]
+                    tt = self.time - f.spawn_time[good]
+                    stt["travel_time_sum"] += float(tt.sum())
+                    stt["delay_sum"] += float((tt - dist / self.v_free).sum())
+                events.cleared.update(int(v) for v in f.vid[kc])
+            removed[k] = past >= lay.departure_length
+        in_box = f.entered & ~f.departed
+        if in_box.any():
+            stt["min_speed_in_box"] = min(stt["min_speed_in_box"], float(f.speed[in_box].min()))
+        left = appr & (u < -(lay.R3 - b + 50.0))
+        # collisions
+        i, j = self.collision_pairs(cx, cy)
+        if len(i):
+            crash[i] = True
+            crash[j] = True
+            for a_, b_ in zip(f.vid[i].tolist(), f.vid[j].tolist()):
+                events.collision_pairs.append((a_, b_))
+                self.collision_log.append((round(self.time, 6), a_, b_))
+        new_crash = crash & ~f.crashed
+        if new_crash.any():
+            f.crashed = f.crashed | new_crash
+            events.crashed.update(int(v) for v in f.vid[new_crash])
+            stt["collisions"] += int(new_crash.sum())
+        gone = (removed | left) & ~f.crashed
+        if gone.any():
+            events.removed.update(int(v) for v in f.vid[removed & gone])
+            events.left_road.update(int(v) for v in f.vid[left & gone])
+            stt["removed"] += int((removed & gone).sum())
+            stt["left_road"] += int((left & gone).sum())
+            f.remove(gone)
+
+    def collision_pairs(self, cx=None, cy=None) -> tuple[np.ndarray, np.ndarray]:
+        """Colliding row pairs: sweep and prune along ``x`` over the east-west
+        legs and the box region, along ``y`` over the north-south legs and
+        the box region; exact rectangle tests decide."""
+        f = self.fleet
+        if f.n < 2:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        if cx is None:
+            cx, cy = self.centers()
+        b = self.layout.box_half
+        ax, ay = np.abs(cx), np.abs(cy)
+        near = np.maximum(ax, ay) < b + 10.0
+        out_i, out_j = [], []
+        for sel, swap in ((near | (ax >= ay), False), (near | (ay > ax), True)):
+            rows = np.flatnonzero(sel)
+            if len(rows) < 2:
+                continue
+            if swap:
+                i, j = find_collisions(cy[rows], cx[rows], 0.5 * math.pi - f.heading[rows], f.length[rows],
+                                       f.width[rows])
+            else:
+                i, j = find_collisions(cx[rows], cy[rows], f.heading[rows], f.length[rows], f.width[rows])
+            out_i.append(rows[i])
+            out_j.append(rows[j])
+        if not out_i:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        i = np.concatenate(out_i)
+        j = np.concatenate(out_j)
+        if not len(i):
+            return i, j
+        lo, hi = np.minimum(i, j), np.maximum(i, j)
+        key = np.unique(lo * (f.n + 1) + hi)
+        return key // (f.n + 1), key % (f.n + 1)
+
+    def remove_crashed_vehicles(self) -> np.ndarray:
+        f = self.fleet
+        ids = f.vid[f.crashed]
+        if len(ids):
+            f.remove(f.crashed)
+            self.stats["crashed_removed"] += len(ids)
+            self._route = None
+        return ids
