@@ -1,5 +1,8 @@
-"""Behaviour cloning of the formation expert (with optional DAgger), one
-policy shared by every agent of an icv_envs PettingZoo env.
+"""Behaviour cloning of the env's expert (with optional DAgger), one policy
+shared by every agent of an icv_envs PettingZoo env: the formation expert on
+the highway-formation env (the default), the configured ``method``'s
+controller on the highway-ramps and intersection envs (``--env intersection_v0``;
+``--config '{"method": "fcfs"}'`` clones FCFS instead of ``multi-vp``).
 
 1. Collect ``--expert-steps`` env steps with the expert driving every agent,
    recording each live agent's observation and ``infos[agent]["expert_action"]``.
@@ -9,8 +12,9 @@ policy shared by every agent of an icv_envs PettingZoo env.
    observation with the expert action the env puts in ``infos``, add them to
    the data set, refit. This fixes the covariate shift of plain BC (the
    learner's small errors lead to states the expert never visits).
-4. Each learner rollout scores the fit that drove it (collisions per 1000
-   agent-steps, ties by reward); one more rollout scores the last fit, and
+4. Each learner rollout scores the fit that drove it (failures, i.e.
+   collisions + vehicles that left the road, per 1000 agent-steps, ties by
+   reward); one more rollout scores the last fit, and
    the best fit is saved (``--no-select-best``: the last). Clones vary a lot
    from fit to fit; this keeps a bad last fit from being the result.
 
@@ -24,11 +28,18 @@ losses and the final evaluation (every agent driven by the clone).
     python baselines/bc_expert.py --out runs/bc_expert                 # all five scenarios
     python baselines/bc_expert.py --config '{"scenario": "on-ramp"}' --out runs/bc_onramp
     icv-envs evaluate --env icv_envs/highway_formation-v0 --policy runs/bc_expert --config '{"scenario": "lane-drop"}'
+    python baselines/bc_expert.py --env intersection_v0 --config '{"throughput": 1500, "duration": 60}' \
+        --expert-steps 3000 --dagger-iters 2 --dagger-steps 1500 --out runs/bc_intersection
+    icv-envs evaluate --env intersection_v0 --policy runs/bc_intersection --episodes 5
 
-``--scenarios`` collects episodes from each listed scenario in turn (on top
-of ``--config``), for one clone that covers them all; by default all five
-(free, lane-drop, lane-change, off-ramp, on-ramp), or only the scenario
-``--config`` names. Prints one JSON line
+On the highway-formation env, ``--scenarios`` collects episodes from each
+listed scenario in turn (on top of ``--config``), for one clone that covers
+them all; by default all five (free, lane-drop, lane-change, off-ramp,
+on-ramp), or only the scenario ``--config`` names. The other envs have no
+scenarios: episodes come from ``--config`` alone. On the open roads (ramps,
+intersection) an episode runs until its time is up; env steps without any
+vehicle on the road are not counted in ``--expert-steps`` /
+``--dagger-steps``. Prints one JSON line
 last. Needs ``pip install torch==2.13.0 && pip install stable-baselines3``.
 """
 
@@ -46,7 +57,7 @@ from stable_baselines3 import PPO
 
 import icv_envs  # noqa: F401
 from icv_envs.envs.scenarios import SCENARIOS
-from icv_envs.rl.envs import make_parallel_env, parse_config, resolve_env
+from icv_envs.rl.envs import make_parallel_env, parse_config, resolve_env, step_until_agents
 from icv_envs.rl.evaluate import evaluate
 from icv_envs.rl.models import platform_info, write_run_json
 from icv_envs.rl.vec_env import ParallelVecEnv
@@ -61,9 +72,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--env", "--env-id", dest="env", default="icv_envs/highway_formation-v0",
                    help="PettingZoo id or module name (icv_envs/highway_formation-v0, highway_formation_v0)")
     p.add_argument("--config", default=None, help="env config: a JSON object or a .json file")
-    p.add_argument("--scenarios", default=None, help="comma-separated scenarios to collect from in turn, on top "
-                   "of --config, or 'config' for --config alone (default: all five, or only the --config scenario "
-                   f"if it names one); allowed: {', '.join(sorted(SCENARIOS))}")
+    p.add_argument("--scenarios", default=None, help="highway-formation env: comma-separated scenarios to collect "
+                   "from in turn, on top of --config, or 'config' for --config alone (default: all five, or only the "
+                   f"--config scenario if it names one); allowed: {', '.join(sorted(SCENARIOS))}. Other envs: 'config' "
+                   "(the default)")
     p.add_argument("--expert-steps", type=int, default=6000, help="env steps with the expert driving")
     p.add_argument("--dagger-iters", type=int, default=6, help="DAgger iterations (0: plain BC)")
     p.add_argument("--dagger-steps", type=int, default=3000, help="env steps of learner rollouts per iteration")
@@ -73,7 +85,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--net-arch", default="256,256", help="hidden sizes of the MLP")
     p.add_argument("--log-std", type=float, default=-2.0, help="log std of the saved Gaussian policy")
     p.add_argument("--no-select-best", dest="select_best", action="store_false",
-                   help="save the last fit instead of the fit with the fewest collisions in its learner rollout")
+                   help="save the last fit instead of the fit with the fewest failures (collisions + left road) "
+                        "in its learner rollout")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="runs/bc_expert", help="output directory (model.zip, run.json)")
     p.add_argument("--eval-episodes", type=int, default=3, help="final evaluation episodes (0: skip)")
@@ -93,9 +106,13 @@ def parse_args(argv=None) -> argparse.Namespace:
         p.error(str(exc))
     if args.spec.kind != "pettingzoo":
         p.error(f"--env {args.env!r} is a Gymnasium env; behaviour cloning runs on the PettingZoo env")
+    has_scenarios = args.spec.family == "highway_formation"
     if args.scenarios is None:
-        args.scenarios = "config" if "scenario" in args.config_dict else ",".join(ALL_SCENARIOS)
+        args.scenarios = "config" if "scenario" in args.config_dict or not has_scenarios else ",".join(ALL_SCENARIOS)
     args.scenario_list = [s.strip() for s in args.scenarios.split(",") if s.strip() and s.strip() != "config"]
+    if args.scenario_list and not has_scenarios:
+        p.error(f"--scenarios {args.scenarios!r}: env {args.spec.id!r} has no scenarios; allowed there: 'config' "
+                f"(collect from --config alone)")
     bad = [s for s in args.scenario_list if s not in SCENARIOS]
     if bad:
         p.error(f"unknown scenarios {bad}; allowed: {', '.join(sorted(SCENARIOS))}")
@@ -108,11 +125,17 @@ def collect(envs, n_steps: int, seed: int, policy=None) -> tuple[np.ndarray, np.
     drives; otherwise ``policy(obs_batch) -> actions`` drives every agent.
     Returns observations, the expert's actions for them, and rollout stats."""
     X, Y = [], []
-    steps, episodes, ret, collisions = 0, 0, 0.0, 0
+    steps, episodes, ret, collisions, left_road = 0, 0, 0.0, 0, 0
     while steps < n_steps:
         env = envs[episodes % len(envs)]
         obs, infos = env.reset(seed=seed + episodes)
-        while env.agents and steps < n_steps:
+        while steps < n_steps:
+            if not env.agents:  # open road: step through the time without vehicles, or stop at the episode's end
+                skipped = step_until_agents(env)
+                if skipped:
+                    obs, infos = skipped[-1][0], skipped[-1][4]
+                if not env.agents:
+                    break
             agents = list(env.agents)
             o = np.stack([obs[a] for a in agents])
             expert = np.stack([infos[a]["expert_action"] for a in agents]).astype(np.float32)
@@ -122,12 +145,16 @@ def collect(envs, n_steps: int, seed: int, policy=None) -> tuple[np.ndarray, np.
             obs, rew, term, trunc, infos = env.step({a: acts[i] for i, a in enumerate(agents)})
             ret += float(sum(rew.values()))
             steps += 1
-        collisions += env.metrics()["collisions"]
+        m = env.metrics()
+        collisions += int(m["collisions"])
+        left_road += int(m.get("left_road", 0))
         episodes += 1
     samples = int(sum(len(x) for x in X))
     stats = {"env_steps": steps, "episodes": episodes, "samples": samples,
              "return_per_episode": ret / episodes, "reward_per_agent_step": ret / max(samples, 1),
-             "collisions": int(collisions), "collisions_per_1000_agent_steps": 1000.0 * collisions / max(samples, 1)}
+             "collisions": int(collisions), "collisions_per_1000_agent_steps": 1000.0 * collisions / max(samples, 1),
+             "left_road": int(left_road),
+             "failures_per_1000_agent_steps": 1000.0 * (collisions + left_road) / max(samples, 1)}
     return np.concatenate(X), np.clip(np.concatenate(Y), -1.0, 1.0), stats
 
 
@@ -196,15 +223,15 @@ def main(argv=None) -> int:
                 "fit": fit(policy, X, Y, args.epochs, args.batch_size, args.lr, rng)}]
 
     # 4. DAgger: learner drives, the expert labels, aggregate, refit. Each
-    #    learner rollout also scores the fit that drove it (collisions per
-    #    1000 agent-steps, then reward per agent-step); a last rollout scores
+    #    learner rollout also scores the fit that drove it (collisions + left
+    #    road per 1000 agent-steps, then reward per agent-step); a last rollout scores
     #    the last fit, and the best-scoring fit is saved (--no-select-best: the last).
     snapshots = [{k: v.clone() for k, v in policy.state_dict().items()}]
     scores = []
     n_iters = args.dagger_iters if args.dagger_steps > 0 else 0
     for it in range(1, n_iters + 2 if args.select_best and n_iters else n_iters + 1):
         Xn, Yn, stats = collect(envs, args.dagger_steps, seed=args.seed * 100_000 + 10_000 * it, policy=learner)
-        scores.append((stats["collisions_per_1000_agent_steps"], -stats["reward_per_agent_step"]))
+        scores.append((stats["failures_per_1000_agent_steps"], -stats["reward_per_agent_step"]))
         if it > n_iters:  # the scoring rollout of the last fit
             history[-1]["score_rollout"] = stats
             break

@@ -13,6 +13,14 @@ slot-steps (agent-steps, placeholders of absent agents included).
     python baselines/ppo_shared.py --total-timesteps 500000 --seed 0 --out runs/ppo_shared
     python baselines/ppo_shared.py --env highway_formation_v0 --config '{"scenario": "on-ramp"}' --out runs/ppo_onramp
     icv-envs evaluate --env icv_envs/highway_formation-v0 --policy runs/ppo_shared --episodes 5
+    python baselines/ppo_shared.py --env intersection_v0 --config '{"throughput": 1500, "duration": 60}' \
+        --out runs/ppo_int
+
+On the intersection (and highway-ramps) env every possible arrival of the
+episode is a slot (143 for 60 s at 1500 veh/h): most slots are
+placeholders at any time (``train.placeholder_fraction`` in run.json), so
+use short ``duration`` configs; env steps with no vehicle on the road are
+skipped inside the adapter (``train.empty_env_steps``).
 
 Writes ``OUT/model.zip`` (``PPO.load``) and ``OUT/run.json`` (args, env id,
 module and config, training stats, final evaluation with every agent driven
@@ -107,6 +115,7 @@ def main(argv=None) -> int:
         "wall_seconds": wall,
         "slot_steps_per_second": model.num_timesteps / wall,
         "placeholder_fraction": venv.placeholder_fraction,  # share of slot-steps of absent agents
+        "empty_env_steps": venv.empty_env_steps,  # open roads: env steps without any agent, skipped
         "agent_episodes_in_buffer": len(eps),
         "ep_rew_mean": float(np.mean([e["r"] for e in eps])) if eps else None,
         "ep_len_mean": float(np.mean([e["l"] for e in eps])) if eps else None,

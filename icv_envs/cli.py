@@ -10,7 +10,7 @@
     icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
-    icv-envs evaluate --env ID --policy expert|zero|random|PATH --episodes N --seed S [--out DIR]
+    icv-envs evaluate --env ID --policy expert|idm|lane-lp|single-vp|fcfs|zero|random|PATH --episodes N --seed S [--out DIR]
     icv-envs list
 
 Every command prints one JSON line last (metrics or benchmark results).

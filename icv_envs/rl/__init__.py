@@ -6,8 +6,11 @@
 * :mod:`icv_envs.rl.envs`: resolve env ids / module names, build envs.
 * :mod:`icv_envs.rl.models`: the model format of the ``baselines/`` scripts
   (SB3 ``model.zip`` + ``run.json``) and its loader.
-* :func:`icv_envs.rl.evaluate.evaluate`: run ``expert``, ``zero``,
-  ``random`` or a saved model on the scenarios and report the env's metrics.
+* :func:`icv_envs.rl.evaluate.evaluate`: run ``expert``, a reference method
+  (``idm``, ``lane-lp`` on the highway-ramps env; ``single-vp``, ``fcfs`` on
+  the intersection), ``zero``, ``random`` or a saved model on the same
+  scenarios and report the env's metrics (one table for learned and
+  scripted policies).
 * :func:`icv_envs.rl.bench.bench_train`: env steps per second, alone and
   inside SB3 PPO training, against highway-env's ``highway-fast-v0``.
 

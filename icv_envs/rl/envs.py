@@ -10,7 +10,17 @@ Accepted names:
   ``highway_formation_v0``, ``icv_envs.highway_formation_v0``,
   ``icv_envs.envs.highway_formation_v0``: every ICV an agent.
 
-Anything else raises ``ValueError`` listing the known names.
+Anything else raises ``ValueError`` listing the known names. The three env
+families (:func:`env_family`) are ``highway_formation``
+(``icv_envs/HighwayFormation-v0``, ``icv_envs/highway_formation-v0``,
+``highway_formation_v0``), ``highway_ramps`` (``icv_envs/HighwayRamps-v0``,
+``icv_envs/highway_ramps-v0``, ``highway_ramps_v0``) and ``intersection``
+(``icv_envs/Intersection-v0``, ``icv_envs/intersection-v0``,
+``intersection_v0``).
+
+:func:`episode_finished` says when a PettingZoo episode of these envs is
+over: on the open roads (ramps, intersection) vehicles keep arriving, so an
+empty ``agents`` list alone does not end it; the time limit does.
 """
 
 from __future__ import annotations
@@ -22,7 +32,8 @@ from pathlib import Path
 
 import icv_envs
 
-__all__ = ["EnvSpec", "resolve_env", "known_envs", "make_gym_env", "make_parallel_env", "parse_config"]
+__all__ = ["EnvSpec", "resolve_env", "known_envs", "make_gym_env", "make_parallel_env", "parse_config",
+           "env_family", "episode_finished", "step_until_agents"]
 
 
 @dataclass(frozen=True)
@@ -34,6 +45,22 @@ class EnvSpec:
     @property
     def is_multi_agent(self) -> bool:
         return self.kind == "pettingzoo"
+
+    @property
+    def family(self) -> str:
+        """``highway_formation``, ``highway_ramps`` or ``intersection``."""
+        return env_family(self)
+
+
+def env_family(spec) -> str:
+    """The env family of a name or :class:`EnvSpec`: the core module's name,
+    ``highway_formation``, ``highway_ramps`` or ``intersection``."""
+    spec = resolve_env(spec)
+    if spec.kind == "gym":
+        module = icv_envs.GYM_IDS[spec.id].split(":", 1)[0]
+        return module.rsplit(".", 1)[-1]
+    short = spec.module.rsplit(".", 1)[-1]
+    return short[:-3] if short.endswith("_v0") else short
 
 
 def known_envs() -> list[str]:
@@ -78,6 +105,36 @@ def make_parallel_env(spec: EnvSpec | str, config: dict | None = None, render_mo
                          f"{', '.join(sorted(icv_envs.PETTINGZOO_IDS))}")
     module = importlib.import_module(spec.module)
     return module.parallel_env(render_mode=render_mode, **dict(config or {}))
+
+
+def episode_finished(env) -> bool:
+    """Whether the episode of a PettingZoo env of this package is over: live
+    agents remain -> no; the time is up (``env.episode_over``) -> yes; no live
+    agents -> yes unless more vehicles are still due (scheduled ``spawns`` of
+    the highway-formation env; on the open roads, ramps and intersection,
+    arrivals keep coming until the time is up). Envs without ``episode_over``
+    end when ``agents`` is empty."""
+    if env.agents:
+        return False
+    over = getattr(env, "episode_over", None)
+    if over is None or over:
+        return True
+    core = getattr(env, "core", None)
+    pending = getattr(core, "_pending_spawns", None)
+    if pending is not None:  # highway formation: a closed road with scheduled spawns
+        return not pending
+    return False
+
+
+def step_until_agents(env) -> list[tuple]:
+    """While ``env`` has no live agents and its episode is not over
+    (:func:`episode_finished`), advance it with ``step({})``. Returns the
+    step results ``(obs, rewards, terms, truncs, infos)`` of those steps (the
+    last holds the observations of the agents that appeared)."""
+    results = []
+    while not env.agents and not episode_finished(env):
+        results.append(env.step({}))
+    return results
 
 
 def parse_config(text) -> dict:

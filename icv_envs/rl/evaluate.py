@@ -3,36 +3,65 @@
     evaluate(env, policy, episodes=5, seed=0, config=None, out=None) -> dict
     python -m icv_envs.rl.evaluate --env ID --policy P --episodes N --seed S [--config JSON] [--out DIR]
 
-``policy`` is ``"expert"`` (the formation expert's ``infos[agent]["expert_action"]``),
-``"zero"`` (coast straight), ``"random"`` (uniform, seeded) or the path of a
-model written by ``baselines/ppo_single.py``, ``ppo_shared.py`` or
-``bc_expert.py`` (its directory or its ``model.zip``).
+``policy`` is one of
+
+* ``"expert"``: the env's expert, ``infos[agent]["expert_action"]``, under the
+  env's default method (highway formation: the formation expert; highway
+  ramps: ``formation``; intersection: ``multi-vp``), or under the ``method``
+  an explicit ``config`` names;
+* a reference method, which sets the env's config ``method`` and drives with
+  that method's controller (the ``expert_action`` in the infos):
+  ``idm`` and ``lane-lp`` on the highway-ramps env (``formation`` is its
+  expert), ``single-vp`` and ``fcfs`` on the intersection env (``multi-vp``
+  is its expert). A reference on an env that does not have it, or a
+  ``config`` naming another ``method``, raises ``ValueError``
+  (:data:`REFERENCE_POLICIES`);
+* ``"zero"`` (coast straight), ``"random"`` (uniform, seeded);
+* the path of a model written by ``baselines/ppo_single.py``,
+  ``ppo_shared.py`` or ``bc_expert.py`` (its directory or its ``model.zip``).
 
 The env decides how the policy drives:
 
-* a PettingZoo env (``icv_envs/highway_formation-v0``, ``highway_formation_v0``):
-  every agent is driven by the policy (``mode: "all-agents"``); the natural
-  place for the multi-agent models (``ppo_shared``, ``bc_expert``);
-* a Gymnasium id (``icv_envs/HighwayFormation-v0``): the policy drives the ego
-  and the formation expert drives every other ICV (``mode: "ego"``); the
-  natural place for ``ppo_single`` models.
+* a PettingZoo env (``icv_envs/highway_formation-v0``, ``highway_formation_v0``,
+  ``icv_envs/highway_ramps-v0``, ``icv_envs/intersection-v0``,
+  ``intersection_v0``, ...): every agent is driven by the policy
+  (``mode: "all-agents"``); the natural place for the multi-agent models
+  (``ppo_shared``, ``bc_expert``). The episode runs until its time is up
+  (on the open roads vehicles keep arriving, so ``agents`` can be empty for
+  a while: the env is then stepped with no actions), or on the
+  highway-formation env until no agent is left and none is due;
+* a Gymnasium id (``icv_envs/HighwayFormation-v0``, ``icv_envs/HighwayRamps-v0``,
+  ``icv_envs/Intersection-v0``): the policy drives the ego and the env's
+  expert drives every other vehicle (``mode: "ego"``); the natural place for
+  ``ppo_single`` models.
 
-Both envs have the same per-agent spaces, so any model runs in either mode
-(cross-evaluation); the result records the model's ``algo`` and training env.
-A model whose spaces differ from the env's raises ``ValueError`` naming both.
+The Gymnasium and PettingZoo forms of one env have the same per-agent spaces,
+so any model runs in either mode (cross-evaluation); the result records the
+model's ``algo`` and training env. A model whose spaces differ from the
+env's (e.g. a highway model, observation ``(8, 13)``, on the intersection,
+``(8, 14)``) raises ``ValueError`` naming both.
 
 Episode ``k`` (0-based) is reset with seed ``seed + k``. With ``config=None``
 a saved model's training config (from its ``run.json``) is used, otherwise
 the env's defaults; an explicit ``config`` replaces it (use ``scenario`` to
 pick one of free, lane-drop, lane-change, off-ramp, on-ramp).
 
-Returned metrics (definitions in :mod:`icv_envs.experiments.metrics`), over
-all episodes: ``collisions``, ``exited``, ``left_road``, ``vehicles`` summed;
-``mean_speed``, ``speed_fluctuation``, ``sim_seconds`` averaged; ``min_gap`` the
-smallest; ``episode_return`` the mean over episodes of the summed reward of
+Returned metrics (definitions in :mod:`icv_envs.experiments.metrics` and the
+env modules), over all episodes: ``collisions``, ``exited``, ``left_road``,
+``vehicles`` (highway envs) summed; ``mean_speed``, ``speed_fluctuation``, ``sim_seconds``
+averaged; ``min_gap`` the smallest (None on the intersection, which does not
+report it); ``episode_return`` the mean over episodes of the summed reward of
 all agents (``all-agents``) or of the ego (``ego``), with
 ``episode_return_std``; ``episode_length`` the mean number of policy steps;
-and ``per_episode``, the env's metrics of each episode.
+the env-specific metrics where the env reports them: ``lost``, ``spawned``,
+``remaining``, ``queued``, ``not_spawned``, ``crashed_removed``,
+``missed_exits``, ``wrong_exits``, ``cleared`` summed (``lost`` is a
+bookkeeping check that must be 0), ``achieved_throughput`` (veh/h) averaged,
+``mean_delay`` and ``mean_travel_time`` averaged over the episodes where a
+vehicle cleared the box (None if none did); ``method``, the method whose
+controller ``expert_action`` is (None on the highway-formation env, whose
+expert is the formation expert); and ``per_episode``, the env's metrics of
+each episode.
 """
 
 from __future__ import annotations
@@ -45,12 +74,50 @@ from pathlib import Path
 
 import numpy as np
 
-from icv_envs.rl.envs import EnvSpec, make_gym_env, make_parallel_env, parse_config, resolve_env
+from icv_envs.rl.envs import (EnvSpec, episode_finished, make_gym_env, make_parallel_env, parse_config,
+                              resolve_env)
 from icv_envs.rl.models import json_safe
 
-__all__ = ["evaluate", "main", "build_parser", "add_arguments", "run", "NAMED_POLICIES"]
+__all__ = ["evaluate", "main", "build_parser", "add_arguments", "run", "NAMED_POLICIES", "REFERENCE_POLICIES",
+           "EXPERT_METHODS", "policy_names"]
 
 NAMED_POLICIES = ("expert", "zero", "random")
+# env family -> the reference methods that can be named as a policy (each sets config["method"])
+REFERENCE_POLICIES = {
+    "highway_formation": (),
+    "highway_ramps": ("formation", "lane-lp", "idm"),
+    "intersection": ("multi-vp", "single-vp", "fcfs"),
+}
+# env family -> the method "expert" stands for (None: the env has no method key)
+EXPERT_METHODS = {"highway_formation": None, "highway_ramps": "formation", "intersection": "multi-vp"}
+_ALL_REFERENCES = tuple(dict.fromkeys(m for ms in REFERENCE_POLICIES.values() for m in ms))
+_SUM_KEYS = ("lost", "spawned", "cleared", "remaining", "queued", "not_spawned", "crashed_removed", "missed_exits",
+             "wrong_exits")
+_MEAN_KEYS = ("achieved_throughput", "mean_delay", "mean_travel_time")
+
+
+def policy_names(env) -> list[str]:
+    """The named policies ``env`` accepts (a model path is accepted too)."""
+    return list(NAMED_POLICIES) + list(REFERENCE_POLICIES[resolve_env(env).family])
+
+
+def _reference_config(spec: EnvSpec, name: str, config: dict) -> dict:
+    """``config`` with ``method`` set for a reference policy name; ``ValueError``
+    for a reference the env does not have, or a conflicting ``method``."""
+    family = spec.family
+    allowed = REFERENCE_POLICIES[family]
+    if name not in allowed:
+        where = [f for f, ms in REFERENCE_POLICIES.items() if name in ms]
+        refs = ", ".join(allowed) if allowed else "none (its expert is the formation expert)"
+        raise ValueError(
+            f"policy {name!r} is a reference method of the {' / '.join(where)} env, not of env {spec.id!r} "
+            f"({family}); allowed policies there: {', '.join(NAMED_POLICIES)}, reference methods: {refs}, "
+            f"or a model path"
+        )
+    if config.get("method", name) != name:
+        raise ValueError(f"policy {name!r} sets config method {name!r}, but config has method "
+                         f"{config['method']!r}; drop the config key or use policy 'expert'")
+    return dict(config, method=name)
 
 
 def _check_int(name, v, lo):
@@ -61,10 +128,11 @@ def _check_int(name, v, lo):
 
 def _load_policy(policy):
     """``(name, LoadedModel | None)``."""
-    if isinstance(policy, str) and policy in NAMED_POLICIES:
+    if isinstance(policy, str) and (policy in NAMED_POLICIES or policy in _ALL_REFERENCES):
         return policy, None
     if not isinstance(policy, (str, Path)) or str(policy) == "":
-        raise ValueError(f"policy {policy!r} is invalid; allowed: {', '.join(NAMED_POLICIES)} or a model path")
+        raise ValueError(f"policy {policy!r} is invalid; allowed: {', '.join(NAMED_POLICIES + _ALL_REFERENCES)} "
+                         f"(the reference methods on their envs) or a model path")
     from icv_envs.rl.models import load_model
 
     return str(policy), load_model(policy)
@@ -83,6 +151,9 @@ def evaluate(env_id_or_module, policy, episodes: int = 5, seed: int = 0, config:
     name, model = _load_policy(policy)
     if config is None:
         config = dict(model.meta.get("config") or {}) if model is not None else {}
+    config = dict(config)
+    if name in _ALL_REFERENCES:
+        config = _reference_config(spec, name, config)
     t0 = time.perf_counter()
     if spec.kind == "pettingzoo":
         per_episode = _run_parallel(spec, name, model, episodes, seed, config, deterministic)
@@ -95,6 +166,7 @@ def evaluate(env_id_or_module, policy, episodes: int = 5, seed: int = 0, config:
         "mode": "all-agents" if spec.kind == "pettingzoo" else "ego",
         "policy": name,
         "algo": model.algo if model is not None else name,
+        "method": per_episode[0].get("method", EXPERT_METHODS[spec.family]) if per_episode else None,
         "trained_on": (model.meta.get("env") if model is not None else None),
         "episodes": episodes,
         "seed": seed,
@@ -123,9 +195,11 @@ def _run_parallel(spec: EnvSpec, name, model, episodes, seed, config, determinis
         for ep in range(episodes):
             obs, infos = env.reset(seed=seed + ep)
             total, steps = 0.0, 0
-            while env.agents:
+            while not episode_finished(env):
                 agents = list(env.agents)
-                if name == "expert":
+                if not agents:  # open road: nobody on it now, more vehicles due
+                    actions = {}
+                elif name == "expert" or name in _ALL_REFERENCES:
                     if all("expert_action" in infos.get(a, {}) for a in agents):
                         actions = {a: infos[a]["expert_action"] for a in agents}
                     else:
@@ -162,7 +236,7 @@ def _run_gym(spec: EnvSpec, name, model, episodes, seed, config, deterministic) 
             obs, info = env.reset(seed=seed + ep)
             total, steps, done = 0.0, 0, False
             while not done:
-                if name == "expert":
+                if name == "expert" or name in _ALL_REFERENCES:
                     action = info.get("expert_action")
                     if action is None:
                         action = np.zeros(space.shape, dtype=np.float32)
@@ -197,12 +271,18 @@ def _aggregate(rows: list[dict]) -> dict:
         "min_gap": float(min(gaps)) if gaps else None,
         "exited": int(sum(col("exited"))),
         "left_road": int(sum(col("left_road"))),
-        "vehicles": int(sum(col("vehicles"))),
         "episode_return": float(ret.mean()),
         "episode_return_std": float(ret.std()),
         "episode_length": float(np.mean(col("episode_length"))),
         "sim_seconds": float(np.mean(col("sim_seconds"))),
     }
+    for k in ("vehicles",) + _SUM_KEYS:  # where the env reports them
+        if any(k in r for r in rows):
+            res[k] = int(sum(col(k)))
+    for k in _MEAN_KEYS:
+        if any(k in r for r in rows):
+            vals = col(k)
+            res[k] = float(np.mean(vals)) if vals else None
     return res
 
 
@@ -211,9 +291,11 @@ def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     """The ``evaluate`` arguments (for wiring as ``icv-envs evaluate``)."""
     p.add_argument("--env", required=True,
                    help="Gymnasium id (ego mode) or PettingZoo id / module (all agents), e.g. "
-                        "icv_envs/HighwayFormation-v0, icv_envs/highway_formation-v0, highway_formation_v0")
+                        "icv_envs/HighwayFormation-v0, icv_envs/highway_formation-v0, highway_formation_v0, "
+                        "highway_ramps_v0, icv_envs/intersection-v0, intersection_v0")
     p.add_argument("--policy", default="expert",
-                   help="expert, zero, random, or a model directory / model.zip from baselines/")
+                   help="expert, zero, random, a reference method (idm, lane-lp on the highway-ramps env; "
+                        "single-vp, fcfs on the intersection env), or a model directory / model.zip from baselines/")
     p.add_argument("--episodes", type=int, default=5)
     p.add_argument("--seed", type=int, default=0, help="episode k is reset with seed + k")
     p.add_argument("--config", default=None,

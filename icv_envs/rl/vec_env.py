@@ -69,9 +69,21 @@ previous observation is used as ``terminal_observation`` and
 zero observation would bootstrap from the placeholder value, not from the
 agent's state.
 
+Open roads
+----------
+On the highway-ramps and intersection envs vehicles keep arriving until the
+time is up, so ``env.agents`` can be empty in mid-episode (all vehicles have
+left, the next ones are not due yet). The adapter then steps that copy with
+no actions (``env.step({})``) inside the same VecEnv step until an agent
+appears or the episode is over (:func:`icv_envs.rl.envs.episode_finished`):
+no VecEnv step is spent on a copy without agents, and an agent appearing
+during those steps starts its slot's episode as any spawn does. Those env
+steps are counted in :attr:`ParallelVecEnv.empty_env_steps`.
+
 Episode end and seeding
 -----------------------
-When a copy has no agents left (``env.agents`` empty) it is reset at once and
+When a copy's episode is over (:func:`icv_envs.rl.envs.episode_finished`: no
+agents left and, on the open roads, the time is up) it is reset at once and
 the slots get the new episode's first observations (the terminal ones are in
 ``terminal_observation``, as with SB3's ``DummyVecEnv``). Episode ``e`` of copy
 ``c`` is reset with seed ``base_seed + c + n_copies * e`` (all distinct);
@@ -90,6 +102,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
+
+from icv_envs.rl.envs import episode_finished
 
 __all__ = ["ParallelVecEnv"]
 
@@ -141,6 +155,7 @@ class ParallelVecEnv(VecEnv):
         self._restart_episodes = True
         self.slot_steps = 0  # slot-steps stepped so far
         self.placeholder_steps = 0  # of which placeholders (inactive slots)
+        self.empty_env_steps = 0  # env steps of copies without agents (open roads), taken inside VecEnv steps
 
     @property
     def placeholder_fraction(self) -> float:
@@ -195,6 +210,26 @@ class ParallelVecEnv(VecEnv):
         self._ret[base:base + self.n_agents] = 0.0
         self._len[base:base + self.n_agents] = 0
         self._t_start[base:base + self.n_agents] = now
+        self._advance_empty(c)
+        if not env.agents:
+            raise ValueError("an episode of the env has no agents at all; the adapter needs at least one")
+
+    def _advance_empty(self, c: int) -> None:
+        """Step copy ``c`` with no actions while it has no live agents and its
+        episode goes on (open roads); agents appearing get their slots."""
+        env = self.envs[c]
+        while not env.agents and not episode_finished(env):
+            obs, _rew, _term, _trunc, infos = env.step({})
+            self.empty_env_steps += 1
+            now = time.perf_counter()
+            for a in env.agents:  # appeared during this step and still live
+                i = self.slot(c, a)
+                self._obs[i] = obs[a]
+                self.active[i] = True
+                self._ret[i] = 0.0
+                self._len[i] = 0
+                self._t_start[i] = now
+                self.reset_infos[i] = dict(infos.get(a, {}))
 
     def reset(self) -> VecEnvObs:
         """Reset every copy (seeded, see :meth:`seed`) and return the first
@@ -284,7 +319,9 @@ class ParallelVecEnv(VecEnv):
                         info["spawned"] = True
                     else:
                         self._obs[i] = self._zero_obs
-            if not env.agents:  # the episode of this copy is over: start the next one
+            if not env.agents:  # open road: skip the time without agents (may end the episode)
+                self._advance_empty(c)
+            if episode_finished(env):  # the episode of this copy is over: start the next one
                 self._episode[c] += 1
                 self._reset_copy(c)
                 for k in range(self.n_agents):
