@@ -42,10 +42,10 @@ def trained(scripts, tmp_path_factory):
     cfg = json.dumps(SHORT)
     out = {n: root / n for n in scripts}
     assert scripts["ppo_single"].main(
-        ["--total-timesteps", "256", "--n-steps", "128", "--batch-size", "64", "--n-epochs", "1",
+        ["--total-timesteps", "3072", "--n-steps", "512", "--batch-size", "128", "--n-epochs", "1",
          "--config", cfg, "--seed", "1", "--out", str(out["ppo_single"]), "--eval-episodes", "1"]) == 0
     assert scripts["ppo_shared"].main(
-        ["--total-timesteps", "512", "--n-steps", "32", "--batch-size", "128", "--n-epochs", "1",
+        ["--total-timesteps", "4096", "--n-steps", "64", "--batch-size", "128", "--n-epochs", "1",
          "--config", cfg, "--seed", "1", "--out", str(out["ppo_shared"]), "--eval-episodes", "1"]) == 0
     assert scripts["bc_expert"].main(
         ["--expert-steps", "60", "--dagger-iters", "1", "--dagger-steps", "20", "--epochs", "2",
