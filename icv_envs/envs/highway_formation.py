@@ -15,11 +15,9 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
-from highway_env.envs.common.abstract import AbstractEnv
 
+from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
@@ -93,22 +91,22 @@ def _num(config: dict, key: str, lo=None, hi=None, *, lo_open=False, integer=Fal
     return int(v) if integer else float(v)
 
 
-class HighwayFormationEnv(AbstractEnv):
+class HighwayFormationEnv(IcvAgentsEnv):
     """Multi-lane formation control of ICVs on a straight highway.
 
     See :mod:`icv_envs.envs.highway_formation_v0` for the full documentation.
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
     MIN_VEHICLES = 1
+    OBS_FEATURES = OBS_FEATURES
 
-    def __init__(self, config: dict | None = None, render_mode: str | None = None) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode={render_mode!r} is invalid; allowed: {self.metadata['render_modes']} or None")
-        self.world: World | None = None
-        self.expert: FormationExpert | None = None
-        self._ma_mode = False
-        super().__init__(config, render_mode)
+    def _vehicles(self):
+        return self.world.traffic
+
+    def _make_viewer(self):
+        from icv_envs.envs.rendering import FormationViewer
+
+        return FormationViewer(self)
 
     # ------------------------------------------------------------------ config
     @classmethod
@@ -408,16 +406,6 @@ class HighwayFormationEnv(AbstractEnv):
         return new
 
     # ------------------------------------------------------------------ spaces
-    def define_spaces(self) -> None:
-        c = self.config
-        V = int(c["observation"]["vehicles_count"])
-        self.observation_space = spaces.Box(-1.0, 1.0, (V, len(OBS_FEATURES)), dtype=np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
-        self.observation_type = _ObservationStub(self)
-        self.action_type = None
-
-    def state_space_for(self, n_slots: int) -> spaces.Box:
-        return spaces.Box(-1.0, 1.0, (n_slots, len(STATE_FEATURES)), dtype=np.float32)
 
     # ------------------------------------------------------------ observations
     def _features(self) -> np.ndarray:
@@ -614,50 +602,6 @@ class HighwayFormationEnv(AbstractEnv):
             infos[a] = info
         return infos
 
-    def ma_step(self, actions: dict) -> tuple[dict, dict, dict, dict, dict]:
-        """Multi-agent step: ``actions`` maps live agent names to actions."""
-        c = self.config
-        w = self.world
-        tr = w.traffic
-        live = [f"icv_{v}" for v in tr.vid]
-        live_set = set(live)
-        if not isinstance(actions, dict):
-            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
-        unknown = [a for a in actions if a not in live_set]
-        if unknown:
-            raise ValueError(f"actions for agents that are not live: {unknown[:5]}; live agents: {live[:5]}...")
-        missing = [a for a in live if a not in actions]
-        if missing and c["missing_action"] == "error":
-            raise ValueError(
-                f"no action for live agents {missing[:5]} ({len(missing)} missing); pass an action for every agent "
-                f"or configure missing_action='expert'"
-            )
-        acts = np.zeros((tr.n, 2), dtype=np.float64)
-        if missing:
-            acts[:] = self.expert_actions()
-        given = [i for i, a in enumerate(live) if a in actions]
-        vals = []
-        for i in given:
-            arr = np.asarray(actions[live[i]], dtype=np.float64)
-            if arr.shape != (2,):
-                self._check_action(arr, live[i])  # raises with the agent's name
-            vals.append(arr)
-        if given:
-            block = np.stack(vals)
-            if not np.isfinite(block).all():
-                bad = given[int(np.flatnonzero(~np.isfinite(block).all(axis=1))[0])]
-                self._check_action(block[given.index(bad)], live[bad])
-            acts[given] = np.clip(block, -1.0, 1.0)
-        return self._ma_advance(acts)
-
-    def _check_action(self, action, who: str = "agent") -> np.ndarray:
-        arr = np.asarray(action, dtype=np.float64) if not isinstance(action, np.ndarray) else action.astype(np.float64)
-        if arr.shape != (2,):
-            raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, steering] in [-1, 1]")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"action of {who} = {arr.tolist()} holds NaN or inf; allowed: finite values in [-1, 1]")
-        return np.clip(arr, -1.0, 1.0)
-
     def _ma_advance(self, acts: np.ndarray):
         c = self.config
         w = self.world
@@ -724,57 +668,6 @@ class HighwayFormationEnv(AbstractEnv):
         """Hook for subclasses (recorders); called once per policy step."""
 
     # ------------------------------------------------------- gymnasium (ego)
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        gym.Env.reset(self, seed=seed, options=options)
-        if options and "config" in options:
-            self.configure(options["config"])
-        self.update_metadata()
-        self.define_spaces()
-        self.time = self.steps = 0
-        self.done = False
-        self._reset()
-        obs, info = self._ego_obs_info()
-        if self.render_mode == "human":
-            self.render()
-        return obs, info
-
-    def _ego_row(self) -> int:
-        tr = self.world.traffic
-        r = int(np.searchsorted(tr.vid, self._ego_vid))
-        return r if r < tr.n and tr.vid[r] == self._ego_vid else -1
-
-    def _ego_obs_info(self):
-        r = self._ego_row()
-        if r < 0:
-            return np.zeros(self.observation_space.shape, dtype=np.float32), {}
-        obs = self._observe_rows(np.array([r]))[0]
-        info = self._ma_infos([f"icv_{self._ego_vid}"], np.array([r]), {})[f"icv_{self._ego_vid}"]
-        return obs, info
-
-    def step(self, action):
-        """Single-agent step: ``action`` drives the ego ICV (config
-        ``ego_vehicle``), every other ICV follows the formation expert."""
-        if self.world is None:
-            raise RuntimeError("call reset() before step()")
-        if self._ego_done:
-            raise RuntimeError("the ego's episode has ended (terminated or truncated): call reset()")
-        act = self._check_action(action, "the ego")
-        tr = self.world.traffic
-        acts = self.expert_actions().astype(np.float64).copy() if tr.n else np.zeros((0, 2))
-        r = self._ego_row()
-        if r >= 0:
-            acts[r] = act
-        observations, rewards, terms, truncs, infos = self._ma_advance(acts)
-        a = f"icv_{self._ego_vid}"
-        obs = observations.get(a, np.zeros(self.observation_space.shape, dtype=np.float32))
-        reward = float(rewards.get(a, 0.0))
-        terminated = bool(terms.get(a, True))
-        truncated = bool(truncs.get(a, False))
-        info = infos.get(a, {})
-        info["ego_present"] = self._ego_row() >= 0
-        if terminated or truncated:
-            self._ego_done = True
-        return obs, reward, terminated, truncated, info
 
     # --------------------------------------------------------------- metrics
     def metrics(self, **kwargs) -> dict:
@@ -844,42 +737,4 @@ class HighwayFormationEnv(AbstractEnv):
             ego = vehicles[int(np.argmax(cx))] if self._ma_mode else vehicles[0]
         self.controlled_vehicles = [ego] if ego is not None else []
 
-    def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
-            return None
-        if self.world is None:
-            raise RuntimeError("call reset() before render()")
-        self._sync_render_road()
-        if self.viewer is None:
-            from icv_envs.envs.rendering import FormationViewer
 
-            self.viewer = FormationViewer(self)
-        self.enable_auto_render = True
-        self.viewer.display()
-        if not self.viewer.offscreen:
-            self.viewer.handle_events()
-        if self.render_mode == "rgb_array":
-            return self.viewer.get_image()
-        return None
-
-    def _automatic_rendering(self) -> None:
-        if self.viewer is not None and self.enable_auto_render:
-            if self._record_video_wrapper:
-                self._sync_render_road()
-                self._record_video_wrapper._capture_frame()
-            else:
-                self.render()
-
-
-class _ObservationStub:
-    """Stands in for highway-env's observation type where its viewer expects one."""
-
-    def __init__(self, env):
-        self.env = env
-
-    def observe(self):  # pragma: no cover - highway-env compatibility
-        return self.env._ego_obs_info()[0]
-
-    def space(self):  # pragma: no cover
-        return self.env.observation_space

@@ -1,0 +1,188 @@
+"""What every environment of this package shares: a highway-env
+:class:`~highway_env.envs.common.abstract.AbstractEnv` whose vehicles are all
+agents, driven through one action space.
+
+Subclasses provide the simulation (``_reset``, ``_ma_advance``,
+``_observe_rows``, ``_ma_infos``, ``expert_actions``, ``_sync_render_road``),
+the vehicle arrays (:meth:`_vehicles`, anything with ``n`` and a sorted
+``vid``), the observation columns (``OBS_FEATURES``) and the viewer
+(:meth:`_make_viewer`). This class holds the parts that are the same for all:
+spaces, the Gymnasium single-ego ``reset``/``step``, the multi-agent action
+checks of ``ma_step``, and rendering.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from highway_env.envs.common.abstract import AbstractEnv
+
+__all__ = ["IcvAgentsEnv"]
+
+
+class IcvAgentsEnv(AbstractEnv):
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+    OBS_FEATURES: tuple = ()
+
+    def __init__(self, config: dict | None = None, render_mode: str | None = None) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode={render_mode!r} is invalid; allowed: {self.metadata['render_modes']} or None")
+        self.world = None
+        self.expert = None
+        self._ma_mode = False
+        self.possible_agents: list[str] = []
+        super().__init__(config, render_mode)
+
+    # ------------------------------------------------------------- subclasses
+    def _vehicles(self):
+        """The vehicle arrays of the current world (``n``, sorted ``vid``)."""
+        raise NotImplementedError
+
+    def _make_viewer(self):
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ spaces
+    def define_spaces(self) -> None:
+        V = int(self.config["observation"]["vehicles_count"])
+        self.observation_space = spaces.Box(-1.0, 1.0, (V, len(self.OBS_FEATURES)), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
+        self.observation_type = _ObservationStub(self)
+        self.action_type = None
+
+    def state_space_for(self, n_slots: int) -> spaces.Box:
+        return spaces.Box(-1.0, 1.0, (n_slots, len(self.OBS_FEATURES)), dtype=np.float32)
+
+    # ------------------------------------------------------------- multi-agent
+    def _check_action(self, action, who: str = "agent") -> np.ndarray:
+        arr = np.asarray(action, dtype=np.float64)
+        if arr.shape != (2,):
+            raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, steering] in [-1, 1]")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"action of {who} = {arr.tolist()} holds NaN or inf; allowed: finite values in [-1, 1]")
+        return np.clip(arr, -1.0, 1.0)
+
+    def ma_step(self, actions: dict):
+        """Multi-agent step: ``actions`` maps live agent names to actions.
+        Actions are clipped to [-1, 1]; a wrong shape or a NaN raises
+        ``ValueError`` naming the agent; agents left out raise too unless
+        ``missing_action="expert"``."""
+        veh = self._vehicles()
+        live = [f"icv_{v}" for v in veh.vid]
+        live_set = set(live)
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+        unknown = [a for a in actions if a not in live_set]
+        if unknown:
+            raise ValueError(f"actions for agents that are not live: {unknown[:5]}; live agents: {live[:5]}...")
+        missing = [a for a in live if a not in actions]
+        if missing and self.config["missing_action"] == "error":
+            raise ValueError(
+                f"no action for live agents {missing[:5]} ({len(missing)} missing); pass an action for every agent "
+                f"or configure missing_action='expert'"
+            )
+        acts = np.zeros((veh.n, 2), dtype=np.float64)
+        if missing:
+            acts[:] = self.expert_actions()
+        given = [i for i, a in enumerate(live) if a in actions]
+        if given:
+            vals = []
+            for i in given:
+                arr = np.asarray(actions[live[i]], dtype=np.float64)
+                if arr.shape != (2,) or not np.all(np.isfinite(arr)):
+                    self._check_action(arr, live[i])  # raises with the agent's name
+                vals.append(arr)
+            acts[given] = np.clip(np.stack(vals), -1.0, 1.0)
+        return self._ma_advance(acts)
+
+    # ------------------------------------------------------- gymnasium (ego)
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        gym.Env.reset(self, seed=seed, options=options)
+        if options and "config" in options:
+            self.configure(options["config"])
+        self.update_metadata()
+        self.define_spaces()
+        self.time = self.steps = 0
+        self.done = False
+        self._reset()
+        obs, info = self._ego_obs_info()
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def _ego_row(self) -> int:
+        veh = self._vehicles()
+        r = int(np.searchsorted(veh.vid, self._ego_vid))
+        return r if r < veh.n and veh.vid[r] == self._ego_vid else -1
+
+    def _ego_obs_info(self):
+        r = self._ego_row()
+        if r < 0:
+            return np.zeros(self.observation_space.shape, dtype=np.float32), {}
+        obs = self._observe_rows(np.array([r]))[0]
+        info = self._ma_infos([f"icv_{self._ego_vid}"], np.array([r]), {})[f"icv_{self._ego_vid}"]
+        return obs, info
+
+    def step(self, action):
+        """Single-agent step: ``action`` drives the ego, every other vehicle
+        follows the environment's expert."""
+        if self.world is None:
+            raise RuntimeError("call reset() before step()")
+        if self._ego_done:
+            raise RuntimeError("the ego's episode has ended (terminated or truncated): call reset()")
+        act = self._check_action(action, "the ego")
+        veh = self._vehicles()
+        acts = self.expert_actions().astype(np.float64).copy() if veh.n else np.zeros((0, 2))
+        r = self._ego_row()
+        if r >= 0:
+            acts[r] = act
+        observations, rewards, terms, truncs, infos = self._ma_advance(acts)
+        a = f"icv_{self._ego_vid}"
+        obs = observations.get(a, np.zeros(self.observation_space.shape, dtype=np.float32))
+        reward = float(rewards.get(a, 0.0))
+        terminated = bool(terms.get(a, True))
+        truncated = bool(truncs.get(a, False))
+        info = infos.get(a, {})
+        info["ego_present"] = self._ego_row() >= 0
+        if terminated or truncated:
+            self._ego_done = True
+        return obs, reward, terminated, truncated, info
+
+    # -------------------------------------------------------------- rendering
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self.world is None:
+            raise RuntimeError("call reset() before render()")
+        self._sync_render_road()
+        if self.viewer is None:
+            self.viewer = self._make_viewer()
+        self.enable_auto_render = True
+        self.viewer.display()
+        if not self.viewer.offscreen:
+            self.viewer.handle_events()
+        if self.render_mode == "rgb_array":
+            return self.viewer.get_image()
+        return None
+
+    def _automatic_rendering(self) -> None:
+        if self.viewer is not None and self.enable_auto_render:
+            if self._record_video_wrapper:
+                self._sync_render_road()
+                self._record_video_wrapper._capture_frame()
+            else:
+                self.render()
+
+
+class _ObservationStub:
+    """Stands in for highway-env's observation type where its viewer expects one."""
+
+    def __init__(self, env):
+        self.env = env
+
+    def observe(self):  # pragma: no cover - highway-env compatibility
+        return self.env._ego_obs_info()[0]
+
+    def space(self):  # pragma: no cover
+        return self.env.observation_space
