@@ -31,7 +31,7 @@ import numpy as np
 
 from icv_envs.envs.highway_ramps import MAX_VGR, METHODS
 
-__all__ = ["run_ramps", "compare_highway_ramps", "CSV_COLUMNS", "validate_grid"]
+__all__ = ["run_ramps", "compare_highway_ramps", "run_jobs", "CSV_COLUMNS", "validate_grid"]
 
 CSV_COLUMNS = [
     "method", "vgr", "seed", "seconds", "collisions", "lost", "remaining", "mean_speed", "speed_fluctuation",
@@ -80,29 +80,29 @@ def _run_job(args):
     return run_ramps(*args)
 
 
-def _tag(method, vgr, seed) -> str:
-    return f"{method}_vgr{vgr:g}_seed{seed}"
-
-
-def compare_highway_ramps(methods, vgrs, seeds: int, seconds: float, out, backend: str = "process",
-                          workers: int | None = None, progress: bool = True, config: dict | None = None) -> dict:
-    validate_grid(methods, vgrs, seeds, seconds)
+def check_backend(backend: str) -> None:
     if backend not in ("process", "ray"):
         raise ValueError(f"backend {backend!r}; allowed: 'process', 'ray'")
-    out = Path(out)
-    (out / "runs").mkdir(parents=True, exist_ok=True)
-    jobs = [(m, float(v), s, float(seconds), config) for m in methods for v in vgrs for s in range(seeds)]
-    results = []
+
+
+def run_jobs(fn, jobs: list, backend: str = "process", workers: int | None = None, progress: bool = True,
+             desc: str = "runs") -> list:
+    """``[fn(j) for j in jobs]`` in completion order, on a local process pool
+    (``workers`` processes, default one per core; 1 runs in this process) or
+    on a Ray cluster (``backend="ray"``), with a progress bar. ``fn`` must be
+    a module-level function (it is pickled)."""
+    check_backend(backend)
     from tqdm import tqdm
 
-    bar = tqdm(total=len(jobs), desc="highway-ramps runs", disable=not progress)
+    results = []
+    bar = tqdm(total=len(jobs), desc=desc, disable=not progress)
     if backend == "ray":
         try:
             import ray
         except ImportError:
             raise ValueError("--backend ray needs Ray: pip install 'icv-envs[rllib]' (or ray)") from None
         ray.init(ignore_reinit_error=True, include_dashboard=False)
-        remote = ray.remote(_run_job)
+        remote = ray.remote(fn)
         pending = [remote.remote(j) for j in jobs]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
@@ -112,15 +112,30 @@ def compare_highway_ramps(methods, vgrs, seeds: int, seconds: float, out, backen
         workers = workers or os.cpu_count() or 1
         if workers == 1:
             for j in jobs:
-                results.append(_run_job(j))
+                results.append(fn(j))
                 bar.update(1)
         else:
             with ProcessPoolExecutor(max_workers=workers) as pool:
-                futs = [pool.submit(_run_job, j) for j in jobs]
+                futs = [pool.submit(fn, j) for j in jobs]
                 for f in as_completed(futs):
                     results.append(f.result())
                     bar.update(1)
     bar.close()
+    return results
+
+
+def _tag(method, vgr, seed) -> str:
+    return f"{method}_vgr{vgr:g}_seed{seed}"
+
+
+def compare_highway_ramps(methods, vgrs, seeds: int, seconds: float, out, backend: str = "process",
+                          workers: int | None = None, progress: bool = True, config: dict | None = None) -> dict:
+    validate_grid(methods, vgrs, seeds, seconds)
+    check_backend(backend)
+    out = Path(out)
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    jobs = [(m, float(v), s, float(seconds), config) for m in methods for v in vgrs for s in range(seeds)]
+    results = run_jobs(_run_job, jobs, backend, workers, progress, "highway-ramps runs")
     results.sort(key=lambda r: (list(methods).index(r["method"]), r["vgr"], r["seed"]))
     for r in results:
         (out / "runs" / f"{_tag(r['method'], r['vgr'], r['seed'])}.json").write_text(json.dumps(r))

@@ -31,14 +31,13 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
 from icv_envs.envs.intersection import MAX_THROUGHPUT, METHODS
+from icv_envs.experiments.compare import check_backend, run_jobs
 
 __all__ = ["CSV_COLUMNS", "METHODS", "validate_grid", "run_intersection", "compare_intersection",
            "summarise", "plot_results"]
@@ -104,8 +103,7 @@ def compare_intersection(methods, throughputs, seeds: int, seconds: float, out, 
                          workers: int | None = None, progress: bool = True, config: dict | None = None) -> dict:
     """Run the grid (see the module docstring) and write CSV, JSON and plots to ``out``."""
     validate_grid(methods, throughputs, seeds, seconds)
-    if backend not in ("process", "ray"):
-        raise ValueError(f"backend {backend!r}; allowed: 'process', 'ray'")
+    check_backend(backend)
     if config:
         # fail fast on a bad config, before starting workers
         from icv_envs.envs.intersection import IntersectionEnv
@@ -114,35 +112,7 @@ def compare_intersection(methods, throughputs, seeds: int, seconds: float, out, 
     out = Path(out)
     (out / "runs").mkdir(parents=True, exist_ok=True)
     jobs = [(m, float(v), s, float(seconds), config) for m in methods for v in throughputs for s in range(seeds)]
-    results = []
-    from tqdm import tqdm
-
-    bar = tqdm(total=len(jobs), desc="intersection runs", disable=not progress)
-    if backend == "ray":
-        try:
-            import ray
-        except ImportError:
-            raise ValueError("--backend ray needs Ray: pip install ray") from None
-        ray.init(ignore_reinit_error=True, include_dashboard=False)
-        remote = ray.remote(_run_job)
-        pending = [remote.remote(j) for j in jobs]
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            results.append(ray.get(done[0]))
-            bar.update(1)
-    else:
-        workers = workers or os.cpu_count() or 1
-        if workers == 1:
-            for j in jobs:
-                results.append(_run_job(j))
-                bar.update(1)
-        else:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
-                futs = [pool.submit(_run_job, j) for j in jobs]
-                for fut in as_completed(futs):
-                    results.append(fut.result())
-                    bar.update(1)
-    bar.close()
+    results = run_jobs(_run_job, jobs, backend, workers, progress, "intersection runs")
     order = list(methods)
     results.sort(key=lambda r: (order.index(r["method"]), r["throughput"], r["seed"]))
     for r in results:
