@@ -129,11 +129,8 @@ Invalid values raise `ValueError` naming the key, the value and what is allowed.
 
 from __future__ import annotations
 
-from pettingzoo.utils.conversions import parallel_to_aec_wrapper
-from pettingzoo.utils.wrappers import OrderEnforcingWrapper
-
 from icv_envs.envs.highway_formation import HighwayFormationEnv
-from icv_envs.envs.parallel import CoreParallelEnv
+from icv_envs.envs.parallel import CoreParallelEnv, module_functions
 
 __all__ = ["env", "parallel_env", "raw_env", "HighwayFormationParallelEnv"]
 
@@ -150,16 +147,4 @@ class HighwayFormationParallelEnv(CoreParallelEnv):
     }
 
 
-def parallel_env(render_mode: str | None = None, **config) -> HighwayFormationParallelEnv:
-    """The parallel env (PettingZoo's ``parallel_env()``)."""
-    return HighwayFormationParallelEnv(render_mode=render_mode, **config)
-
-
-def raw_env(render_mode: str | None = None, **config):
-    """The AEC env without wrappers (converted from the parallel env)."""
-    return parallel_to_aec_wrapper(parallel_env(render_mode=render_mode, **config))
-
-
-def env(render_mode: str | None = None, **config):
-    """The AEC env with PettingZoo's order-enforcing wrapper."""
-    return OrderEnforcingWrapper(raw_env(render_mode=render_mode, **config))
+parallel_env, raw_env, env = module_functions(HighwayFormationParallelEnv)

@@ -75,11 +75,8 @@ the key, the value and what is allowed.
 
 from __future__ import annotations
 
-from pettingzoo.utils.conversions import parallel_to_aec_wrapper
-from pettingzoo.utils.wrappers import OrderEnforcingWrapper
-
 from icv_envs.envs.highway_ramps import HighwayRampsEnv
-from icv_envs.envs.parallel import CoreParallelEnv
+from icv_envs.envs.parallel import CoreParallelEnv, module_functions
 
 __all__ = ["env", "parallel_env", "raw_env", "HighwayRampsParallelEnv"]
 
@@ -94,13 +91,4 @@ class HighwayRampsParallelEnv(CoreParallelEnv):
     }
 
 
-def parallel_env(render_mode: str | None = None, **config) -> HighwayRampsParallelEnv:
-    return HighwayRampsParallelEnv(render_mode=render_mode, **config)
-
-
-def raw_env(render_mode: str | None = None, **config):
-    return parallel_to_aec_wrapper(parallel_env(render_mode=render_mode, **config))
-
-
-def env(render_mode: str | None = None, **config):
-    return OrderEnforcingWrapper(raw_env(render_mode=render_mode, **config))
+parallel_env, raw_env, env = module_functions(HighwayRampsParallelEnv)

@@ -158,11 +158,8 @@ Invalid values raise `ValueError` naming the key, the value and what is allowed.
 
 from __future__ import annotations
 
-from pettingzoo.utils.conversions import parallel_to_aec_wrapper
-from pettingzoo.utils.wrappers import OrderEnforcingWrapper
-
 from icv_envs.envs.intersection import IntersectionEnv
-from icv_envs.envs.parallel import CoreParallelEnv
+from icv_envs.envs.parallel import CoreParallelEnv, module_functions
 
 __all__ = ["env", "parallel_env", "raw_env", "IntersectionParallelEnv"]
 
@@ -179,16 +176,4 @@ class IntersectionParallelEnv(CoreParallelEnv):
     }
 
 
-def parallel_env(render_mode: str | None = None, **config) -> IntersectionParallelEnv:
-    """The parallel env (PettingZoo's ``parallel_env()``)."""
-    return IntersectionParallelEnv(render_mode=render_mode, **config)
-
-
-def raw_env(render_mode: str | None = None, **config):
-    """The AEC env without wrappers (converted from the parallel env)."""
-    return parallel_to_aec_wrapper(parallel_env(render_mode=render_mode, **config))
-
-
-def env(render_mode: str | None = None, **config):
-    """The AEC env with PettingZoo's order-enforcing wrapper."""
-    return OrderEnforcingWrapper(raw_env(render_mode=render_mode, **config))
+parallel_env, raw_env, env = module_functions(IntersectionParallelEnv)

@@ -71,3 +71,25 @@ class CoreParallelEnv(ParallelEnv):
 
     def metrics(self, **kwargs) -> dict:
         return self.core.metrics(**kwargs)
+
+
+def module_functions(parallel_cls):
+    """PettingZoo's module layout for ``parallel_cls``: ``(parallel_env,
+    raw_env, env)``, the parallel env, the unwrapped AEC env converted from
+    it, and the AEC env with PettingZoo's order-enforcing wrapper."""
+    from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+    from pettingzoo.utils.wrappers import OrderEnforcingWrapper
+
+    def parallel_env(render_mode: str | None = None, **config):
+        """The parallel env (PettingZoo's ``parallel_env()``)."""
+        return parallel_cls(render_mode=render_mode, **config)
+
+    def raw_env(render_mode: str | None = None, **config):
+        """The AEC env without wrappers (converted from the parallel env)."""
+        return parallel_to_aec_wrapper(parallel_env(render_mode=render_mode, **config))
+
+    def env(render_mode: str | None = None, **config):
+        """The AEC env with PettingZoo's order-enforcing wrapper."""
+        return OrderEnforcingWrapper(raw_env(render_mode=render_mode, **config))
+
+    return parallel_env, raw_env, env
