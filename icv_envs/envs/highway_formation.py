@@ -439,7 +439,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         F[:, 12] = np.clip((road.interval_end(lane, cx) - cx) / 200.0, 0.0, 1.0)
         return F
 
-    def _observe_rows(self, rows: np.ndarray) -> np.ndarray:
+    def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
         """highway-env ``Kinematics`` convention, vectorised: row 0 is the
         observer (absolute, normalised), rows 1.. the ``V - 1`` nearest
         vehicles by longitudinal distance within the perception distance
@@ -453,7 +453,8 @@ class HighwayFormationEnv(IcvAgentsEnv):
         out = np.zeros((len(rows), V, len(OBS_FEATURES)), dtype=np.float32)
         if not len(rows):
             return out
-        F = self._features()
+        if F is None:
+            F = self._features()
         vmax = float(c["speed_range"][1])
         width = w.road.total_lanes * w.road.lane_width
         scale_abs = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
@@ -488,7 +489,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             out[:, 1:, :] = rel
         return out
 
-    def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple[np.ndarray, dict]:
+    def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
         """Per-agent reward: weighted sum of progress (speed / v_max), safety
         (-1 on a collision, else minus the headway shortfall
         ``max(0, 1 - gap / (s0 + v T))`` with ``s0 = 2 m``, ``T = 1 s``),
@@ -508,7 +509,6 @@ class HighwayFormationEnv(IcvAgentsEnv):
         safety = np.where(crashed_now, -1.0, safety)
         ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
         comfort = -0.5 * (ua[:, 0] ** 2 + ua[:, 1] ** 2)
-        F = self._features()
         member = F[rows, 10] > 0
         L_s = float(c["formation"]["spacing"])
         form = np.where(member, np.exp(-(F[rows, 7] / L_s) ** 2 - (F[rows, 8] / w.road.lane_width) ** 2), 0.0)
@@ -618,8 +618,9 @@ class HighwayFormationEnv(IcvAgentsEnv):
         rows = np.arange(tr.n)
         agents = [f"icv_{v}" for v in tr.vid]
         crashed_now = tr.crashed.copy()
-        rew, parts = self._rewards_rows(rows, crashed_now)
-        obs = self._observe_rows(rows)
+        F = self._features()  # once per step, for rewards and observations
+        rew, parts = self._rewards_rows(rows, crashed_now, F)
+        obs = self._observe_rows(rows, F)
         truncated_all = w.time >= float(c["duration"]) - 1e-9
         observations = {a: obs[i] for i, a in enumerate(agents)}
         rewards = {a: float(rew[i]) for i, a in enumerate(agents)}
