@@ -370,6 +370,7 @@ class IntersectionEnv(IcvAgentsEnv):
             w.stats[k] = math.inf if k == "min_speed_in_box" else (0.0 if isinstance(w.stats[k], float) else 0)
         w.stats["spawned"] = int(f.n)
         w.collision_log.clear()
+        w.reset_metrics()
         for k in self.expert.stats:
             self.expert.stats[k] = 0.0 if isinstance(self.expert.stats[k], float) else 0
         self._ego_vid = int(f.vid[-1]) if f.n else int(f.next_vid)
@@ -680,8 +681,9 @@ class IntersectionEnv(IcvAgentsEnv):
             "wrong_exits": int(st["wrong_exits"]),
             "lost": int(st["spawned"] - st["removed"] - st["left_road"] - remaining - st["crashed_removed"]),
             "achieved_throughput": st["cleared"] * 3600.0 / sim,
-            "mean_speed": st["speed_sum"] / n,
-            "speed_fluctuation": st["abs_accel_sum"] / n,
+            **w.motion.summary(),
+            **w.pet.summary(),
+            **w.jams.summary(),
             "mean_delay": st["delay_sum"] / st["cleared"] if st["cleared"] else None,
             "mean_travel_time": st["travel_time_sum"] / st["cleared"] if st["cleared"] else None,
             "sim_seconds": float(w.time),

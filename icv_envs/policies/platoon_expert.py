@@ -148,6 +148,7 @@ class PlatoonParams:
     merge_range: float = 60.0  # [m] rear of the front sub-formation to the first of the rear one
     max_node_size: int = 12
     slot_tolerance: float = 4.0  # [m] a vehicle in division starts its lane change this close to its slot
+    settle_tolerance: float = 15.0  # [m] at most this far (one outside slot L_s) behind its slot to join a node
     lc_duration: float = 3.0  # [s] Bezier length = clip(v * lc_duration, lc_min_length, lc_max_length)
     lc_min_length: float = 15.0
     lc_max_length: float = 40.0
@@ -311,7 +312,7 @@ class PlatoonExpert:
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self._vcap = np.zeros(0)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
-                      "nodes": 0, "lane_changes": 0}
+                      "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0}
 
     # ---------------------------------------------------------------- fields
     def attach(self, world) -> None:
@@ -552,8 +553,13 @@ class PlatoonExpert:
             k = np.flatnonzero(f.tlane[rows] == ln)
             tidx[k[np.argsort(dist[k], kind="stable")]] = np.sort(tidx[k])
         f.tidx[rows] = tidx
-        # compact target indices in member order (members are kept sorted by target)
-        rank = np.argsort(np.argsort(tidx, kind="stable"), kind="stable")
+        # ranks in physical order (distance to the centre; ties: target order):
+        # the first vehicle is the sub-formation's physical front and every
+        # member's slot is behind every member ahead of it, whatever lane it
+        # is in, so no member has to pass another one (a member ranked ahead
+        # of one in front of it in its current lane waits for it, and it for
+        # the member: a circular wait)
+        rank = np.argsort(np.lexsort((tidx, dist)), kind="stable")
         f.tidx[rows] = rank
         first = rows[rank == 0][0]
         f.ref[rows] = f.vid[first]
@@ -635,16 +641,54 @@ class PlatoonExpert:
             f.stage[rb[need_lc]] = ST_LC
 
     # ------------------------------------------------------- coordinating zone
+    def _settled(self, world, rs, rows) -> np.ndarray:
+        """May these vehicles join the virtual platoon now?  In their expected
+        lane, no lane change in progress, and at most ``settle_tolerance``
+        behind the slot they track (their formation reference, when they have
+        one).  Only settled vehicles hold a node's bound over later nodes: a
+        member still changing lanes, or a slot behind, cannot be relied on to
+        move up, and the later nodes it would hold could block its way (the
+        circular wait of issue 8)."""
+        f = world.fleet
+        ok = (f.klane[rows] == f.tlane[rows]) & (f.lc_lane[rows] < 0) & (rs.phase[rows] == 0)
+        ok |= rs.phase[rows] > 0
+        err = self._slot_error(world, rs, rows)
+        return ok & (-err <= self.p.settle_tolerance)
+
+    def _keep_lane_inside(self, world, rs, rows) -> None:
+        """No lane change is required inside the coordinating zone: a vehicle
+        there that is not yet in its expected lane but in a lane the lane-use
+        table allows for its movement keeps that lane (and has a finished
+        lane change count as done)."""
+        f = world.fleet
+        lay = world.layout
+        k = rows[(rs.dist[rows] <= lay.R1) & (rs.phase[rows] == 0) & (f.lc_lane[rows] < 0)
+                 & (f.klane[rows] != f.tlane[rows])]
+        if len(k):
+            ok = lay.allowed[f.mv[k], np.clip(f.klane[k], 0, 2)]
+            f.tlane[k[ok]] = f.klane[k[ok]]
+            self.stats["kept_lane_in_R1"] += int(ok.sum())
+
     def _coordinate(self, world, rs) -> None:
-        """Nodes enter the virtual platoon; nodes that cleared the box leave."""
+        """Nodes enter the virtual platoon; nodes that cleared the box leave.
+
+        ``multi-vp``: when a sub-formation's first vehicle crosses ``R1`` its
+        members get the in-zone targets, and the longest prefix of them (in
+        target order) that is settled (:meth:`_settled`) becomes a node; the
+        rest stays a sub-formation, with the next member as its first, and is
+        handled the same way at every later step until all are in nodes.
+        ``single-vp``: a vehicle becomes a node once inside ``R1`` and settled.
+        """
         f = world.fleet
         lay = world.layout
         R1 = lay.R1
         single = self.method == "single-vp"
         for sid, S in list(self.subs.items()):
             rows = f.rows(S["members"])
+            self._keep_lane_inside(world, rs, rows)
             if single:
-                new = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0)]
+                cand = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0)]
+                new = cand[self._settled(world, rs, cand)] if len(cand) else cand
                 for r in new:
                     self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
                 if np.all(f.node[rows] >= 0):
@@ -653,12 +697,28 @@ class PlatoonExpert:
             first = rows[np.argmin(rs.dist[rows])]
             if rs.dist[first] <= R1:
                 n_l = len(S["lanes"])
-                length = formation_length(len(rows), n_l, self.p.gap_in)
                 self._set_sub_targets(world, S)
-                self._new_node(world, list(S["members"]), S["mv"], n_lanes=n_l, length=length)
-                del self.subs[sid]
+                rows = f.rows(S["members"])  # target order
+                rows = rows[np.argsort(f.tidx[rows], kind="stable")]
+                ok = self._settled(world, rs, rows)
+                k = int(np.argmin(ok)) if not ok.all() else len(rows)
+                if k == 0:
+                    continue
+                members = [int(v) for v in f.vid[rows[:k]]]
+                rest = [int(v) for v in f.vid[rows[k:]]]
+                self._new_node(world, members, S["mv"], n_lanes=n_l,
+                               length=formation_length(k, n_l, self.p.gap_in))
+                f.sub[rows[:k]] = -1
+                if rest:
+                    S["members"] = rest
+                    self._set_sub_targets(world, S)
+                    self.stats["held_out_of_node"] += len(rest)
+                else:
+                    del self.subs[sid]
         # vehicles in the zone without a sub-formation (not expected, but safe)
         orphan = np.flatnonzero((rs.dist <= R1) & (f.node < 0) & (f.sub < 0) & (rs.phase < 2) & ~f.cleared)
+        if len(orphan):
+            orphan = orphan[(f.klane[orphan] == f.tlane[orphan]) & (f.lc_lane[orphan] < 0) | (rs.phase[orphan] > 0)]
         for r in orphan:
             self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
         if not single:
@@ -836,6 +896,8 @@ class PlatoonExpert:
         # may a vehicle enter the box? only from an allowed lane, lane change finished
         allowed = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
         self._stop = (rs.phase == 0) & (~allowed | (f.lc_lane >= 0) | (f.klane != f.tlane))
+        # in the coordinating zone only coordinated vehicles (a node / a reservation) may enter
+        self._stop |= (rs.phase == 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
         self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
 
     def _virtual_cap(self, world, rs) -> np.ndarray:
@@ -960,6 +1022,11 @@ class PlatoonExpert:
             v = f.speed[me]
             dv = v - f.speed[ld]
             safe = idm_acceleration(v, p.v_max, gap, dv, p.a_max, p.idm_b, T, s0, free_term=False)
+            # Gipps (1981) safe speed: stop behind the leader even if it brakes
+            # at |a_min| from now on and this vehicle reacts one policy period
+            # (cap_tau) later; IDM's interaction term alone does not guarantee
+            # it when a member closes in fast on a leader that brakes hard
+            safe = np.minimum(safe, self._gipps(v, f.speed[ld], gap - p.member_s0))
             if not p.envelope_in_box:
                 safe = np.where(rs.phase[me] == 1, np.inf, safe)
             np.minimum.at(cap, me, safe)
@@ -979,6 +1046,17 @@ class PlatoonExpert:
         self.stats["envelope_box_binding"] += int(other.sum())
         self.stats["envelope_box_binding_member"] += int((box & ~other).sum())
         return cap
+
+    def _gipps(self, v, v_lead, room) -> np.ndarray:
+        """Acceleration cap ``(v_safe - v) / tau`` with Gipps' safe speed
+        ``v_safe = -b tau + sqrt((b tau)^2 + v_lead^2 + 2 b room)``, ``b =
+        |a_min|``, ``tau = cap_tau`` (the policy period), ``room`` the bumper
+        gap minus the standstill margin."""
+        p = self.p
+        b = abs(p.a_min)
+        tau = p.cap_tau
+        vs = -b * tau + np.sqrt((b * tau) ** 2 + v_lead ** 2 + 2.0 * b * np.maximum(room, 0.0))
+        return (vs - v) / tau
 
     def _coordinated(self, f) -> np.ndarray:
         return f.node >= 0
