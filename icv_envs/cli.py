@@ -59,6 +59,15 @@ def _floats(name):
     return parse
 
 
+def _seed_list(text):
+    from icv_envs.experiments.seeds import parse_seeds
+
+    try:
+        return parse_seeds(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def _names(text):
     return [v.strip() for v in text.split(",") if v.strip()]
 
@@ -107,12 +116,13 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("compare", help="methods x parameters x seeds sweep, in parallel, CSV + plots")
     c.add_argument("target", type=_choice("comparison", COMPARES))
     c.add_argument("--methods", type=_names, default=None,
-                   help="highway-ramps: formation,lane-lp,idm (default); intersection: multi-vp,single-vp,fcfs (default)")
+                   help="highway-ramps: formation,lane-lp,idm (default); intersection: multi-vp,single-vp,fcfs (default), fcfs-tight")
     c.add_argument("--throughput", default=None,
                    help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,...,3000)")
     c.add_argument("--lane-use", dest="lane_use", default=None, help="intersection: paper (default) or exclusive")
     c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5])
-    c.add_argument("--seeds", type=int, default=3, help="runs use seeds 0..N-1")
+    c.add_argument("--seeds", type=_seed_list, default=[0, 1, 2],
+                   help="a count N (seeds 0..N-1, default 3) or a list/range such as 5,7,10-12")
     c.add_argument("--seconds", type=float, default=600.0)
     c.add_argument("--out", default="compare_out")
     c.add_argument("--backend", default="process", help="process (local pool, default) or ray")
@@ -127,7 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simulated seconds of highway-v0 per size (it is slow)")
     b.add_argument("--vgr", type=float, default=1.0 / 3.0, help="highway-ramps: vehicles/s per on-ramp")
     b.add_argument("--throughput", type=float, default=None, help="intersection: vehicles/h (default 2200: about 60-70 vehicles)")
-    b.add_argument("--method", default=None, help="intersection: multi-vp (default), single-vp or fcfs")
+    b.add_argument("--method", default=None, help="intersection: multi-vp (default), single-vp, fcfs or fcfs-tight")
     b.add_argument("--out", default=None, help="also write the JSON to DIR/bench.json")
 
     from icv_envs.rl.evaluate import add_arguments as _eval_args
@@ -194,7 +204,9 @@ def _dispatch(args) -> int:
 
         args.methods = args.methods or ["formation", "lane-lp", "idm"]
 
-        summary = compare_highway_ramps(args.methods, args.vgr, args.seeds, args.seconds, args.out,
+        if args.seeds != list(range(len(args.seeds))):
+            raise ValueError(f"compare highway-ramps runs seeds 0..N-1; got the seed list {args.seeds}: give a count")
+        summary = compare_highway_ramps(args.methods, args.vgr, len(args.seeds), args.seconds, args.out,
                                         backend=args.backend, workers=args.workers, progress=True)
         for row in summary["table"]:
             print(f"{row['method']:10s} vgr={row['vgr']:<5g} remaining={row['remaining']:7.1f} "

@@ -306,13 +306,15 @@ class PlatoonExpert:
         self.nodes: dict[int, dict] = {}  # virtual-platoon nodes
         self.node_depth: dict[int, int] = {}
         self.node_order: list[int] = []
+        self.vp_order: list[int] = []  # node ids in the virtual platoon's order
         self._stamp = None
         self._order_counter = 0
         self._tree = None
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self._vcap = np.zeros(0)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
-                      "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0}
+                      "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
+                      "path_obstacle_binding": 0, "node_yielded": 0}
 
     # ---------------------------------------------------------------- fields
     def attach(self, world) -> None:
@@ -381,6 +383,7 @@ class PlatoonExpert:
                 store[k]["members"] = [v for v in store[k]["members"] if v in alive]
                 if not store[k]["members"]:
                     del store[k]
+        self.vp_order = [k for k in self.vp_order if k in self.nodes]
 
     # ------------------------------------------------------------ lane changes
     def _lane_change_progress(self, world, rs) -> None:
@@ -688,7 +691,8 @@ class PlatoonExpert:
             self._keep_lane_inside(world, rs, rows)
             if single:
                 cand = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0)]
-                new = cand[self._settled(world, rs, cand)] if len(cand) else cand
+                # one vehicle per node: no slot to keep, only the lane
+                new = cand[((f.klane[cand] == f.tlane[cand]) & (f.lc_lane[cand] < 0)) | (rs.phase[cand] > 0)]
                 for r in new:
                     self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
                 if np.all(f.node[rows] >= 0):
@@ -781,12 +785,65 @@ class PlatoonExpert:
         rows = f.rows(members)
         self.nodes[nid] = {"id": nid, "mv": int(mv), "members": list(members), "n_lanes": n_lanes,
                            "length": float(length)}
+        self._insert_node(world, nid, rows)
         f.node[rows] = nid
         f.stage[rows] = ST_COORD
         if len(rows) == 1:
             f.ref[rows] = -1
             f.xg[rows] = 0.0
         self.stats["nodes"] += 1
+
+    def _insert_node(self, world, nid, rows) -> None:
+        """Place a new node in the virtual platoon's order (``self.vp_order``).
+
+        The paper orders nodes by the distance of their first vehicle to the
+        centre when they enter at ``R1``; with every node entering there,
+        that is the entry order.  A node that enters later (members held out
+        until they settled, detached members) would, placed by distance,
+        impose its bound ``rear + D_t`` on conflicting nodes that are already
+        closer to the box than that bound and cannot stop behind it at the
+        comfortable deceleration (they may be in the box).  So (our rule):
+        the node goes to its distance rank, then behind every later
+        conflicting node of ANOTHER leg whose first vehicle cannot stop
+        comfortably (``comfort[0]``) before ``X_rear + D_t``; nodes of its
+        own leg that it passes this way and that are physically behind it
+        (further from the centre) move along right behind it, so no node is
+        ever ordered before a node it physically follows in its own leg."""
+        f = world.fleet
+        rs = world.route()
+        lay = world.layout
+        N = self.nodes[nid]
+        order = [k for k in self.vp_order if k in self.nodes and k != nid]
+        d_new = float(rs.dist[rows].min())
+        xr_new = float(rs.X[rows].max())
+        leg = int(lay.leg_of[N["mv"]])
+        info = {}
+        for k in order:
+            r = f.rows(self.nodes[k]["members"])
+            r = r[r >= 0]
+            i0 = r[np.argmin(rs.dist[r])]
+            info[k] = (float(rs.dist[i0]), float(rs.X[i0]), float(f.speed[i0]), float(rs.dist[r].max()))
+        pos = next((i for i, k in enumerate(order) if info[k][0] > d_new), len(order))
+        b = abs(self.p.comfort[0])
+        j = pos
+        while j < len(order):
+            k = order[j]
+            K = self.nodes[k]
+            if lay.conflict[N["mv"], K["mv"]] and int(lay.leg_of[K["mv"]]) != leg:
+                d_k, x_k, v_k, _ = info[k]
+                if x_k - v_k * v_k / (2.0 * b) < xr_new + self.p.D_t:
+                    # N goes behind k; same-leg nodes physically behind N that it passes come along
+                    mid = order[pos:j]
+                    follow = [m for m in mid if int(lay.leg_of[self.nodes[m]["mv"]]) == leg and info[m][0] > d_new]
+                    rest = [m for m in mid if m not in follow]
+                    order = order[:pos] + rest + [k] + follow + order[j + 1:]
+                    pos = pos + len(rest) + 1
+                    j = pos + len(follow)
+                    self.stats["node_yielded"] += 1
+                    continue
+            j += 1
+        order.insert(pos, nid)
+        self.vp_order = order
 
     def tree(self, world, rs):
         """Current virtual platoon: ``(node ids in order, depths (with the leader at 0), references)``."""
@@ -816,8 +873,9 @@ class PlatoonExpert:
             rear[k] = X[i1]
             mvs[k] = N["mv"]
             lens[k] = N["length"]
-        # nodes in the order of their first vehicle's distance to the centre
-        o = np.lexsort((ids, key))
+        # nodes in the virtual platoon's order (_insert_node)
+        rank = {k: i for i, k in enumerate(self.vp_order)}
+        o = np.argsort([rank.get(k, len(rank) + k) for k in ids], kind="stable")
         xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
         ids = [ids[i] for i in o]
         C = world.layout.conflict[np.ix_(mvs, mvs)]
@@ -1034,6 +1092,16 @@ class PlatoonExpert:
             # what the coordination must make unnecessary)
             same = (grp[me] == grp[ld]) & (grp[me] >= 0)
             np.minimum.at(cap_other, me[~same], safe[~same])
+        # a (nearly) stopped vehicle in the box on this vehicle's path, whatever its own path
+        qi, oj, og = self._path_obstacles(world, rs)
+        if len(qi):
+            v = f.speed[qi]
+            vo = f.speed[oj]
+            safe = idm_acceleration(v, p.v_max, og, v - vo, p.a_max, p.idm_b, p.idm_T, p.idm_s0, free_term=False)
+            safe = np.minimum(safe, self._gipps(v, vo, og - p.member_s0))
+            np.minimum.at(cap, qi, safe)
+            np.minimum.at(cap_other, qi, safe)
+            self.stats["path_obstacle_binding"] += int((safe < 0).sum())
         # stop line for vehicles that may not enter
         st = np.flatnonzero(self._stop)
         if len(st):
@@ -1046,6 +1114,44 @@ class PlatoonExpert:
         self.stats["envelope_box_binding"] += int(other.sum())
         self.stats["envelope_box_binding_member"] += int((box & ~other).sum())
         return cap
+
+    def _path_obstacles(self, world, rs, v_stopped: float = 1.0, look: float = 60.0):
+        """Pairs ``(vehicle, obstacle, bumper gap)``: a vehicle slower than
+        ``v_stopped`` in the box (or within 10 m past it) whose body covers the
+        path of a vehicle approaching (within 40 m of the stop line) or in the
+        box, ahead of it by at most ``look`` metres.  The corridors only know
+        leaders on one's own lane or path; a vehicle stopped across it (after
+        a crash, or stopped by its own controller) must be seen too.  Lateral
+        test: the obstacle's rectangle, turned by its heading relative to the
+        path, overlaps the vehicle's width plus 0.2 m; gap: along the path,
+        bumper to the obstacle's nearest extent."""
+        f = world.fleet
+        lay = world.layout
+        e = np.zeros(0, dtype=np.int64)
+        obs = np.flatnonzero(((rs.phase == 1) | ((rs.phase == 2) & (rs.s - rs.L < 10.0))) & (f.speed < v_stopped))
+        if not len(obs):
+            return e, e, np.zeros(0)
+        q = np.flatnonzero((((rs.phase == 0) & (rs.u > -40.0)) | (rs.phase == 1)) & ~f.crashed)
+        if not len(q):
+            return e, e, np.zeros(0)
+        qi = np.repeat(q, len(obs))
+        oj = np.tile(obs, len(q))
+        k = qi != oj
+        qi, oj = qi[k], oj[k]
+        pid = rs.pid[qi]
+        s_o, lat_o = lay.project(pid, rs.cx[oj], rs.cy[oj], np.ones(len(qi), dtype=np.int64))
+        past = s_o > lay.L[pid]
+        if past.any():
+            s2, l2 = lay.project(pid[past], rs.cx[oj[past]], rs.cy[oj[past]], np.full(int(past.sum()), 2))
+            s_o[past], lat_o[past] = s2, l2
+        _, _, hp = lay.route_points(pid, s_o)
+        dh = f.heading[oj] - hp
+        c, sn = np.abs(np.cos(dh)), np.abs(np.sin(dh))
+        across = 0.5 * (f.length[oj] * sn + f.width[oj] * c)
+        along = 0.5 * (f.length[oj] * c + f.width[oj] * sn)
+        gap = s_o - along - rs.s[qi] - 0.5 * f.length[qi]
+        hit = (np.abs(lat_o) < 0.5 * f.width[qi] + across + 0.2) & (s_o > rs.s[qi]) & (gap < look)
+        return qi[hit], oj[hit], gap[hit]
 
     def _gipps(self, v, v_lead, room) -> np.ndarray:
         """Acceleration cap ``(v_safe - v) / tau`` with Gipps' safe speed
