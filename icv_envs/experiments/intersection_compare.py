@@ -258,7 +258,8 @@ def plot_results(results, out) -> list[str]:
         ax.set_ylabel(label)
         ax.set_title(f"Intersection: {key.replace('_', ' ')} ({len(seeds)} seeds, band: 95% CI)", fontsize=10)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
         fig.tight_layout()
         path = out / f"{key}_vs_throughput.png"
         fig.savefig(path, dpi=120)

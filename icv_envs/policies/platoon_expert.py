@@ -54,8 +54,21 @@ Adjusting zone (regrouping, Sec. 5), when the formation's front crosses ``R2``
        theirs lies between them.
 Coordinating zone (virtual platoon, Sec. 4.2)
     A sub-formation becomes a node when its first vehicle crosses ``R1``
-    (``single-vp``: every vehicle when it crosses ``R1``).  Every policy step
-    the nodes are sorted by the distance ``X`` of their first vehicle,
+    (``single-vp``: every vehicle when it crosses ``R1``), with only its
+    SETTLED members (in their expected lane, no lane change left, at most
+    ``settle_tolerance`` = 15 m behind their slot): the longest settled
+    prefix in target order becomes the node, the rest stays a sub-formation
+    and becomes a node of its own once settled (issue 8: a member still
+    changing lanes held its node's bound over every later conflicting node,
+    whose stopped vehicles then blocked its lane change, a circular wait).
+    Inside ``R1`` no lane change is required: a vehicle not yet in its
+    expected lane but in a lane its movement may use keeps that lane.  A
+    vehicle of the zone that is not in a node stops before the stop line.
+    The nodes keep the order in which they entered (``vp_order``, see
+    :meth:`PlatoonExpert._insert_node`: the paper's distance order at ``R1``,
+    except that a late node never pre-empts a conflicting node of another
+    leg that can no longer stop comfortably behind it, and never goes
+    before a node it physically follows in its own leg);
     :func:`icv_envs.platoon.tree.tree_depths` gives the tree-layers over the
     derived conflict matrix, and
     :func:`icv_envs.platoon.tree.reference_positions` the paper's references
@@ -79,8 +92,10 @@ Coordinating zone (virtual platoon, Sec. 4.2)
     whatever their speeds (``D_t >= required_layer_gap``, checked by the
     environment).
 Safety envelope
-    The command is capped by IDM's interaction term towards the leader in
-    every corridor the vehicle occupies: the approach lanes it covers (or is
+    The command is capped by IDM's interaction term and by Gipps' (1981)
+    safe speed (stop behind the leader even if it brakes at ``|a_min|`` now,
+    reacting one policy period later) towards the leader in every corridor
+    the vehicle occupies: the approach lanes it covers (or is
     changing into, or waits to change into, which makes the follower there
     yield), its path through the box, its departure lane.  Members of one
     (sub-)formation use a short time gap (0.25 s, ``s0`` 1 m) so the 9 m
@@ -92,6 +107,10 @@ Safety envelope
     ``stats["envelope_box_binding_member"]`` counts the same within one
     node, where the envelope is the formation's own car following; and
     ``envelope_in_box=False`` switches it off in the box (tests run that).
+    A vehicle slower than 1 m/s in the box whose body covers a vehicle's
+    path ahead (whatever path it is on itself) is treated as a leader too
+    (:meth:`PlatoonExpert._path_obstacles`; issue 11: an fcfs vehicle with a
+    reservation drove into a vehicle stopped in the box).
 
 Lateral control: pure pursuit (:func:`icv_envs.formation.bezier.
 pure_pursuit_steering`) on a preview point ``max(preview_min, v *

@@ -196,6 +196,16 @@ class PetStats:
 
     def __init__(self, areas: ConflictAreas) -> None:
         self.areas = areas
+        P = max(areas.by_path) + 1 if areas.by_path else 1
+        K = max((len(e[0]) for e in areas.by_path.values()), default=1)
+        self._ids = np.zeros((P, K), dtype=np.int64)
+        self._side = np.zeros((P, K), dtype=np.int64)
+        self._lo = np.full((P, K), np.inf)
+        self._hi = np.full((P, K), -np.inf)
+        for pid, (ids, side, lo, hi) in areas.by_path.items():
+            k = len(ids)
+            self._ids[pid, :k], self._side[pid, :k], self._lo[pid, :k], self._hi[pid, :k] = ids, side, lo, hi
+        self._K = K
         self.reset()
 
     def reset(self) -> None:
@@ -203,39 +213,38 @@ class PetStats:
         self.last_exit = np.full((A, 2), np.nan)  # time the last vehicle of each side left
         self.inside = np.zeros((A, 2), dtype=np.int64)  # vehicles of each side inside now
         self.pending: dict[tuple[int, int], list[float]] = {}  # (area, side) -> entry times waiting for the other side
-        self._occ: dict[int, np.ndarray] = {}  # vid -> occupied area ids
-        self._sides: dict[int, dict] = {}  # vid -> {area: side} of its path
+        self._occ = np.zeros((0, self._K), dtype=bool)  # per vehicle id: occupied slots of its path's areas
+        self._pid = np.zeros(0, dtype=np.int64)  # per vehicle id: the path those slots belong to
         self.samples: list[float] = []
 
     def record(self, t: float, vid, pid, s, length) -> None:
         """Occupancy update at time ``t`` for vehicles ``vid`` on paths ``pid``
-        at route coordinate ``s`` (vehicles near the box only is enough;
-        vehicles not listed are treated as having left every area)."""
-        bp = self.areas.by_path
-        now: dict[int, np.ndarray] = {}
-        side_of: dict[int, dict] = {}
-        for v, p, x, ln in zip(np.asarray(vid).tolist(), np.asarray(pid).tolist(), np.asarray(s).tolist(),
-                               np.asarray(length).tolist()):
-            e = bp.get(p)
-            if e is None:
-                continue
-            ids, side, lo, hi = e
-            occ = (x - 0.5 * ln < hi) & (x + 0.5 * ln > lo)
-            if occ.any() or v in self._occ:
-                now[v] = ids[occ]
-                side_of[v] = dict(zip(ids.tolist(), side.tolist()))
-        for v in set(self._occ) | set(now):
-            old = self._occ.get(v, np.zeros(0, dtype=np.int64))
-            new = now.get(v, np.zeros(0, dtype=np.int64))
-            if not len(old) and not len(new):
-                continue
-            sides = side_of.get(v) or self._sides.get(v, {})
-            for a in np.setdiff1d(old, new).tolist():
-                self._leave(t, a, sides[a])
-            for a in np.setdiff1d(new, old).tolist():
-                self._enter(t, a, sides[a])
-        self._occ = {v: o for v, o in now.items() if len(o)}
-        self._sides = {v: side_of[v] for v in self._occ}
+        at route coordinate ``s`` (listing the vehicles near the box is
+        enough: a vehicle not listed has left every area)."""
+        vid = np.asarray(vid, dtype=np.int64)
+        pid = np.asarray(pid, dtype=np.int64)
+        top = int(vid.max()) + 1 if len(vid) else 0
+        if top > len(self._occ):
+            grow = max(top, 2 * len(self._occ), 64) - len(self._occ)
+            self._occ = np.concatenate([self._occ, np.zeros((grow, self._K), dtype=bool)])
+            self._pid = np.concatenate([self._pid, np.zeros(grow, dtype=np.int64)])
+        ok = pid < len(self._lo)
+        vid, pid = vid[ok], pid[ok]
+        x = np.asarray(s, dtype=np.float64)[ok][:, None]
+        h = 0.5 * np.asarray(length, dtype=np.float64)[ok][:, None]
+        occ = (x - h < self._hi[pid]) & (x + h > self._lo[pid])
+        new = np.zeros_like(self._occ)
+        new[vid] = occ
+        prev_pid = self._pid.copy()
+        self._pid[vid] = pid
+        old = self._occ
+        for v, k in zip(*np.nonzero(old & ~new)):
+            q = prev_pid[v]
+            self._leave(t, int(self._ids[q, k]), int(self._side[q, k]))
+        for v, k in zip(*np.nonzero(new & ~old)):
+            q = self._pid[v]
+            self._enter(t, int(self._ids[q, k]), int(self._side[q, k]))
+        self._occ = new
 
     def _enter(self, t, a, k) -> None:
         o = 1 - k
@@ -265,37 +274,39 @@ def pet_summary(samples) -> dict:
 
 
 class JamWatch:
-    """Vehicles stopped more than :data:`JAM_SECONDS` outside a queue at the box."""
+    """Vehicles stopped more than :data:`JAM_SECONDS` outside a queue at the box.
+
+    Stopped time is kept per vehicle id; the queue rule is evaluated only
+    for vehicles already stopped longer than :data:`JAM_SECONDS`."""
 
     def __init__(self) -> None:
         self.reset()
 
     def reset(self) -> None:
-        self.stopped_for: dict[int, float] = {}
+        self._stopped_for = np.zeros(0)
         self.ever: set[int] = set()
         self.jammed_seconds = 0.0
         self.log: list[tuple[float, int]] = []  # (time, vid) when a vehicle is first counted as jammed
 
     def record(self, t: float, dt: float, vid, speed, in_queue_fn) -> None:
         """``in_queue_fn(rows)`` -> bool per row: is the stopped vehicle in a queue at the box."""
-        vid = np.asarray(vid)
-        stopped = np.asarray(speed) < STOPPED_SPEED
-        so = self.stopped_for
-        new = {}
-        for r in np.flatnonzero(stopped).tolist():
-            v = int(vid[r])
-            new[v] = so.get(v, 0.0) + dt
-        self.stopped_for = new
-        long_rows = [r for r in np.flatnonzero(stopped).tolist() if new[int(vid[r])] > JAM_SECONDS]
-        if not long_rows:
+        vid = np.asarray(vid, dtype=np.int64)
+        if not len(vid):
             return
-        rows = np.asarray(long_rows, dtype=np.int64)
-        q = in_queue_fn(rows)
-        for r, inq in zip(rows.tolist(), np.asarray(q).tolist()):
-            if inq:
-                continue
-            v = int(vid[r])
-            self.jammed_seconds += dt
+        top = int(vid.max()) + 1
+        if top > len(self._stopped_for):
+            self._stopped_for = np.concatenate([self._stopped_for,
+                                                np.zeros(max(top, 2 * len(self._stopped_for), 64)
+                                                         - len(self._stopped_for))])
+        stopped = np.asarray(speed) < STOPPED_SPEED
+        sf = self._stopped_for
+        sf[vid] = np.where(stopped, sf[vid] + dt, 0.0)
+        rows = np.flatnonzero(stopped & (sf[vid] > JAM_SECONDS))
+        if not len(rows):
+            return
+        jam = rows[~np.asarray(in_queue_fn(rows), dtype=bool)]
+        self.jammed_seconds += dt * len(jam)
+        for v in vid[jam].tolist():
             if v not in self.ever:
                 self.ever.add(v)
                 self.log.append((round(t, 3), v))

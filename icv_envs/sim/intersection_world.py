@@ -670,11 +670,9 @@ class IntersectionWorld:
         start = np.maximum.accumulate(np.where(first, np.arange(len(a)), 0))
         before = c[start] - brk[start]
         queued = (c - before) == 0
-        pos = {int(r): i for i, r in enumerate(a.tolist())}
-        for j, r in enumerate(np.asarray(rows).tolist()):
-            i = pos.get(int(r))
-            out[j] = i is not None and bool(queued[i])
-        return out
+        inq = np.zeros(f.n, dtype=bool)
+        inq[a] = queued
+        return inq[np.asarray(rows, dtype=np.int64)]
 
     def collision_pairs(self, cx=None, cy=None) -> tuple[np.ndarray, np.ndarray]:
         """Colliding row pairs: sweep and prune along ``x`` over the east-west
