@@ -333,7 +333,8 @@ class PlatoonExpert:
         self._vcap = np.zeros(0)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
-                      "path_obstacle_binding": 0, "node_yielded": 0}
+                      "path_obstacle_binding": 0, "node_yielded": 0,
+                      "held_at_line": 0}
 
     # ---------------------------------------------------------------- fields
     def attach(self, world) -> None:
@@ -918,6 +919,7 @@ class PlatoonExpert:
         xref = np.zeros(n)  # MODE_FOLLOW: u reference; MODE_TREE: X reference
         vref = np.full(n, p.v0)
         tight = np.zeros(n, dtype=bool)  # the safety bound binds: full braking allowed
+        hold = np.zeros(n, dtype=bool)  # the bound is violated: stop before the box
         # formation following (approach / adjusting zones, and followers of nodes before R1)
         fol = (f.ref >= 0) & (f.node < 0)
         if fol.any():
@@ -965,6 +967,11 @@ class PlatoonExpert:
             bind = lb > paper
             pred_rear = T["rear_row"][T["pred"][kk]]
             mode[rows_all] = MODE_TREE
+            # the hard spacing to an earlier conflicting node is already lost
+            # (a node that entered late, close to the box): the virtual lane
+            # cannot restore it, so the vehicle stops before the box until
+            # that node's rear has moved D_safe ahead of it
+            hold[rows_all] = rs.X[rows_all] < lb - (p.D_t - p.D_safe) - 1e-9
             xref[rows_all] = np.where(bind, lb, paper)
             vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
             tight[rows_all] = bind
@@ -975,6 +982,8 @@ class PlatoonExpert:
         self._stop = (rs.phase == 0) & (~allowed | (f.lc_lane >= 0) | (f.klane != f.tlane))
         # in the coordinating zone only coordinated vehicles (a node / a reservation) may enter
         self._stop |= (rs.phase == 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
+        self._stop |= (rs.phase == 0) & hold
+        self.stats["held_at_line"] += int(((rs.phase == 0) & hold).sum())
         self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
 
     def _virtual_cap(self, world, rs) -> np.ndarray:
