@@ -6,7 +6,7 @@
     icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
     icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333]
-    icv-envs compare intersection --methods multi-vp,single-vp,fcfs --throughput 1000,1500,2000,2500,3000 --seeds 3 --seconds 600 --out DIR [--lane-use paper|exclusive] [--backend ray]
+    icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,...,5000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
     icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
@@ -120,6 +120,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--throughput", default=None,
                    help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,...,3000)")
     c.add_argument("--lane-use", dest="lane_use", default=None, help="intersection: paper (default) or exclusive")
+    c.add_argument("--warmup", type=float, default=None,
+                   help="intersection: seconds run before the statistics start (default 100)")
     c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5])
     c.add_argument("--seeds", type=_seed_list, default=[0, 1, 2],
                    help="a count N (seeds 0..N-1, default 3) or a list/range such as 5,7,10-12")

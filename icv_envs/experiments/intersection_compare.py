@@ -53,7 +53,7 @@ from icv_envs.experiments.compare import check_backend, run_jobs
 from icv_envs.experiments.seeds import parse_seeds
 
 __all__ = ["CSV_COLUMNS", "METHODS", "DEFAULT_DEMANDS", "SERVED_SHARE", "validate_grid", "run_intersection",
-           "compare_intersection", "summarise", "capacity", "mean_ci", "plot_results"]
+           "compare_intersection", "collect_runs", "summarise", "capacity", "mean_ci", "plot_results"]
 
 CSV_COLUMNS = [
     "method", "throughput", "seed", "seconds", "warmup", "lane_use", "collisions", "jammed",
@@ -144,6 +144,30 @@ def compare_intersection(methods, throughputs, seeds, seconds: float, out, backe
     results.sort(key=lambda r: (order.index(r["method"]), r["throughput"], r["seed"]))
     for r in results:
         (out / "runs" / f"{_tag(r['method'], r['throughput'], r['seed'])}.json").write_text(json.dumps(r))
+    with open(out / "results.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
+        w.writeheader()
+        for r in results:
+            w.writerow({k: r.get(k) for k in CSV_COLUMNS})
+    summary = summarise(results)
+    summary["plots"] = plot_results(results, out)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
+
+
+def collect_runs(parts, out) -> dict:
+    """Merge the ``runs/*.json`` of earlier sweeps (directories ``parts``, for
+    example one per demand) into one ``results.csv``, ``summary.json`` and
+    plot set in ``out``: a sweep that is run piecewise ends up as one."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    results = []
+    for d in parts:
+        files = sorted(Path(d, "runs").glob("*.json"))
+        if not files:
+            raise ValueError(f"no runs/*.json in {d!r}")
+        results += [json.loads(fp.read_text()) for fp in files]
+    results.sort(key=lambda r: (METHODS.index(r["method"]), r["throughput"], r["seed"]))
     with open(out / "results.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
         w.writeheader()
