@@ -146,6 +146,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
                 "expert_in_info": True,
                 "missing_action": "error",
                 "show_formation": True,
+                "show_overlay": True,
                 "screen_width": 1200,
                 "screen_height": 260,
                 "scaling": 4.0,
