@@ -5,19 +5,42 @@ draws every formation's targets (outlined boxes) and the assignment (a line
 from each member to its target) when ``config["show_formation"]`` is set, and
 (2) keeps drawing when ``SDL_VIDEODRIVER=dummy`` is set for off-screen
 ``rgb_array`` rendering (highway-env's viewer turns itself off there and
-returns all-black frames).
+returns all-black frames), and (3) leaves the process's SIGTERM/SIGINT
+handling alone: SDL's initialisation (``pygame.init()``) installs its own
+handlers, which turn SIGTERM into a queued quit event nobody reads, so a
+process that rendered once ignored ``kill``/``timeout``/pool shutdowns. The
+handlers in place before are restored right after pygame's initialisation.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
+import threading
 
 import numpy as np
 import pygame
 from highway_env.envs.common.graphics import EnvViewer
 from highway_env.road.graphics import RoadGraphics
 
-__all__ = ["FormationViewer"]
+__all__ = ["FormationViewer", "keep_signal_handlers"]
+
+_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGINT", "SIGHUP", "SIGQUIT") if hasattr(signal, n))
+
+
+@contextlib.contextmanager
+def keep_signal_handlers():
+    """Restore the signal handlers of SIGTERM, SIGINT (and SIGHUP/SIGQUIT)
+    after the block (SDL replaces them when pygame initialises)."""
+    main = threading.current_thread() is threading.main_thread()
+    saved = {s: signal.getsignal(s) for s in _SIGNALS} if main else {}
+    try:
+        yield
+    finally:
+        for sig, handler in saved.items():
+            if handler is not None:  # None: installed outside Python, cannot be restored
+                signal.signal(sig, handler)
 
 
 class FormationViewer(EnvViewer):
@@ -27,7 +50,8 @@ class FormationViewer(EnvViewer):
             # no screen: render with SDL's dummy video driver (our display()
             # draws regardless, so frames are not black)
             os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
-        super().__init__(env, config)
+        with keep_signal_handlers():
+            super().__init__(env, config)
         if self.offscreen:
             self.enabled = True
 
