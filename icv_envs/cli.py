@@ -94,15 +94,17 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="run one episode and print its metrics")
     r.add_argument("env", type=_choice("env", ENVS), help=f"one of: {', '.join(ENVS)}")
-    r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default="lane-drop")
-    r.add_argument("--policy", type=_choice("policy", POLICIES), default="expert")
+    r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default=None,
+                   help="highway-formation: scenario preset (default lane-drop)")
+    r.add_argument("--policy", type=_choice("policy", POLICIES), default=None,
+                   help="highway-formation: policy (default expert)")
     r.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0)
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--out", default=None, help="directory for metrics.json (and video.gif)")
     r.add_argument("--video", action="store_true", help="also write video.gif to --out")
     r.add_argument("--config", default=None, help="JSON dict of extra env config")
-    r.add_argument("--method", default="formation", help="highway-ramps: formation, lane-lp or idm")
-    r.add_argument("--vgr", type=float, default=1.0 / 3.0, help="highway-ramps: vehicles/s per on-ramp")
+    r.add_argument("--method", default=None, help="highway-ramps: formation (default), lane-lp or idm")
+    r.add_argument("--vgr", type=float, default=None, help="highway-ramps: vehicles/s per on-ramp (default 1/3)")
 
     c = sub.add_parser("compare", help="methods x parameters x seeds sweep, in parallel, CSV + plots")
     c.add_argument("target", type=_choice("comparison", COMPARES))
@@ -150,6 +152,19 @@ def main(argv=None) -> int:
         return 2
 
 
+#: ``run`` options that apply to one env only: given for another, they are an error
+_RUN_ONLY = {"--scenario": ("scenario", "highway-formation"), "--policy": ("policy", "highway-formation"),
+             "--method": ("method", "highway-ramps"), "--vgr": ("vgr", "highway-ramps"),
+             "--video": ("video", "highway-formation")}
+
+
+def _reject_foreign_run_options(args) -> None:
+    for flag, (attr, env) in _RUN_ONLY.items():
+        v = getattr(args, attr, None)
+        if v not in (None, False) and args.env != env:
+            raise ValueError(f"{flag} {v!r} does not apply to run {args.env}: it is an option of run {env}")
+
+
 def _dispatch(args) -> int:
     if args.command == "evaluate":
         from icv_envs.rl.evaluate import run
@@ -162,8 +177,13 @@ def _dispatch(args) -> int:
                "scenarios": sorted(SCENARIOS), "policies": list(POLICIES)}
         print(json.dumps(out))
         return 0
+    if args.command == "run":
+        _reject_foreign_run_options(args)
     if args.command == "run" and args.env == "highway-ramps":
         from icv_envs.experiments.compare import run_ramps, validate_grid
+
+        args.method = args.method or "formation"
+        args.vgr = 1.0 / 3.0 if args.vgr is None else args.vgr
 
         validate_grid([args.method], [args.vgr], 1, args.seconds)
         m = run_ramps(args.method, args.vgr, args.seed, args.seconds,
@@ -216,7 +236,8 @@ def _dispatch(args) -> int:
                 raise ValueError(f"--config must be a JSON object, got {args.config!r}")
         if args.video and not args.out:
             raise ValueError("--video needs --out DIR to write the video to")
-        m = run_highway_formation(args.scenario, args.policy, args.seconds, args.seed, args.out, args.video,
+        m = run_highway_formation(args.scenario or "lane-drop", args.policy or "expert", args.seconds, args.seed,
+                                  args.out, args.video,
                                   config, progress=sys.stderr.isatty())
         print(json.dumps(m))
         return 0
