@@ -146,10 +146,10 @@ def build_parser() -> argparse.ArgumentParser:
     all_methods = tuple(dict.fromkeys(m for ms in METHODS.values() for m in ms))
     r = sub.add_parser("run", help="run one episode and print its metrics", formatter_class=fmt)
     r.add_argument("env", type=_choice("env", ENVS), metavar="ENV", help=f"one of: {', '.join(ENVS)}")
-    r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default="lane-drop",
-                   help=f"highway-formation: {', '.join(sorted(SCENARIOS))}")
-    r.add_argument("--policy", type=_choice("policy", POLICIES), default="expert",
-                   help=f"highway-formation: who drives every vehicle, {', '.join(POLICIES)}")
+    r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default=None,
+                   help=f"highway-formation (default lane-drop): {', '.join(sorted(SCENARIOS))}")
+    r.add_argument("--policy", type=_choice("policy", POLICIES), default=None,
+                   help=f"highway-formation (default expert): who drives every vehicle, {', '.join(POLICIES)}")
     r.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0, help="simulated seconds")
     r.add_argument("--seed", type=int, default=0, help="episode seed")
     r.add_argument("--out", default=None, help="directory for metrics.json (and video.gif)")
@@ -158,12 +158,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--method", type=_choice("method", all_methods), default=None,
                    help="highway-ramps: " + ", ".join(METHODS["highway-ramps"]) + " (default formation); "
                    "intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
-    r.add_argument("--vgr", type=_positive_float("--vgr"), default=1.0 / 3.0,
-                   help="highway-ramps: vehicles/s per on-ramp, in (0, 1]")
-    r.add_argument("--throughput", type=_positive_float("--throughput"), default=1500.0,
-                   help="intersection: vehicles/h entering the intersection (all legs)")
-    r.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default="paper",
-                   help=f"intersection: lane-use table, {', '.join(LANE_USES)}")
+    r.add_argument("--vgr", type=_positive_float("--vgr"), default=None,
+                   help="highway-ramps: vehicles/s per on-ramp, in (0, 1] (default 1/3)")
+    r.add_argument("--throughput", type=_positive_float("--throughput"), default=None,
+                   help="intersection: vehicles/h entering the intersection, all legs (default 1500)")
+    r.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default=None,
+                   help=f"intersection: lane-use table, {', '.join(LANE_USES)} (default paper)")
 
     c = sub.add_parser("compare", help="methods x parameters x seeds sweep, in parallel, CSV + plots", formatter_class=fmt)
     c.add_argument("target", type=_choice("comparison", COMPARES), metavar="TARGET", help=f"one of: {', '.join(COMPARES)}")
@@ -220,6 +220,21 @@ def main(argv=None) -> int:
         return 2
 
 
+#: ``run`` options that apply to one env only: given for another, they are an error
+_RUN_ONLY = {"--scenario": ("scenario", ("highway-formation",)), "--policy": ("policy", ("highway-formation",)),
+             "--method": ("method", ("highway-ramps", "intersection")), "--vgr": ("vgr", ("highway-ramps",)),
+             "--throughput": ("throughput", ("intersection",)), "--lane-use": ("lane_use", ("intersection",)),
+             "--video": ("video", ("highway-formation", "intersection"))}
+
+
+def _reject_foreign_run_options(args) -> None:
+    for flag, (attr, env) in _RUN_ONLY.items():
+        v = getattr(args, attr, None)
+        if v not in (None, False) and args.env not in env:
+            raise ValueError(f"{flag} {v!r} does not apply to run {args.env}: it is an option of run "
+                             + " / run ".join(env))
+
+
 def _dispatch(args) -> int:
     if args.command == "evaluate":
         from icv_envs.rl.evaluate import run
@@ -227,12 +242,15 @@ def _dispatch(args) -> int:
         return run(args)
     if args.command == "list":
         return _list(args.json)
+    if args.command == "run":
+        _reject_foreign_run_options(args)
     if args.command == "run" and args.env == "intersection":
         return _run_intersection(args)
     if args.command == "run" and args.env == "highway-ramps":
         from icv_envs.experiments.compare import run_ramps, validate_grid
 
         args.method = args.method or DEFAULT_METHOD["highway-ramps"]
+        args.vgr = 1.0 / 3.0 if args.vgr is None else args.vgr
         validate_grid([args.method], [args.vgr], 1, args.seconds)
         m = run_ramps(args.method, args.vgr, args.seed, args.seconds,
                       json.loads(args.config) if args.config else None)
@@ -285,7 +303,7 @@ def _dispatch(args) -> int:
                 raise ValueError(f"--config must be a JSON object, got {args.config!r}")
         if args.video and not args.out:
             raise ValueError("--video needs --out DIR to write the video to")
-        m = run_highway_formation(args.scenario, args.policy, args.seconds, args.seed, args.out, args.video,
+        m = run_highway_formation(args.scenario or "lane-drop", args.policy or "expert", args.seconds, args.seed, args.out, args.video,
                                   config, progress=_progress())
         print(json.dumps(m))
         return 0

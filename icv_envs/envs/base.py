@@ -13,12 +13,50 @@ checks of ``ma_step``, and rendering.
 
 from __future__ import annotations
 
+import copy
+
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from highway_env.envs.common.abstract import AbstractEnv
 
-__all__ = ["IcvAgentsEnv"]
+__all__ = ["IcvAgentsEnv", "check_actions"]
+
+
+def check_actions(actions, agents) -> np.ndarray:
+    """The actions of ``agents`` (names, keys of the mapping ``actions``) as a
+    ``(len(agents), 2)`` float64 array clipped to [-1, 1].
+
+    Each action must be a real array-like of shape ``(2,)`` with finite
+    values: a string, dict, complex, boolean or object value, a wrong shape,
+    NaN/inf or a number too large for a float raise ``ValueError`` naming the
+    agent and what is allowed."""
+    out = np.empty((len(agents), 2), dtype=np.float64)
+    allowed = "a real array of shape (2,) [acceleration, steering], finite, clipped to [-1, 1]"
+    for i, who in enumerate(agents):
+        a = actions[who]
+        if isinstance(a, np.ndarray) and a.dtype.kind == "f" and a.shape == (2,):
+            arr = a  # the common case
+        else:
+            if isinstance(a, (str, bytes, dict, set)) or a is None:
+                raise ValueError(f"action of {who} = {a!r} ({type(a).__name__}) is invalid; allowed: {allowed}")
+            try:
+                arr = np.asarray(a)
+            except (ValueError, TypeError, OverflowError) as exc:
+                raise ValueError(f"action of {who} = {a!r} is invalid ({exc}); allowed: {allowed}") from None
+            if arr.dtype.kind not in "iuf":
+                raise ValueError(f"action of {who} = {a!r} has dtype {arr.dtype} (kind {arr.dtype.kind!r}); "
+                                 f"allowed: {allowed}")
+            if arr.shape != (2,):
+                raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, "
+                                 f"steering] in [-1, 1]")
+            arr = arr.astype(np.float64)
+        if not np.isfinite(arr).all():
+            raise ValueError(f"action of {who} = {np.asarray(arr).tolist()} holds NaN or inf; allowed: finite values "
+                             f"in [-1, 1]")
+        out[i] = arr
+    np.clip(out, -1.0, 1.0, out=out)
+    return out
 
 
 class IcvAgentsEnv(AbstractEnv):
@@ -26,13 +64,82 @@ class IcvAgentsEnv(AbstractEnv):
     OBS_FEATURES: tuple = ()
 
     def __init__(self, config: dict | None = None, render_mode: str | None = None) -> None:
+        # highway-env's AbstractEnv.__init__ without its final reset(): an env
+        # is usable after reset() only (Gymnasium's contract), so step() and
+        # render() before it raise "call reset() before ..."
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is invalid; allowed: {self.metadata['render_modes']} or None")
         self.world = None
         self.expert = None
         self._ma_mode = False
-        self.possible_agents: list[str] = []
-        super().__init__(config, render_mode)
+        self._expert_cache = None
+        self.render_mode = render_mode
+        self.viewer = None
+        self._record_video_wrapper = None
+        self.enable_auto_render = False
+        self.config = self.default_config()
+        self.configure(config)
+        self.road = None
+        self.controlled_vehicles = []
+        self.action_type = None
+        self.action_space = None
+        self.observation_type = None
+        self.observation_space = None
+        self.define_spaces()
+        self.time = 0
+        self.steps = 0
+        self.done = False
+        self.possible_agents: list[str] = [f"icv_{i}" for i in range(self._n_possible_agents())]
+
+    # ------------------------------------------------------------------ config
+    #: attributes derived from the config by ``_validate_config`` (restored with it)
+    _CONFIG_DERIVED: tuple = ()
+
+    def configure(self, config: dict | None) -> None:
+        """Apply ``config`` on top of the current config and validate the
+        result; on an error the previous config is kept (so a failed
+        ``reset(options={"config": ...})`` leaves the env as it was)."""
+        saved = copy.deepcopy(self.config)
+        derived = {k: self.__dict__[k] for k in self._CONFIG_DERIVED if k in self.__dict__}
+        try:
+            self._apply_config(config)
+            self._validate_config()
+        except BaseException:
+            self.config = saved
+            for k in self._CONFIG_DERIVED:
+                self.__dict__.pop(k, None)
+            self.__dict__.update(derived)
+            raise
+
+    def preview_config(self, config: dict | None) -> int:
+        """Validate ``config`` as :meth:`configure` would, without applying it;
+        returns the number of possible agents it would give."""
+        saved = copy.deepcopy(self.config)
+        derived = {k: self.__dict__[k] for k in self._CONFIG_DERIVED if k in self.__dict__}
+        try:
+            self.configure(config)
+            return self._n_possible_agents()
+        finally:
+            self.config = saved
+            self.__dict__.update(derived)
+
+    def _apply_config(self, config: dict | None) -> None:
+        AbstractEnv.configure(self, config)
+
+    def _validate_config(self) -> None:
+        raise NotImplementedError
+
+    def _n_possible_agents(self) -> int:
+        """The number of possible agents, from the config alone."""
+        raise NotImplementedError
+
+    def __getstate__(self) -> dict:
+        # the viewer holds pygame surfaces (not picklable); a copy draws anew
+        state = dict(self.__dict__)
+        state["viewer"] = None
+        state["_record_video_wrapper"] = None
+        state["enable_auto_render"] = False
+        return state
 
     # ------------------------------------------------------------- subclasses
     def _vehicles(self):
@@ -55,18 +162,15 @@ class IcvAgentsEnv(AbstractEnv):
 
     # ------------------------------------------------------------- multi-agent
     def _check_action(self, action, who: str = "agent") -> np.ndarray:
-        arr = np.asarray(action, dtype=np.float64)
-        if arr.shape != (2,):
-            raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, steering] in [-1, 1]")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"action of {who} = {arr.tolist()} holds NaN or inf; allowed: finite values in [-1, 1]")
-        return np.clip(arr, -1.0, 1.0)
+        return check_actions({who: action}, [who])[0]
 
     def ma_step(self, actions: dict):
         """Multi-agent step: ``actions`` maps live agent names to actions.
         Actions are clipped to [-1, 1]; a wrong shape or a NaN raises
         ``ValueError`` naming the agent; agents left out raise too unless
         ``missing_action="expert"``."""
+        if self.world is None:
+            raise RuntimeError("call reset() before step()")
         veh = self._vehicles()
         live = [f"icv_{v}" for v in veh.vid]
         live_set = set(live)
@@ -86,22 +190,42 @@ class IcvAgentsEnv(AbstractEnv):
             acts[:] = self.expert_actions()
         given = [i for i, a in enumerate(live) if a in actions]
         if given:
-            vals = []
-            for i in given:
-                arr = np.asarray(actions[live[i]], dtype=np.float64)
-                if arr.shape != (2,) or not np.all(np.isfinite(arr)):
-                    self._check_action(arr, live[i])  # raises with the agent's name
-                vals.append(arr)
-            acts[given] = np.clip(np.stack(vals), -1.0, 1.0)
+            acts[given] = check_actions(actions, [live[i] for i in given])
         return self._ma_advance(acts)
+
+    # ------------------------------------------------------------------ expert
+    def _expert_key(self) -> tuple:
+        """What the expert's actions depend on: the world, its clock and the
+        set of vehicles (ids are never reused, so a removal plus a spawn in
+        the same step changes the key even when the count does not)."""
+        w = self.world
+        return id(w), w.time, self._vehicles().vid.tobytes()
+
+    def expert_actions(self) -> np.ndarray:
+        """The expert's (the env method's controller's) normalised actions for
+        every vehicle now (rows in vehicle order), computed once per state."""
+        if self.world is None:
+            raise RuntimeError("call reset() before expert_actions()")
+        key = self._expert_key()
+        if self._expert_cache is None or self._expert_cache[0] != key:
+            self._expert_cache = (key, self.expert.compute(self.world).astype(np.float32))
+        return self._expert_cache[1]
 
     # ------------------------------------------------------- gymnasium (ego)
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         gym.Env.reset(self, seed=seed, options=options)
         if options and "config" in options:
             self.configure(options["config"])
+            # spaces are created once: keep the same objects (and their
+            # seeded RNGs) unless the new config changes them
+            old = (self.observation_space, self.action_space)
+            self.define_spaces()
+            if old[0] is not None and old[0] == self.observation_space:
+                self.observation_space = old[0]
+            if old[1] is not None and old[1] == self.action_space:
+                self.action_space = old[1]
+            self.possible_agents = [f"icv_{i}" for i in range(self._n_possible_agents())]
         self.update_metadata()
-        self.define_spaces()
         self.time = self.steps = 0
         self.done = False
         self._reset()
