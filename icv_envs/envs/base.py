@@ -3,12 +3,15 @@
 agents, driven through one action space.
 
 Subclasses provide the simulation (``_reset``, ``_ma_advance``,
-``_observe_rows``, ``_ma_infos``, ``expert_actions``, ``_sync_render_road``),
+``_features``, ``_ma_infos``, ``expert_actions``, ``_sync_render_road``),
 the vehicle arrays (:meth:`_vehicles`, anything with ``n`` and a sorted
 ``vid``), the observation columns (``OBS_FEATURES``) and the viewer
-(:meth:`_make_viewer`). This class holds the parts that are the same for all:
-spaces, the Gymnasium single-ego ``reset``/``step``, the multi-agent action
-checks of ``ma_step``, and rendering.
+(:meth:`_make_viewer`), and for the observation types the feature scales
+(``_obs_scales``) and neighbour search (``_neighbours``). This class holds the
+parts that are the same for all: the observation / action types and their
+spaces (:mod:`icv_envs.envs.observations`, :mod:`icv_envs.envs.actions`), the
+Gymnasium single-ego ``reset``/``step``, ``ma_step`` (action checks and
+conversion), and rendering.
 """
 
 from __future__ import annotations
@@ -20,43 +23,10 @@ import numpy as np
 from gymnasium import spaces
 from highway_env.envs.common.abstract import AbstractEnv
 
+from icv_envs.envs.actions import action_factory, check_actions
+from icv_envs.envs.observations import observation_factory
+
 __all__ = ["IcvAgentsEnv", "check_actions"]
-
-
-def check_actions(actions, agents) -> np.ndarray:
-    """The actions of ``agents`` (names, keys of the mapping ``actions``) as a
-    ``(len(agents), 2)`` float64 array clipped to [-1, 1].
-
-    Each action must be a real array-like of shape ``(2,)`` with finite
-    values: a string, dict, complex, boolean or object value, a wrong shape,
-    NaN/inf or a number too large for a float raise ``ValueError`` naming the
-    agent and what is allowed."""
-    out = np.empty((len(agents), 2), dtype=np.float64)
-    allowed = "a real array of shape (2,) [acceleration, steering], finite, clipped to [-1, 1]"
-    for i, who in enumerate(agents):
-        a = actions[who]
-        if isinstance(a, np.ndarray) and a.dtype.kind == "f" and a.shape == (2,):
-            arr = a  # the common case
-        else:
-            if isinstance(a, (str, bytes, dict, set)) or a is None:
-                raise ValueError(f"action of {who} = {a!r} ({type(a).__name__}) is invalid; allowed: {allowed}")
-            try:
-                arr = np.asarray(a)
-            except (ValueError, TypeError, OverflowError) as exc:
-                raise ValueError(f"action of {who} = {a!r} is invalid ({exc}); allowed: {allowed}") from None
-            if arr.dtype.kind not in "iuf":
-                raise ValueError(f"action of {who} = {a!r} has dtype {arr.dtype} (kind {arr.dtype.kind!r}); "
-                                 f"allowed: {allowed}")
-            if arr.shape != (2,):
-                raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, "
-                                 f"steering] in [-1, 1]")
-            arr = arr.astype(np.float64)
-        if not np.isfinite(arr).all():
-            raise ValueError(f"action of {who} = {np.asarray(arr).tolist()} holds NaN or inf; allowed: finite values "
-                             f"in [-1, 1]")
-        out[i] = arr
-    np.clip(out, -1.0, 1.0, out=out)
-    return out
 
 
 class IcvAgentsEnv(AbstractEnv):
@@ -150,25 +120,70 @@ class IcvAgentsEnv(AbstractEnv):
         raise NotImplementedError
 
     # ------------------------------------------------------------------ spaces
+    def _spaces_key(self) -> str:
+        import json
+
+        c = self.config
+        return json.dumps([c["observation"], c["action"], c["speed_range"]], sort_keys=True, default=repr)
+
+    def _validate_spaces_config(self) -> None:
+        """Build the observation and action types once, so that a bad
+        ``observation`` / ``action`` config raises at ``configure`` time."""
+        observation_factory(self, self.config["observation"])
+        action_factory(self, self.config["action"])
+
     def define_spaces(self) -> None:
-        V = int(self.config["observation"]["vehicles_count"])
-        self.observation_space = spaces.Box(-1.0, 1.0, (V, len(self.OBS_FEATURES)), dtype=np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
-        self.observation_type = _ObservationStub(self)
-        self.action_type = None
+        """The observation / action types of ``config`` (see
+        :mod:`icv_envs.envs.observations`, :mod:`icv_envs.envs.actions`);
+        rebuilt only when their config changes, so the spaces stay the same
+        objects across resets."""
+        key = self._spaces_key()
+        if getattr(self, "_spaces_built_for", None) != key:
+            self._obs_type = observation_factory(self, self.config["observation"])
+            self._act_type = action_factory(self, self.config["action"])
+            self._spaces_built_for = key
+        self.observation_type = self._obs_type
+        self.action_type = self._act_type
+        self.observation_space = self._obs_type.space_
+        self.action_space = self._act_type.space
 
     def state_space_for(self, n_slots: int) -> spaces.Box:
         return spaces.Box(-1.0, 1.0, (n_slots, len(self.OBS_FEATURES)), dtype=np.float32)
 
-    # ------------------------------------------------------------- multi-agent
-    def _check_action(self, action, who: str = "agent") -> np.ndarray:
-        return check_actions({who: action}, [who])[0]
+    # ------------------------------------------------------------ observations
+    PERCEPTION_DISTANCE = 150.0  # default of the Kinematics option perception_distance [m]
 
+    def _check_action(self, action, who: str = "agent"):
+        return self._act_type.check(action, who)
+
+
+    def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
+        """Normalisation scales of the features ``(absolute, relative)``."""
+        raise NotImplementedError
+
+    def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
+        """``(sel, present)``: for each observer row, the traffic rows of its
+        up-to-``K`` nearest vehicles within ``pd`` (nearest first) and which of
+        the columns hold one."""
+        raise NotImplementedError
+
+    def _wrap_dx(self, dx):
+        """Longitudinal differences as the observer sees them (round a ring)."""
+        return dx
+
+    def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
+        """Observations of the vehicles at traffic ``rows`` (the observation type's layout)."""
+        rows = np.asarray(rows, dtype=np.int64)
+        if len(rows) and F is None:
+            F = self._features()
+        return self._obs_type.observe_rows(rows, F)
+
+    # ------------------------------------------------------------- multi-agent
     def ma_step(self, actions: dict):
-        """Multi-agent step: ``actions`` maps live agent names to actions.
-        Actions are clipped to [-1, 1]; a wrong shape or a NaN raises
-        ``ValueError`` naming the agent; agents left out raise too unless
-        ``missing_action="expert"``."""
+        """Multi-agent step: ``actions`` maps live agent names to actions of
+        the configured action type. A malformed action raises ``ValueError``
+        naming the agent; agents left out raise too unless
+        ``missing_action="expert"`` (the expert then drives them)."""
         if self.world is None:
             raise RuntimeError("call reset() before step()")
         veh = self._vehicles()
@@ -185,12 +200,16 @@ class IcvAgentsEnv(AbstractEnv):
                 f"no action for live agents {missing[:5]} ({len(missing)} missing); pass an action for every agent "
                 f"or configure missing_action='expert'"
             )
+        # 1. the expert drives agents left out; 2. the action type converts the
+        # given actions into normalised controls; 3. the simulation advances
         acts = np.zeros((veh.n, 2), dtype=np.float64)
         if missing:
             acts[:] = self.expert_actions()
         given = [i for i, a in enumerate(live) if a in actions]
         if given:
-            acts[given] = check_actions(actions, [live[i] for i in given])
+            at = self._act_type
+            vals = [at.check(actions[live[i]], live[i]) for i in given]
+            acts[given] = at.controls(np.asarray(given, dtype=np.int64), vals)
         return self._ma_advance(acts)
 
     # ------------------------------------------------------------------ expert
@@ -228,6 +247,7 @@ class IcvAgentsEnv(AbstractEnv):
         self.update_metadata()
         self.time = self.steps = 0
         self.done = False
+        self._act_type.reset()
         self._reset()
         obs, info = self._ego_obs_info()
         if self.render_mode == "human":
@@ -254,12 +274,12 @@ class IcvAgentsEnv(AbstractEnv):
             raise RuntimeError("call reset() before step()")
         if self._ego_done:
             raise RuntimeError("the ego's episode has ended (terminated or truncated): call reset()")
-        act = self._check_action(action, "the ego")
+        act = self._act_type.check(action, "the ego")
         veh = self._vehicles()
         acts = self.expert_actions().astype(np.float64).copy() if veh.n else np.zeros((0, 2))
         r = self._ego_row()
         if r >= 0:
-            acts[r] = act
+            acts[r] = self._act_type.controls(np.array([r]), [act])[0]
         observations, rewards, terms, truncs, infos = self._ma_advance(acts)
         a = f"icv_{self._ego_vid}"
         obs = observations.get(a, np.zeros(self.observation_space.shape, dtype=np.float32))
@@ -297,16 +317,3 @@ class IcvAgentsEnv(AbstractEnv):
                 self._record_video_wrapper._capture_frame()
             else:
                 self.render()
-
-
-class _ObservationStub:
-    """Stands in for highway-env's observation type where its viewer expects one."""
-
-    def __init__(self, env):
-        self.env = env
-
-    def observe(self):  # pragma: no cover - highway-env compatibility
-        return self.env._ego_obs_info()[0]
-
-    def space(self):  # pragma: no cover
-        return self.env.observation_space
