@@ -19,7 +19,7 @@
 | PettingZoo id | `icv_envs/intersection-v0` (`pettingzoo.make("parallel", ...)`) |
 
 The multi-lane unsignalized intersection of Xu et al. (2021), Sec. 4-5 and
-Table 2 (NOTES.md §4): four legs (N, E, S, W), each with three approach and
+Table 2 (docs/intersection.md): four legs (N, E, S, W), each with three approach and
 three departure lanes of 4 m; a lane-use table (`lane_use`: `"paper"`, left
 lane left turn / middle lane straight and right / right lane right turn, or
 `"exclusive"`, one movement per lane, or a custom dict) decides which
