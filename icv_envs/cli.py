@@ -172,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
                    + "; intersection: " + ",".join(METHODS["intersection"]) + " (default: all of the target's)")
     c.add_argument("--throughput", default=None,
                    help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,1500,2000,2500,3000)")
-    c.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default=None,
+    c.add_argument("--lane-use", dest="lane_use", default=None,  # checked by the env config (exit 2)
                    help=f"intersection: {', '.join(LANE_USES)} (default paper)")
     c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5],
                    help="highway-ramps: vehicles/s per on-ramp, comma-separated")
@@ -202,7 +202,7 @@ def build_parser() -> argparse.ArgumentParser:
     _eval_args(sub.add_parser("evaluate", help="evaluate expert/zero/random or a model saved by baselines/"))
     k = sub.add_parser("conflicts", help="conflict matrix of the 12 intersection movements (derived from the lane use)",
                        formatter_class=fmt)
-    k.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default="paper",
+    k.add_argument("--lane-use", dest="lane_use", default="paper",  # checked by conflicts_report (exit 2)
                    help=f"lane-use table, {', '.join(LANE_USES)}")
     k.add_argument("--json", action="store_true", help="print only the JSON report")
     ls = sub.add_parser("list", help="list environments, scenarios, methods and policies", formatter_class=fmt)
