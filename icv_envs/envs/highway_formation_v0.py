@@ -123,6 +123,7 @@ the road. Use it for centralised critics.
 | `expert_in_info` | True | put the expert's action in infos (costs one vectorised expert call per step) |
 | `missing_action` | `"error"` | or `"expert"` |
 | `show_formation` | True | draw targets and the assignment when rendering |
+| `show_overlay` | True | draw the title (env, scenario), the time and a legend on every frame (docs/rendering.md) |
 
 Invalid values raise `ValueError` naming the key, the value and what is allowed.
 """

@@ -152,6 +152,8 @@ cut a command in the box: 0 when the coordination is right),
 | `reward` | see Rewards | |
 | `expert_in_info`, `missing_action` | True, `"error"` | as in `highway_formation_v0` |
 | `show_zones`, `show_groups` | True | rendering: zone circles; group lines and tree-layer labels |
+| `show_overlay` | True | rendering: title (method, demand, lane use), time, legend and a true-size inset of the box (docs/rendering.md) |
+| `scaling` | 0.54 | rendering: pixels per metre; 0.54 on 900 px shows the scene out to R3 = 800 m |
 
 Invalid values raise `ValueError` naming the key, the value and what is allowed.
 """
