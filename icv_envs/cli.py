@@ -145,10 +145,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="run one episode and print its metrics", formatter_class=fmt)
     r.add_argument("env", type=_choice("env", ENVS), metavar="ENV", help=f"one of: {', '.join(ENVS)}")
-    r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default="lane-drop",
-                   help=f"highway-formation: {', '.join(sorted(SCENARIOS))}")
-    r.add_argument("--policy", type=_choice("policy", POLICIES), default="expert",
-                   help=f"highway-formation: who drives every vehicle, {', '.join(POLICIES)}")
+    r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default=None,
+                   help=f"highway-formation (default lane-drop): {', '.join(sorted(SCENARIOS))}")
+    r.add_argument("--policy", type=_choice("policy", POLICIES), default=None,
+                   help=f"highway-formation (default expert): who drives every vehicle, {', '.join(POLICIES)}")
     r.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0, help="simulated seconds")
     r.add_argument("--seed", type=int, default=0, help="episode seed")
     r.add_argument("--out", default=None, help="directory for metrics.json (and video.gif)")
@@ -157,12 +157,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--method", default=None,  # checked per env by validate_grid (exit 2)
                    help="highway-ramps: " + ", ".join(METHODS["highway-ramps"]) + " (default formation); "
                    "intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
-    r.add_argument("--vgr", type=float, default=1.0 / 3.0,
-                   help="highway-ramps: vehicles/s per on-ramp, in (0, 1]")
-    r.add_argument("--throughput", type=float, default=1500.0,
-                   help="intersection: vehicles/h entering the intersection (all legs)")
-    r.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default="paper",
-                   help=f"intersection: lane-use table, {', '.join(LANE_USES)}")
+    r.add_argument("--vgr", type=float, default=None,  # range checked by validate_grid (exit 2)
+                   help="highway-ramps: vehicles/s per on-ramp, in (0, 1] (default 1/3)")
+    r.add_argument("--throughput", type=float, default=None,  # range checked by validate_grid (exit 2)
+                   help="intersection: vehicles/h entering the intersection, all legs (default 1500)")
+    r.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default=None,
+                   help=f"intersection: lane-use table, {', '.join(LANE_USES)} (default paper)")
 
     c = sub.add_parser("compare", help="methods x parameters x seeds sweep, in parallel, CSV + plots", formatter_class=fmt)
     c.add_argument("target", type=_choice("comparison", COMPARES), metavar="TARGET", help=f"one of: {', '.join(COMPARES)}")
@@ -206,6 +206,13 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--json", action="store_true", help="print only the JSON report")
     ls = sub.add_parser("list", help="list environments, scenarios, methods and policies", formatter_class=fmt)
     ls.add_argument("--json", action="store_true", help="print only the JSON line")
+    ds = sub.add_parser("dataset", help="record the expert as a Minari dataset (see icv_envs.rl.dataset)", formatter_class=fmt)
+    ds.add_argument("--env", required=True, help="Gymnasium id (the ego) or PettingZoo id (one episode per vehicle)")
+    ds.add_argument("--episodes", type=int, required=True, help="env episodes (seeds SEED, SEED+1, ...)")
+    ds.add_argument("--out", required=True, help="directory of the Minari datasets (MINARI_DATASETS_PATH)")
+    ds.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    ds.add_argument("--config", default=None, help="JSON dict of env config (or a .json file)")
+    ds.add_argument("--dataset-id", dest="dataset_id", default=None, help="default: icv_envs/<family>/expert-v0")
     return p
 
 
@@ -219,19 +226,46 @@ def main(argv=None) -> int:
         return 2
 
 
+#: ``run`` options that apply to one env only: given for another, they are an error
+_RUN_ONLY = {"--scenario": ("scenario", ("highway-formation",)), "--policy": ("policy", ("highway-formation",)),
+             "--method": ("method", ("highway-ramps", "intersection")), "--vgr": ("vgr", ("highway-ramps",)),
+             "--throughput": ("throughput", ("intersection",)), "--lane-use": ("lane_use", ("intersection",)),
+             "--video": ("video", ("highway-formation", "intersection"))}
+
+
+def _reject_foreign_run_options(args) -> None:
+    for flag, (attr, env) in _RUN_ONLY.items():
+        v = getattr(args, attr, None)
+        if v not in (None, False) and args.env not in env:
+            raise ValueError(f"{flag} {v!r} does not apply to run {args.env}: it is an option of run "
+                             + " / run ".join(env))
+
+
 def _dispatch(args) -> int:
     if args.command == "evaluate":
         from icv_envs.rl.evaluate import run
 
         return run(args)
+    if args.command == "dataset":
+        from icv_envs.rl.dataset import record_expert_dataset
+        from icv_envs.rl.envs import parse_config
+
+        res = record_expert_dataset(args.env, args.episodes, args.out, seed=args.seed,
+                                    config=parse_config(args.config), dataset_id=args.dataset_id,
+                                    progress=sys.stderr.isatty())
+        print(json.dumps(res))
+        return 0
     if args.command == "list":
         return _list(args.json)
+    if args.command == "run":
+        _reject_foreign_run_options(args)
     if args.command == "run" and args.env == "intersection":
         return _run_intersection(args)
     if args.command == "run" and args.env == "highway-ramps":
         from icv_envs.experiments.compare import run_ramps, validate_grid
 
         args.method = args.method or DEFAULT_METHOD["highway-ramps"]
+        args.vgr = 1.0 / 3.0 if args.vgr is None else args.vgr
         validate_grid([args.method], [args.vgr], 1, args.seconds)
         m = run_ramps(args.method, args.vgr, args.seed, args.seconds,
                       json.loads(args.config) if args.config else None)
@@ -284,7 +318,7 @@ def _dispatch(args) -> int:
                 raise ValueError(f"--config must be a JSON object, got {args.config!r}")
         if args.video and not args.out:
             raise ValueError("--video needs --out DIR to write the video to")
-        m = run_highway_formation(args.scenario, args.policy, args.seconds, args.seed, args.out, args.video,
+        m = run_highway_formation(args.scenario or "lane-drop", args.policy or "expert", args.seconds, args.seed, args.out, args.video,
                                   config, progress=_progress())
         print(json.dumps(m))
         return 0
@@ -380,6 +414,8 @@ def _run_intersection(args) -> int:
     from icv_envs.envs.intersection_v0 import parallel_env
 
     method = args.method or DEFAULT_METHOD["intersection"]
+    args.throughput = 1500.0 if args.throughput is None else args.throughput
+    args.lane_use = args.lane_use or "paper"
     validate_grid([method], [args.throughput], 1, args.seconds)
     if args.video and not args.out:
         raise ValueError("--video needs --out DIR to write the video to")

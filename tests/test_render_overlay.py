@@ -113,3 +113,9 @@ def test_fcfs_and_gym_ego_legends(mod):
     img = env.render()
     assert img.std() > 10 and "learned ego" in [i[0] for i in env.unwrapped.viewer.legend_items()]
     env.close()
+
+
+@pytest.mark.parametrize("mod", [highway_formation_v0, highway_ramps_v0, intersection_v0])
+def test_show_overlay_must_be_a_bool(mod):
+    with pytest.raises(ValueError, match=r"show_overlay.*True or False"):
+        mod.parallel_env(show_overlay="yes")

@@ -17,18 +17,26 @@ The overlay helpers (:func:`draw_title`, :func:`draw_legend`,
 :func:`draw_vehicle_markers`) are shared with the intersection's viewer
 (``icv_envs.envs.intersection._viewer_class``). What every colour means is
 listed in ``docs/rendering.md``.
+4. leaves the process's SIGTERM/SIGINT handling alone: SDL's initialisation
+   (``pygame.init()``) installs its own handlers, which turn SIGTERM into a
+   queued quit event nobody reads, so a process that rendered once ignored
+   ``kill``/``timeout``/pool shutdowns. The handlers in place before are
+   restored right after pygame's initialisation (:func:`keep_signal_handlers`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
+import threading
 
 import numpy as np
 import pygame
 from highway_env.envs.common.graphics import EnvViewer
 from highway_env.road.graphics import RoadGraphics
 
-__all__ = ["FormationViewer", "font", "draw_title", "draw_legend", "draw_vehicle_markers", "FORMATION_PALETTE"]
+__all__ = ["FormationViewer", "keep_signal_handlers", "font", "draw_title", "draw_legend", "draw_vehicle_markers", "FORMATION_PALETTE"]
 
 #: colours of formations 0, 1, ... on the highway envs (cycled); the env's
 #: ``_sync_render_road`` uses the same list.
@@ -167,6 +175,23 @@ def _sim_time(env) -> float:
     return float(getattr(w, "time", getattr(env, "time", 0.0)) or 0.0)
 
 
+_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGINT", "SIGHUP", "SIGQUIT") if hasattr(signal, n))
+
+
+@contextlib.contextmanager
+def keep_signal_handlers():
+    """Restore the signal handlers of SIGTERM, SIGINT (and SIGHUP/SIGQUIT)
+    after the block (SDL replaces them when pygame initialises)."""
+    main = threading.current_thread() is threading.main_thread()
+    saved = {s: signal.getsignal(s) for s in _SIGNALS} if main else {}
+    try:
+        yield
+    finally:
+        for sig, handler in saved.items():
+            if handler is not None:  # None: installed outside Python, cannot be restored
+                signal.signal(sig, handler)
+
+
 class FormationViewer(EnvViewer):
     def __init__(self, env, config=None) -> None:
         cfg = config or env.config
@@ -174,7 +199,8 @@ class FormationViewer(EnvViewer):
             # no screen: render with SDL's dummy video driver (our display()
             # draws regardless, so frames are not black)
             os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
-        super().__init__(env, config)
+        with keep_signal_handlers():
+            super().__init__(env, config)
         _FONTS.clear()  # fonts made before a pygame.quit() (env.close()) are invalid
         if self.offscreen:
             self.enabled = True
