@@ -37,11 +37,12 @@ def test_mkdocs_build_strict(tmp_path):
     site = tmp_path / "site"
     assert (site / "index.html").is_file()
     for page in ("model", "formation", "intersection", "methods", "metrics", "decisions", "rendering",
-                 "cli", "envs/highway_formation", "envs/highway_ramps", "envs/intersection"):
+                 "cli", "spaces", "envs/highway_formation", "envs/highway_ramps", "envs/intersection"):
         assert (site / page / "index.html").is_file(), page
     # the env pages include their module docstrings (one text, not a copy)
     html = (site / "envs" / "intersection" / "index.html").read_text()
     assert "envelope_box_binding" in html and "docstring:" not in html
+    assert "<dt><code>DiscreteMetaAction</code></dt>" in (site / "spaces" / "index.html").read_text()
 
 
 def _anchors(md: Path) -> set[str]:
