@@ -254,7 +254,7 @@ class IntersectionEnv(IcvAgentsEnv):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
         for key in ("envelope_in_box", "expert_in_info"):
             flag(c, key)
-        check_render(c, flags=("show_zones", "show_groups"))
+        check_render(c, flags=("show_zones", "show_groups", "show_overlay"))
         check_possible_agents(self._n_possible_agents(), "throughput x (duration + warmup)")
         # geometry, lane use, radii (raise ValueError with their own messages)
         self.layout = IntersectionLayout(

@@ -19,7 +19,7 @@
 | PettingZoo id | `icv_envs/intersection-v0` (`pettingzoo.make("parallel", ...)`) |
 
 The multi-lane unsignalized intersection of Xu et al. (2021), Sec. 4-5 and
-Table 2 (NOTES.md §4): four legs (N, E, S, W), each with three approach and
+Table 2 (docs/intersection.md): four legs (N, E, S, W), each with three approach and
 three departure lanes of 4 m; a lane-use table (`lane_use`: `"paper"`, left
 lane left turn / middle lane straight and right / right lane right turn, or
 `"exclusive"`, one movement per lane, or a custom dict) decides which
@@ -152,6 +152,8 @@ cut a command in the box: 0 when the coordination is right),
 | `reward` | see Rewards | |
 | `expert_in_info`, `missing_action` | True, `"error"` | as in `highway_formation_v0` |
 | `show_zones`, `show_groups` | True | rendering: zone circles; group lines and tree-layer labels |
+| `show_overlay` | True | rendering: title (method, demand, lane use), time, legend and a true-size inset of the box (docs/rendering.md) |
+| `scaling` | 0.54 | rendering: pixels per metre; 0.54 on 900 px shows the scene out to R3 = 800 m |
 
 Invalid values raise `ValueError` naming the key, the value and what is allowed.
 """
