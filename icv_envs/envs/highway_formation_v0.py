@@ -126,6 +126,12 @@ the road. Use it for centralised critics.
 | `show_overlay` | True | draw the title (env, scenario), the time and a legend on every frame (docs/rendering.md) |
 
 Invalid values raise `ValueError` naming the key, the value and what is allowed.
+Bounds that keep a run within memory: `duration` <= 86400 s, at most 200,000
+possible agents, `acceleration_range` within +-20 m/s^2 (see `icv_envs/envs/_config.py`).
+highway-env keys the env does not use (`other_vehicles_type`, `manual_control`,
+`show_trajectories`) must keep their defaults. A config passed to
+`reset(options={"config": ...})` is validated before it is applied: a rejected one
+leaves the env as it was.
 """
 
 from __future__ import annotations

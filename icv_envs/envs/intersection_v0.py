@@ -105,7 +105,8 @@ An agent *terminates* when it reaches the end of the departure stretch
 vehicle is removed); it is *truncated* if it drives back out of its approach
 road, and every agent is truncated after `duration` seconds.  Vehicles keep
 arriving: `agents` can be empty for a while; `env.episode_over` tells when
-time is up.
+time is up (the AEC `env()` then keeps stepping by itself: `agent_iter()`
+ends only when time is up).
 
 ## State
 
@@ -156,6 +157,12 @@ cut a command in the box: 0 when the coordination is right),
 | `scaling` | 0.54 | rendering: pixels per metre; 0.54 on 900 px shows the scene out to R3 = 800 m |
 
 Invalid values raise `ValueError` naming the key, the value and what is allowed.
+Bounds that keep a run within memory: `duration` <= 86400 s, at most 200,000
+possible agents, `acceleration_range` within +-20 m/s^2 (see `icv_envs/envs/_config.py`).
+highway-env keys the env does not use (`other_vehicles_type`, `manual_control`,
+`show_trajectories`) must keep their defaults. A config passed to
+`reset(options={"config": ...})` is validated before it is applied: a rejected one
+leaves the env as it was.
 """
 
 from __future__ import annotations
