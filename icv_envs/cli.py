@@ -211,7 +211,7 @@ def build_parser() -> argparse.ArgumentParser:
     ds.add_argument("--env", required=True, help="Gymnasium id (the ego) or PettingZoo id (one episode per vehicle)")
     ds.add_argument("--episodes", type=int, required=True, help="env episodes (seeds SEED, SEED+1, ...)")
     ds.add_argument("--out", required=True, help="directory of the Minari datasets (MINARI_DATASETS_PATH)")
-    ds.add_argument("--seed", type=int, default=0)
+    ds.add_argument("--seed", type=int, default=0, help="seed of the first env episode (default 0)")
     ds.add_argument("--config", default=None, help="JSON dict of env config (or a .json file)")
     ds.add_argument("--dataset-id", dest="dataset_id", default=None, help="default: icv_envs/<family>/expert-v0")
     return p
