@@ -325,7 +325,8 @@ def run_cli(args, echo=print) -> dict:
         config["lane_use"] = args.lane_use
     summary = compare_intersection(methods, tps, args.seeds, float(args.seconds), args.out,
                                    backend=getattr(args, "backend", "process"),
-                                   workers=getattr(args, "workers", None), progress=True, config=config)
+                                   workers=getattr(args, "workers", None), progress=getattr(args, "progress", True),
+                                   config=config or None)
 
     def f(x, fmt):
         return "n/a" if x is None else format(x, fmt)

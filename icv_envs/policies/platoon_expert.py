@@ -1,6 +1,6 @@
 """Intersection experts: vehicle regrouping and the improved virtual platoon.
 
-Paper Sec. 4-5 (Xu et al., IET ITS 2021).  The code follows the paper's
+Paper Sec. 4-5 (Xu et al., IET ITS 2021), docs/intersection.md.  The code follows the paper's
 sections: regrouping (Sec. 5: division, lane change, adjusting, merging) in
 :mod:`icv_envs.policies.regrouping`, the virtual platoon (Sec. 4.2: nodes,
 tree, references) in :mod:`icv_envs.policies.virtual_platoon`, shared state
