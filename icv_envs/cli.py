@@ -141,6 +141,13 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--lane-use", dest="lane_use", default="paper", help="paper (default) or exclusive")
     k.add_argument("--json", action="store_true", help="print only the JSON report")
     sub.add_parser("list", help="list environments, scenarios and policies")
+    ds = sub.add_parser("dataset", help="record the expert as a Minari dataset (see icv_envs.rl.dataset)")
+    ds.add_argument("--env", required=True, help="Gymnasium id (the ego) or PettingZoo id (one episode per vehicle)")
+    ds.add_argument("--episodes", type=int, required=True, help="env episodes (seeds SEED, SEED+1, ...)")
+    ds.add_argument("--out", required=True, help="directory of the Minari datasets (MINARI_DATASETS_PATH)")
+    ds.add_argument("--seed", type=int, default=0)
+    ds.add_argument("--config", default=None, help="JSON dict of env config (or a .json file)")
+    ds.add_argument("--dataset-id", dest="dataset_id", default=None, help="default: icv_envs/<family>/expert-v0")
     return p
 
 
@@ -163,6 +170,15 @@ def _dispatch(args) -> int:
         from icv_envs.rl.leaderboard import run as run_board
 
         return run_board(args)
+    if args.command == "dataset":
+        from icv_envs.rl.dataset import record_expert_dataset
+        from icv_envs.rl.envs import parse_config
+
+        res = record_expert_dataset(args.env, args.episodes, args.out, seed=args.seed,
+                                    config=parse_config(args.config), dataset_id=args.dataset_id,
+                                    progress=sys.stderr.isatty())
+        print(json.dumps(res))
+        return 0
     if args.command == "list":
         import icv_envs
 

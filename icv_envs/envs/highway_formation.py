@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from icv_envs.envs.base import IcvAgentsEnv
+from icv_envs.envs.observations import merge_observation_config
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
@@ -140,8 +141,8 @@ class HighwayFormationEnv(IcvAgentsEnv):
                 "policy_frequency": 5,
                 "duration": 60.0,
                 "ego_vehicle": 0,
-                "observation": {"type": "FormationKinematics", "vehicles_count": 8, "perception_distance": 150.0},
-                "action": {"type": "ContinuousAcceleration+Steering"},
+                "observation": {"type": "Kinematics", "vehicles_count": 8, "perception_distance": 150.0},
+                "action": {"type": "ContinuousAction"},
                 "reward": dict(_REWARD_DEFAULTS),
                 "expert_in_info": True,
                 "missing_action": "error",
@@ -167,11 +168,14 @@ class HighwayFormationEnv(IcvAgentsEnv):
             base = self.default_config()
             base.update(scenario_config(scen))
             self.config = base
-        for key in ("formation", "reward", "observation"):
+        for key in ("formation", "reward"):
             if key in config and isinstance(config[key], dict) and isinstance(self.config.get(key), dict):
                 merged = dict(self.config[key])
                 merged.update(config[key])
                 config[key] = merged
+        for key in ("observation", "action"):  # same type: merged; another type: replaced
+            if key in config:
+                config[key] = merge_observation_config(self.config.get(key), config[key])
         super().configure(config)
         self._validate_config()
 
@@ -224,9 +228,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             raise ValueError(f"unknown reward keys {sorted(unknown)}; allowed: {sorted(_REWARD_DEFAULTS)}")
         for k in _REWARD_DEFAULTS:
             _num(r, k, allowed="a finite number")
-        o = c["observation"]
-        _num(o, "vehicles_count", 1, 64, integer=True, allowed="an integer in [1, 64]")
-        _num(o, "perception_distance", 0.0, lo_open=True, allowed="a number > 0 metres")
+        self._validate_spaces_config()
         if c["missing_action"] not in ("error", "expert"):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
         L = c["road_length"]
@@ -439,55 +441,43 @@ class HighwayFormationEnv(IcvAgentsEnv):
         F[:, 12] = np.clip((road.interval_end(lane, cx) - cx) / 200.0, 0.0, 1.0)
         return F
 
-    def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
-        """highway-env ``Kinematics`` convention, vectorised: row 0 is the
-        observer (absolute, normalised), rows 1.. the ``V - 1`` nearest
-        vehicles by longitudinal distance within the perception distance
-        (relative to the observer), padded with zero rows (presence 0)."""
+    def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
+        """Feature scales (the module docstring's table): absolute (row 0) and relative (other rows)."""
         c = self.config
-        V = int(c["observation"]["vehicles_count"])
-        pd = float(c["observation"]["perception_distance"])
         w = self.world
-        tr = w.traffic
-        n = tr.n
-        out = np.zeros((len(rows), V, len(OBS_FEATURES)), dtype=np.float32)
-        if not len(rows):
-            return out
-        if F is None:
-            F = self._features()
         vmax = float(c["speed_range"][1])
         width = w.road.total_lanes * w.road.lane_width
+        pd = float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE
         scale_abs = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
         scale_rel = np.array([1, pd, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
-        out[:, 0, :] = np.clip(F[rows] / scale_abs, -1, 1)
-        if V > 1 and n > 1:
-            cx = F[:, 1]
-            order = np.argsort(cx, kind="stable")
-            rank = np.empty(n, dtype=np.int64)
-            rank[order] = np.arange(n)
-            K = V - 1
-            offs = np.concatenate([np.arange(-K, 0), np.arange(1, K + 1)])
-            cand_rank = rank[rows][:, None] + offs[None, :]
-            if w.road.periodic:  # round the ring: ranks wrap, each vehicle at most once
-                valid = np.abs(offs)[None, :] <= (n - 1) // 2 + (offs[None, :] > 0) * ((n - 1) % 2)
-                cand_rank = np.mod(cand_rank, n)
-            else:
-                valid = (cand_rank >= 0) & (cand_rank < n)
-            cand = order[np.clip(cand_rank, 0, n - 1)]
-            dist = np.abs(w.road.wrap(cx[cand] - cx[rows][:, None]))
-            dist = np.where(valid & (dist < pd), dist, np.inf)
-            # stable selection of the K nearest (ties: rear first, as sorted)
-            pick = np.argsort(dist, axis=1, kind="stable")[:, :K]
-            sel = np.take_along_axis(cand, pick, axis=1)
-            seld = np.take_along_axis(dist, pick, axis=1)
-            present = np.isfinite(seld)
-            rel = F[sel].copy()
-            rel[..., 1:5] -= F[rows][:, None, 1:5]
-            rel[..., 1] = w.road.wrap(rel[..., 1])
-            rel = np.clip(rel / scale_rel, -1, 1)
-            rel[~present] = 0.0
-            out[:, 1:, :] = rel
-        return out
+        return scale_abs, scale_rel
+
+    def _wrap_dx(self, dx):
+        return self.world.road.wrap(dx)
+
+    def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
+        """The ``K`` nearest vehicles by longitudinal distance within ``pd``
+        (round the ring each vehicle at most once), nearest first; ties: rear first."""
+        w = self.world
+        n = len(F)
+        cx = F[:, 1]
+        order = np.argsort(cx, kind="stable")
+        rank = np.empty(n, dtype=np.int64)
+        rank[order] = np.arange(n)
+        offs = np.concatenate([np.arange(-K, 0), np.arange(1, K + 1)])
+        cand_rank = rank[rows][:, None] + offs[None, :]
+        if w.road.periodic:  # round the ring: ranks wrap, each vehicle at most once
+            valid = np.abs(offs)[None, :] <= (n - 1) // 2 + (offs[None, :] > 0) * ((n - 1) % 2)
+            cand_rank = np.mod(cand_rank, n)
+        else:
+            valid = (cand_rank >= 0) & (cand_rank < n)
+        cand = order[np.clip(cand_rank, 0, n - 1)]
+        dist = np.abs(w.road.wrap(cx[cand] - cx[rows][:, None]))
+        dist = np.where(valid & (dist < pd), dist, np.inf)
+        pick = np.argsort(dist, axis=1, kind="stable")[:, :K]
+        sel = np.take_along_axis(cand, pick, axis=1)
+        present = np.isfinite(np.take_along_axis(dist, pick, axis=1))
+        return sel, present
 
     def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
         """Per-agent reward: weighted sum of progress (speed / v_max), safety

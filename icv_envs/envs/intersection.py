@@ -35,6 +35,7 @@ import numpy as np
 
 from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.highway_formation import _num, action_to_controls
+from icv_envs.envs.observations import merge_observation_config
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon.conflicts import required_layer_gap
 from icv_envs.platoon.geometry import LANE_USE_PRESETS, LEGS, movement_name
@@ -67,7 +68,7 @@ STATE_FEATURES = OBS_FEATURES
 
 _REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "tracking": 0.5}
 _FCFS_DEFAULTS = {"tile": 1.0, "time_buffer": 5, "space_buffer": 0.5, "request_distance": 80.0, "a_plan": 1.5}
-_OBS_DEFAULTS = {"vehicles_count": 8, "perception_distance": 100.0}
+_OBS_DEFAULTS = {"type": "Kinematics", "vehicles_count": 8, "perception_distance": 100.0}
 
 
 class IntersectionEnv(IcvAgentsEnv):
@@ -121,7 +122,7 @@ class IntersectionEnv(IcvAgentsEnv):
                 "warmup": 0.0,
                 "max_vehicles": None,
                 "observation": dict(_OBS_DEFAULTS),
-                "action": {"type": "ContinuousAcceleration+Steering"},
+                "action": {"type": "ContinuousAction"},
                 "reward": dict(_REWARD_DEFAULTS),
                 "expert_in_info": True,
                 "missing_action": "error",
@@ -139,11 +140,14 @@ class IntersectionEnv(IcvAgentsEnv):
         """highway-env's ``configure``; nested ``fcfs``, ``reward`` and
         ``observation`` dicts are merged key by key; then validated."""
         config = dict(config or {})
-        for key in ("fcfs", "reward", "observation"):
+        for key in ("fcfs", "reward"):
             if key in config and isinstance(config[key], dict) and isinstance(self.config.get(key), dict):
                 merged = dict(self.config[key])
                 merged.update(config[key])
                 config[key] = merged
+        for key in ("observation", "action"):  # same type: merged; another type: replaced
+            if key in config:
+                config[key] = merge_observation_config(self.config.get(key), config[key])
         super().configure(config)
         self._validate_config()
 
@@ -220,12 +224,7 @@ class IntersectionEnv(IcvAgentsEnv):
             raise ValueError(f"unknown reward keys {sorted(unknown)}; allowed: {sorted(_REWARD_DEFAULTS)}")
         for k in _REWARD_DEFAULTS:
             _num(r, k, allowed="a finite number")
-        o = c["observation"]
-        unknown = set(o) - set(_OBS_DEFAULTS) - {"type"}
-        if unknown:
-            raise ValueError(f"unknown observation keys {sorted(unknown)}; allowed: {sorted(_OBS_DEFAULTS)}")
-        _num(o, "vehicles_count", 1, 64, integer=True, allowed="an integer in [1, 64]")
-        _num(o, "perception_distance", 0.0, lo_open=True, allowed="a number > 0 metres")
+        self._validate_spaces_config()
         if c["missing_action"] not in ("error", "expert"):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
         # geometry, lane use, radii (raise ValueError with their own messages)
@@ -441,47 +440,34 @@ class IntersectionEnv(IcvAgentsEnv):
         F[:, 13] = go
         return F
 
+    PERCEPTION_DISTANCE = 100.0
+
     def _scales(self, relative: bool) -> np.ndarray:
         c = self.config
         lay = self.layout
         vmax = float(c["speed_range"][1])
-        pos = float(c["observation"]["perception_distance"]) if relative else lay.R3
+        pos = (float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE) \
+            if relative else lay.R3
         return np.array([1.0, pos, pos, vmax, vmax, 1.0, 1.0, lay.R3, 100.0, vmax, lay.lane_width * 3, 1.0, 1.0, 1.0])
 
-    def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
-        """highway-env ``Kinematics`` convention: row 0 the observer (absolute,
-        normalised), rows 1.. the ``V - 1`` nearest vehicles (Euclidean
-        distance of body centres) within the perception distance, relative
-        x, y, vx, vy; zero rows (presence 0) pad."""
-        c = self.config
-        V = int(c["observation"]["vehicles_count"])
-        pd = float(c["observation"]["perception_distance"])
-        n = self.world.fleet.n
-        out = np.zeros((len(rows), V, len(OBS_FEATURES)), dtype=np.float32)
-        if not len(rows):
-            return out
-        if F is None:
-            F = self._features()
-        out[:, 0, :] = np.clip(F[rows] / self._scales(False), -1, 1)
-        if V > 1 and n > 1:
-            K = min(V - 1, n - 1)
-            dx = F[None, :, 1] - F[rows, 1][:, None]
-            dy = F[None, :, 2] - F[rows, 2][:, None]
-            dist = np.hypot(dx, dy)
-            dist[np.arange(len(rows)), rows] = np.inf
-            dist[dist > pd] = np.inf
-            pick = np.argpartition(dist, K - 1, axis=1)[:, :K] if K < n else np.argsort(dist, axis=1)[:, :K]
-            pd_sel = np.take_along_axis(dist, pick, axis=1)
-            o = np.argsort(pd_sel, axis=1, kind="stable")
-            pick = np.take_along_axis(pick, o, axis=1)
-            pd_sel = np.take_along_axis(pd_sel, o, axis=1)
-            present = np.isfinite(pd_sel)
-            rel = F[pick].copy()
-            rel[..., 1:5] -= F[rows][:, None, 1:5]
-            rel = np.clip(rel / self._scales(True), -1, 1)
-            rel[~present] = 0.0
-            out[:, 1:1 + K, :] = rel
-        return out
+    def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._scales(False), self._scales(True)
+
+    def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
+        """The up-to-``K`` nearest vehicles (Euclidean distance of body centres) within ``pd``, nearest first."""
+        n = len(F)
+        K = min(K, n - 1)
+        dx = F[None, :, 1] - F[rows, 1][:, None]
+        dy = F[None, :, 2] - F[rows, 2][:, None]
+        dist = np.hypot(dx, dy)
+        dist[np.arange(len(rows)), rows] = np.inf
+        dist[dist > pd] = np.inf
+        pick = np.argpartition(dist, K - 1, axis=1)[:, :K] if K < n else np.argsort(dist, axis=1)[:, :K]
+        pd_sel = np.take_along_axis(dist, pick, axis=1)
+        o = np.argsort(pd_sel, axis=1, kind="stable")
+        pick = np.take_along_axis(pick, o, axis=1)
+        present = np.isfinite(np.take_along_axis(pd_sel, o, axis=1))
+        return pick, present
 
     def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
         """Per agent: progress (speed / v_max), safety (-1 on a collision, else

@@ -10,12 +10,22 @@ __all__ = ["CoreParallelEnv"]
 
 class CoreParallelEnv(ParallelEnv):
     """Thin PettingZoo layer: ``core_cls`` is a highway-env ``AbstractEnv``
-    subclass of this package exposing ``ma_reset`` / ``ma_step``."""
+    subclass of this package exposing ``ma_reset`` / ``ma_step``.
+
+    ``max_cycles`` (PettingZoo's meaning): after that many ``step`` calls
+    every agent still live is truncated and the episode is over (the
+    config's ``duration`` still applies; whichever comes first)."""
 
     core_cls = None
     metadata = {"name": "icv_env", "render_modes": ["human", "rgb_array"], "is_parallelizable": True, "render_fps": 10}
 
-    def __init__(self, render_mode: str | None = None, **config) -> None:
+    def __init__(self, render_mode: str | None = None, max_cycles: int | None = None, **config) -> None:
+        if max_cycles is not None and (isinstance(max_cycles, bool) or not isinstance(max_cycles, (int, np.integer))
+                                       or max_cycles < 1):
+            raise ValueError(f"max_cycles = {max_cycles!r}; allowed: None (the config's duration ends the episode) "
+                             f"or an integer >= 1")
+        self.max_cycles = None if max_cycles is None else int(max_cycles)
+        self._cycles = 0
         self.render_mode = render_mode
         self.core = self.core_cls(config, render_mode=render_mode)
         self.core._ma_mode = True
@@ -37,6 +47,10 @@ class CoreParallelEnv(ParallelEnv):
         obs, infos = self.core.ma_reset(seed=seed, options=options)
         if list(self.core.possible_agents) != self.possible_agents:
             raise ValueError("options['config'] may not change the number of possible agents of a PettingZoo env")
+        if self.core.observation_space is not self._obs_space or self.core.action_space is not self._act_space:
+            raise ValueError("options['config'] may not change the observation or action type of a PettingZoo env "
+                             "(its spaces are fixed at construction)")
+        self._cycles = 0
         self.agents = list(obs)
         return obs, infos
 
@@ -44,15 +58,21 @@ class CoreParallelEnv(ParallelEnv):
         if self.core.world is None:
             raise RuntimeError("call reset() before step()")
         obs, rew, term, trunc, infos = self.core.ma_step(actions)
+        self._cycles += 1
+        if self.max_cycles is not None and self._cycles >= self.max_cycles:
+            trunc = {a: not term[a] for a in obs}  # PettingZoo's max_cycles: every agent truncated
         self.agents = [a for a in obs if not (term[a] or trunc[a])]
         return obs, rew, term, trunc, infos
 
     @property
     def episode_over(self) -> bool:
-        """True once the episode's time is up. On an open road (vehicles
-        arriving at a rate) ``agents`` can be empty for a while before that:
-        ``step({})`` then just advances time."""
+        """True once the episode's time is up (``duration`` seconds, or
+        ``max_cycles`` steps). On an open road (vehicles arriving at a rate)
+        ``agents`` can be empty for a while before that: ``step({})`` then
+        just advances time."""
         c = self.core
+        if self.max_cycles is not None and self._cycles >= self.max_cycles:
+            return True
         return c.world is None or c.world.time >= float(c.config["duration"]) - 1e-9
 
     def state(self) -> np.ndarray:
