@@ -35,12 +35,18 @@ Read top to bottom:
    * **Observations** are not re-normalised: the env already scales every
      feature to [-1, 1] (highway-env's ``Kinematics`` with ``normalize``), so a
      running mean/std would only add state that the saved model would need.
-   * **Initial exploration noise** ``--log-std-init -1.6`` (std 0.2): an action
-     of 1 is 30 deg of steering; at 25 m/s the kinematic bicycle turns at
-     v/L tan(phi) = 1.9 rad/s per 0.1 of steering, so SB3's default std of 1
-     drives every vehicle off the road within a second. 0.2 is the spread of
-     the expert's own actions over a lane change (std of the expert actions
-     in the BC data set, 0.1-0.3).
+   * **Exploration noise** ``--action-std 0.3,0.01`` (the Gaussian's initial
+     std per action dimension, acceleration and steering): chosen so that one
+     policy step (0.2 s) of noise changes the vehicle's velocity by about
+     0.25 m/s along both axes. Acceleration: ``u_a * 3`` m/s^2 for 0.2 s is
+     ``0.6 u_a`` m/s (``1.2 u_a`` braking), so std 0.3 gives 0.18-0.36 m/s.
+     Steering: ``u_s * 30`` deg turns the kinematic bicycle at
+     ``v / L tan(phi)`` = 25 / 2.8 * 0.52 ``u_s`` = 4.7 ``u_s`` rad/s at 25 m/s,
+     i.e. a heading change of 0.94 ``u_s`` rad and a lateral velocity of
+     23 ``u_s`` m/s after one step, so std 0.01 gives 0.23 m/s. SB3's default
+     std of 1 (both axes) drives every vehicle off the road within a second.
+     With ``FormationResidual`` (applied as ``expert + bound * r``) the stds
+     are divided by the type's ``bound`` (default 0.25), capped at 1.
    * MLP 256-256 ReLU, the shape of ``baselines/bc_expert.py`` so that
      ``--init`` can load a clone; Adam 3e-4, 10 epochs, minibatch 512, clip 0.2.
 
@@ -125,7 +131,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--gae-lambda", type=float, default=0.95)
     p.add_argument("--clip-range", type=float, default=0.2)
     p.add_argument("--ent-coef", type=float, default=0.0)
-    p.add_argument("--log-std-init", type=float, default=-1.6)
+    p.add_argument("--action-std", default="0.3,0.01",
+                   help="initial std of the Gaussian per action dimension: acceleration,steering")
     p.add_argument("--net-arch", default="256,256")
     p.add_argument("--eval-every", type=int, default=100_000, help="slot-steps between validation evaluations")
     p.add_argument("--eval-episodes", type=int, default=2)
@@ -141,8 +148,11 @@ def parse_args(argv=None) -> argparse.Namespace:
         args.config_dict = parse_config(args.config)
         args.spec = resolve_env(args.env)
         args.hidden = [int(h) for h in args.net_arch.split(",") if h.strip()]
+        args.std = [float(v) for v in args.action_std.split(",")]
     except ValueError as exc:
         p.error(str(exc))
+    if len(args.std) != 2 or not all(0 < v <= 1 for v in args.std):
+        p.error(f"--action-std {args.action_std!r} is invalid; allowed: two numbers in (0, 1], acceleration,steering")
     if args.spec.kind != "pettingzoo":
         p.error(f"--env {args.env!r} is a Gymnasium env; this recipe trains every agent of a PettingZoo env")
     if "action" in args.config_dict:
@@ -261,8 +271,6 @@ def main(argv=None) -> int:
 
     # 2. the shared actor-critic
     policy_kwargs = {"net_arch": {"pi": args.hidden, "vf": args.hidden}, "activation_fn": torch.nn.ReLU}
-    if args.action_type != "DiscreteMetaAction":
-        policy_kwargs["log_std_init"] = args.log_std_init
     model = PPO("MlpPolicy", env, n_steps=args.n_steps, batch_size=args.batch_size, n_epochs=args.n_epochs,
                 learning_rate=args.learning_rate, gamma=args.gamma, gae_lambda=args.gae_lambda,
                 clip_range=args.clip_range, ent_coef=args.ent_coef, policy_kwargs=policy_kwargs,
@@ -281,9 +289,16 @@ def main(argv=None) -> int:
                 raise SystemExit(f"--init {args.init}: {k} has shape {tuple(src[k].shape)}, expected "
                                  f"{tuple(dst[k].shape)} (--net-arch must match the clone's)")
             dst[k] = src[k].clone()
-        dst["log_std"] = torch.full_like(dst["log_std"], args.log_std_init)
         model.policy.load_state_dict(dst)
         actor_names.append("log_std")
+    if args.action_type != "DiscreteMetaAction":  # the exploration noise (see the docstring)
+        bound = np.ones(2)
+        if args.action_type == "FormationResidual":
+            b = args.config_dict["action"].get("bound", 0.25)
+            bound = np.broadcast_to(np.asarray(b, dtype=float), (2,))
+        std = np.minimum(np.asarray(args.std) / bound, 1.0)
+        with torch.no_grad():
+            model.policy.log_std.copy_(torch.as_tensor(np.log(std), dtype=torch.float32))
     warmup = args.critic_warmup if args.critic_warmup is not None else (
         2 * args.n_steps * venv.num_envs if args.init else 0)
 
