@@ -51,8 +51,44 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
-__all__ = ["ACTION_TYPES", "ActionType", "ContinuousAction", "DiscreteMetaAction", "FormationResidual",
+__all__ = ["ACTION_TYPES", "check_actions", "ActionType", "ContinuousAction", "DiscreteMetaAction", "FormationResidual",
            "action_factory"]
+
+
+def check_actions(actions, agents) -> np.ndarray:
+    """The actions of ``agents`` (names, keys of the mapping ``actions``) as a
+    ``(len(agents), 2)`` float64 array clipped to [-1, 1].
+
+    Each action must be a real array-like of shape ``(2,)`` with finite
+    values: a string, dict, complex, boolean or object value, a wrong shape,
+    NaN/inf or a number too large for a float raise ``ValueError`` naming the
+    agent and what is allowed."""
+    out = np.empty((len(agents), 2), dtype=np.float64)
+    allowed = "a real array of shape (2,) [acceleration, steering], finite, clipped to [-1, 1]"
+    for i, who in enumerate(agents):
+        a = actions[who]
+        if isinstance(a, np.ndarray) and a.dtype.kind == "f" and a.shape == (2,):
+            arr = a  # the common case
+        else:
+            if isinstance(a, (str, bytes, dict, set)) or a is None:
+                raise ValueError(f"action of {who} = {a!r} ({type(a).__name__}) is invalid; allowed: {allowed}")
+            try:
+                arr = np.asarray(a)
+            except (ValueError, TypeError, OverflowError) as exc:
+                raise ValueError(f"action of {who} = {a!r} is invalid ({exc}); allowed: {allowed}") from None
+            if arr.dtype.kind not in "iuf":
+                raise ValueError(f"action of {who} = {a!r} has dtype {arr.dtype} (kind {arr.dtype.kind!r}); "
+                                 f"allowed: {allowed}")
+            if arr.shape != (2,):
+                raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, "
+                                 f"steering] in [-1, 1]")
+            arr = arr.astype(np.float64)
+        if not np.isfinite(arr).all():
+            raise ValueError(f"action of {who} = {np.asarray(arr).tolist()} holds NaN or inf; allowed: finite values "
+                             f"in [-1, 1]")
+        out[i] = arr
+    np.clip(out, -1.0, 1.0, out=out)
+    return out
 
 
 class ActionType:
@@ -97,13 +133,7 @@ class ContinuousAction(ActionType):
         return spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
 
     def check(self, action, who: str = "agent") -> np.ndarray:
-        arr = np.asarray(action, dtype=np.float64)
-        if arr.shape != (2,):
-            raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, steering] "
-                             f"in [-1, 1] (action type {self.name})")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"action of {who} = {arr.tolist()} holds NaN or inf; allowed: finite values in [-1, 1]")
-        return arr
+        return check_actions({who: action}, [who])[0]
 
     def controls(self, rows, actions) -> np.ndarray:
         if not len(rows):

@@ -16,15 +16,17 @@ conversion), and rendering.
 
 from __future__ import annotations
 
+import copy
+
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from highway_env.envs.common.abstract import AbstractEnv
 
-from icv_envs.envs.actions import action_factory
+from icv_envs.envs.actions import action_factory, check_actions
 from icv_envs.envs.observations import observation_factory
 
-__all__ = ["IcvAgentsEnv"]
+__all__ = ["IcvAgentsEnv", "check_actions"]
 
 
 class IcvAgentsEnv(AbstractEnv):
@@ -32,13 +34,82 @@ class IcvAgentsEnv(AbstractEnv):
     OBS_FEATURES: tuple = ()
 
     def __init__(self, config: dict | None = None, render_mode: str | None = None) -> None:
+        # highway-env's AbstractEnv.__init__ without its final reset(): an env
+        # is usable after reset() only (Gymnasium's contract), so step() and
+        # render() before it raise "call reset() before ..."
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is invalid; allowed: {self.metadata['render_modes']} or None")
         self.world = None
         self.expert = None
         self._ma_mode = False
-        self.possible_agents: list[str] = []
-        super().__init__(config, render_mode)
+        self._expert_cache = None
+        self.render_mode = render_mode
+        self.viewer = None
+        self._record_video_wrapper = None
+        self.enable_auto_render = False
+        self.config = self.default_config()
+        self.configure(config)
+        self.road = None
+        self.controlled_vehicles = []
+        self.action_type = None
+        self.action_space = None
+        self.observation_type = None
+        self.observation_space = None
+        self.define_spaces()
+        self.time = 0
+        self.steps = 0
+        self.done = False
+        self.possible_agents: list[str] = [f"icv_{i}" for i in range(self._n_possible_agents())]
+
+    # ------------------------------------------------------------------ config
+    #: attributes derived from the config by ``_validate_config`` (restored with it)
+    _CONFIG_DERIVED: tuple = ()
+
+    def configure(self, config: dict | None) -> None:
+        """Apply ``config`` on top of the current config and validate the
+        result; on an error the previous config is kept (so a failed
+        ``reset(options={"config": ...})`` leaves the env as it was)."""
+        saved = copy.deepcopy(self.config)
+        derived = {k: self.__dict__[k] for k in self._CONFIG_DERIVED if k in self.__dict__}
+        try:
+            self._apply_config(config)
+            self._validate_config()
+        except BaseException:
+            self.config = saved
+            for k in self._CONFIG_DERIVED:
+                self.__dict__.pop(k, None)
+            self.__dict__.update(derived)
+            raise
+
+    def preview_config(self, config: dict | None) -> int:
+        """Validate ``config`` as :meth:`configure` would, without applying it;
+        returns the number of possible agents it would give."""
+        saved = copy.deepcopy(self.config)
+        derived = {k: self.__dict__[k] for k in self._CONFIG_DERIVED if k in self.__dict__}
+        try:
+            self.configure(config)
+            return self._n_possible_agents()
+        finally:
+            self.config = saved
+            self.__dict__.update(derived)
+
+    def _apply_config(self, config: dict | None) -> None:
+        AbstractEnv.configure(self, config)
+
+    def _validate_config(self) -> None:
+        raise NotImplementedError
+
+    def _n_possible_agents(self) -> int:
+        """The number of possible agents, from the config alone."""
+        raise NotImplementedError
+
+    def __getstate__(self) -> dict:
+        # the viewer holds pygame surfaces (not picklable); a copy draws anew
+        state = dict(self.__dict__)
+        state["viewer"] = None
+        state["_record_video_wrapper"] = None
+        state["enable_auto_render"] = False
+        return state
 
     # ------------------------------------------------------------- subclasses
     def _vehicles(self):
@@ -82,6 +153,10 @@ class IcvAgentsEnv(AbstractEnv):
     # ------------------------------------------------------------ observations
     PERCEPTION_DISTANCE = 150.0  # default of the Kinematics option perception_distance [m]
 
+    def _check_action(self, action, who: str = "agent"):
+        return self._act_type.check(action, who)
+
+
     def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
         """Normalisation scales of the features ``(absolute, relative)``."""
         raise NotImplementedError
@@ -109,6 +184,8 @@ class IcvAgentsEnv(AbstractEnv):
         the configured action type. A malformed action raises ``ValueError``
         naming the agent; agents left out raise too unless
         ``missing_action="expert"`` (the expert then drives them)."""
+        if self.world is None:
+            raise RuntimeError("call reset() before step()")
         veh = self._vehicles()
         live = [f"icv_{v}" for v in veh.vid]
         live_set = set(live)
@@ -135,13 +212,39 @@ class IcvAgentsEnv(AbstractEnv):
             acts[given] = at.controls(np.asarray(given, dtype=np.int64), vals)
         return self._ma_advance(acts)
 
+    # ------------------------------------------------------------------ expert
+    def _expert_key(self) -> tuple:
+        """What the expert's actions depend on: the world, its clock and the
+        set of vehicles (ids are never reused, so a removal plus a spawn in
+        the same step changes the key even when the count does not)."""
+        w = self.world
+        return id(w), w.time, self._vehicles().vid.tobytes()
+
+    def expert_actions(self) -> np.ndarray:
+        """The expert's (the env method's controller's) normalised actions for
+        every vehicle now (rows in vehicle order), computed once per state."""
+        if self.world is None:
+            raise RuntimeError("call reset() before expert_actions()")
+        key = self._expert_key()
+        if self._expert_cache is None or self._expert_cache[0] != key:
+            self._expert_cache = (key, self.expert.compute(self.world).astype(np.float32))
+        return self._expert_cache[1]
+
     # ------------------------------------------------------- gymnasium (ego)
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         gym.Env.reset(self, seed=seed, options=options)
         if options and "config" in options:
             self.configure(options["config"])
+            # spaces are created once: keep the same objects (and their
+            # seeded RNGs) unless the new config changes them
+            old = (self.observation_space, self.action_space)
+            self.define_spaces()
+            if old[0] is not None and old[0] == self.observation_space:
+                self.observation_space = old[0]
+            if old[1] is not None and old[1] == self.action_space:
+                self.action_space = old[1]
+            self.possible_agents = [f"icv_{i}" for i in range(self._n_possible_agents())]
         self.update_metadata()
-        self.define_spaces()
         self.time = self.steps = 0
         self.done = False
         self._act_type.reset()
