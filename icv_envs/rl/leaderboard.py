@@ -50,7 +50,9 @@ estimate), ``leaderboard.md`` (the Markdown table), ``leaderboard.png``
 (per task: learning curves of the ``baselines/ppo_recipe.py`` runs, the
 validation return as a share of the expert's leaderboard return and the
 collisions per 100 vehicles, with the targets 90% and 1 drawn; and each
-policy's mean return share with its interval), ``evals/<task>/<policy>.json``
+policy's mean return, at the intersection its throughput, as a share of the
+expert's with its interval, red where it has more than 1 collision per 100
+vehicles), ``evals/<task>/<policy>.json``
 (the full evaluation). ``--reuse`` keeps an ``evals`` file whose policy,
 config, episodes and seed match (and, for a model, that is newer than its
 ``model.zip``).
@@ -76,6 +78,7 @@ __all__ = ["TASKS", "Task", "METRICS", "run_leaderboard", "interval_estimates", 
            "episode_metrics", "main", "add_arguments"]
 
 DEFAULT_SEED = 1_000_000
+_RLIABLE_BROKEN = False  # set when rliable's bootstrap failed once (see interval_estimates)
 METRICS = ("return", "collisions_per_100", "mean_speed", "speed_fluctuation", "throughput")
 
 
@@ -155,6 +158,11 @@ def _iqm(x: np.ndarray) -> float:
     return float(trim_mean(x, proportiontocut=0.25, axis=None))
 
 
+def _mark_rliable_broken() -> None:
+    global _RLIABLE_BROKEN
+    _RLIABLE_BROKEN = True
+
+
 def interval_estimates(scores: np.ndarray, reps: int = 2000, seed: int = 0, backend: str = "auto") -> dict:
     """Mean and IQM of ``scores`` (one value per episode) with 95% percentile
     bootstrap intervals: ``{"mean", "mean_lo", "mean_hi", "iqm", "iqm_lo",
@@ -166,6 +174,8 @@ def interval_estimates(scores: np.ndarray, reps: int = 2000, seed: int = 0, back
     if len(x) == 0 or not np.all(np.isfinite(x)):
         return {"mean": math.nan, "mean_lo": math.nan, "mean_hi": math.nan, "iqm": math.nan, "iqm_lo": math.nan,
                 "iqm_hi": math.nan, "ci_backend": None}
+    if backend != "numpy" and _RLIABLE_BROKEN and backend == "auto":
+        backend = "numpy"  # a failed import is not cached by Python: do not retry it for every estimate
     if backend != "numpy":
         try:
             from rliable import library as rly
@@ -177,6 +187,7 @@ def interval_estimates(scores: np.ndarray, reps: int = 2000, seed: int = 0, back
         except Exception:  # noqa: BLE001 - rliable missing, or broken by its arch pin (arch 7 vs pandas 3, arch 8)
             if backend == "rliable":
                 raise
+            _mark_rliable_broken()
         else:
             (m, q), ((mlo, qlo), (mhi, qhi)) = point["p"], ci["p"]
             return {"mean": float(m), "mean_lo": float(mlo), "mean_hi": float(mhi), "iqm": float(q),
@@ -185,7 +196,9 @@ def interval_estimates(scores: np.ndarray, reps: int = 2000, seed: int = 0, back
     idx = rng.randint(0, len(x), size=(reps, len(x)))
     boots = x[idx]
     bm = boots.mean(axis=1)
-    bq = np.array([_iqm(b) for b in boots])
+    from scipy.stats import trim_mean
+
+    bq = trim_mean(boots, proportiontocut=0.25, axis=1)
     return {"mean": float(x.mean()), "mean_lo": float(np.percentile(bm, 2.5)), "mean_hi": float(np.percentile(bm, 97.5)),
             "iqm": _iqm(x), "iqm_lo": float(np.percentile(bq, 2.5)), "iqm_hi": float(np.percentile(bq, 97.5)),
             "ci_backend": "numpy"}
@@ -197,7 +210,10 @@ def _evaluate_cached(path: Path, task: Task, policy, config: dict, episodes: int
     if reuse and path.is_file():
         old = json.loads(path.read_text())
         fresh = model_zip is None or path.stat().st_mtime > model_zip.stat().st_mtime
-        if (fresh and old.get("episodes") == episodes and old.get("seed") == seed and old.get("config") == config
+        old_cfg = dict(old.get("config") or {})
+        if old.get("method") == policy:  # a reference method: evaluate() sets config["method"] to it
+            old_cfg.pop("method", None)
+        if (fresh and old.get("episodes") == episodes and old.get("seed") == seed and old_cfg == config
                 and old.get("policy") == str(policy)):
             return old
     res = evaluate(task.env, policy, episodes=episodes, seed=seed, config=config)
@@ -258,10 +274,12 @@ def run_leaderboard(out="results/leaderboard", models_dir="results/learned", tas
             row.update({f"{m}_{k}": v for k, v in est.items()})
         rows.append(row)
     for task in names:  # return as a share of the expert's
-        ex = next(r for r in rows if r["task"] == task and r["policy"] == "expert")["return_mean"]
+        ex = next(r for r in rows if r["task"] == task and r["policy"] == "expert")
         for r in rows:
             if r["task"] == task:
-                r["return_vs_expert"] = r["return_mean"] / ex if ex else math.nan
+                for m in ("return", "throughput"):
+                    e = ex[f"{m}_mean"]
+                    r[f"{m}_vs_expert"] = r[f"{m}_mean"] / e if e and math.isfinite(e) else math.nan
     out.mkdir(parents=True, exist_ok=True)
     _write_csv(out / "leaderboard.csv", rows)
     (out / "leaderboard.md").write_text(markdown(rows))
@@ -295,6 +313,10 @@ def _fmt(r: dict, m: str, stat: str = "mean", digits: int = 1) -> str:
     return f"{v:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
 
 
+def _pct(v) -> str:
+    return "-" if v is None or not math.isfinite(v) else f"{100 * v:.0f}%"
+
+
 def markdown(rows: list[dict]) -> str:
     """One table per task; cells: estimate [95% interval]."""
     lines = []
@@ -304,13 +326,13 @@ def markdown(rows: list[dict]) -> str:
         lines += [f"### {task}: `{t.env}` `{json.dumps(t.config)}`, {rs[0]['episodes']} episodes, "
                   f"seeds {rs[0]['seed']}..{rs[0]['seed'] + rs[0]['episodes'] - 1}", "",
                   "| policy | kind | return IQM | return mean | vs expert | collisions / 100 veh | mean speed (m/s) "
-                  "| speed fluct. (m/s^2) | throughput (veh/h) |",
-                  "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+                  "| speed fluct. (m/s^2) | throughput (veh/h) | vs expert |",
+                  "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for r in rs:
             lines.append(f"| {r['policy']} | {r['kind']} | {_fmt(r, 'return', 'iqm', 0)} | {_fmt(r, 'return', 'mean', 0)} "
-                         f"| {100 * r['return_vs_expert']:.0f}% | {_fmt(r, 'collisions_per_100')} "
+                         f"| {_pct(r['return_vs_expert'])} | {_fmt(r, 'collisions_per_100')} "
                          f"| {_fmt(r, 'mean_speed', digits=2)} | {_fmt(r, 'speed_fluctuation', digits=3)} "
-                         f"| {_fmt(r, 'throughput', digits=0)} |")
+                         f"| {_fmt(r, 'throughput', digits=0)} | {_pct(r['throughput_vs_expert'])} |")
         lines.append("")
     return "\n".join(lines)
 
@@ -353,15 +375,20 @@ def plot(path: Path, rows: list[dict], models_dir) -> None:
             a0.legend(fontsize=7)
         else:
             a0.text(0.5, 0.5, "no recipe run", ha="center", transform=a0.transAxes)
+        # the bar: the target's measure, throughput at the intersection (returns are not comparable across
+        # its methods), the return elsewhere; as a share of the expert's, with the 95% interval
+        key = "throughput" if env_family(TASKS[task].env) == "intersection" else "return"
+        ref = next(r for r in rs if r["policy"] == "expert")[f"{key}_mean"]
         y = np.arange(len(rs))
-        v = np.array([r["return_mean"] / ex for r in rs])
-        err = np.array([[r["return_mean"] - r["return_mean_lo"], r["return_mean_hi"] - r["return_mean"]] for r in rs]).T
+        v = np.array([r[f"{key}_mean"] / ref for r in rs])
+        err = np.array([[r[f"{key}_mean"] - r[f"{key}_mean_lo"], r[f"{key}_mean_hi"] - r[f"{key}_mean"]]
+                        for r in rs]).T
         colors = ["C3" if r["collisions_per_100_mean"] > 1.0 else "C2" for r in rs]
-        a2.barh(y, v, xerr=err / ex, color=colors, alpha=0.8)
+        a2.barh(y, v, xerr=err / ref, color=colors, alpha=0.8)
         a2.axvline(0.9, color="k", ls="--", lw=0.8)
         a2.set_yticks(y, [r["policy"] for r in rs], fontsize=7)
         a2.invert_yaxis()
-        a2.set(xlabel="mean return / expert (green: <= 1 collision / 100 veh)")
+        a2.set(xlabel=f"mean {key} / expert's (green: <= 1 collision / 100 veh)")
         for a in (a0, a1, a2):
             a.grid(alpha=0.3)
     fig.tight_layout()
