@@ -361,7 +361,7 @@ def plot(path: Path, rows: list[dict], models_dir) -> None:
     fig, axes = plt.subplots(3, len(tasks), figsize=(4.6 * len(tasks), 10), squeeze=False)
     for j, task in enumerate(tasks):
         rs = [r for r in rows if r["task"] == task]
-        ex = next(r for r in rs if r["policy"] == "expert")["return_mean"]
+        ex = next(r for r in rs if r["policy"] == "expert")["return_mean"] or math.nan
         a0, a1, a2 = axes[:, j]
         for label, cr in curves.get(task, []):
             x = [float(c["env_steps"]) for c in cr]
@@ -379,6 +379,7 @@ def plot(path: Path, rows: list[dict], models_dir) -> None:
         # its methods), the return elsewhere; as a share of the expert's, with the 95% interval
         key = "throughput" if env_family(TASKS[task].env) == "intersection" else "return"
         ref = next(r for r in rs if r["policy"] == "expert")[f"{key}_mean"]
+        ref = ref if ref and math.isfinite(ref) else math.nan  # an expert with no throughput (a tiny run): no share
         y = np.arange(len(rs))
         v = np.array([r[f"{key}_mean"] / ref for r in rs])
         err = np.array([[r[f"{key}_mean"] - r[f"{key}_mean_lo"], r[f"{key}_mean_hi"] - r[f"{key}_mean"]]
