@@ -325,8 +325,8 @@ def markdown(rows: list[dict]) -> str:
         rs = [r for r in rows if r["task"] == task]
         lines += [f"### {task}: `{t.env}` `{json.dumps(t.config)}`, {rs[0]['episodes']} episodes, "
                   f"seeds {rs[0]['seed']}..{rs[0]['seed'] + rs[0]['episodes'] - 1}", "",
-                  "| policy | kind | return IQM | return mean | vs expert | collisions / 100 veh | mean speed (m/s) "
-                  "| speed fluct. (m/s^2) | throughput (veh/h) | vs expert |",
+                  "| policy | kind | return IQM | return mean | return vs expert | collisions / 100 veh | mean speed (m/s) "
+                  "| speed fluct. (m/s^2) | throughput (veh/h) | throughput vs expert |",
                   "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for r in rs:
             lines.append(f"| {r['policy']} | {r['kind']} | {_fmt(r, 'return', 'iqm', 0)} | {_fmt(r, 'return', 'mean', 0)} "
