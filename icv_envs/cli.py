@@ -59,6 +59,15 @@ def _floats(name):
     return parse
 
 
+def _seeds(text):
+    from icv_envs.experiments.seeds import parse_seeds
+
+    try:
+        return parse_seeds(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"--seeds: {exc}") from None
+
+
 def _names(text):
     return [v.strip() for v in text.split(",") if v.strip()]
 
@@ -112,7 +121,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,...,3000)")
     c.add_argument("--lane-use", dest="lane_use", default=None, help="intersection: paper (default) or exclusive")
     c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5])
-    c.add_argument("--seeds", type=int, default=3, help="runs use seeds 0..N-1")
+    c.add_argument("--seeds", type=_seeds, default=[0, 1, 2],
+                   help="a count N (seeds 0..N-1) or a list/range of seeds, e.g. 5,7,10-12 (default 3)")
     c.add_argument("--seconds", type=float, default=600.0)
     c.add_argument("--out", default="compare_out")
     c.add_argument("--backend", default="process", help="process (local pool, default) or ray")
@@ -185,6 +195,10 @@ def _dispatch(args) -> int:
         return 0
     if args.command == "compare" and args.target == "intersection":
         from icv_envs.experiments.intersection_compare import run_cli as compare_intersection_cli
+
+        if args.seeds != list(range(len(args.seeds))):
+            raise ValueError(f"--seeds {args.seeds}: the intersection comparison takes a count N (seeds 0..N-1)")
+        args.seeds = len(args.seeds)
 
         summary = compare_intersection_cli(args, echo=lambda s: print(s, flush=True))
         print(json.dumps(summary))
