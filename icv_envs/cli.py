@@ -65,7 +65,7 @@ def _seeds(text):
     try:
         return parse_seeds(text)
     except ValueError as exc:
-        raise argparse.ArgumentTypeError(f"--seeds: {exc}") from None
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _names(text):

@@ -98,3 +98,20 @@ def test_bad_input():
         optimal_lane_shares([1], [5.0], [25.0], [10.0], excess_cost=0.0)
     with pytest.raises(ValueError, match="lane_change_distance must be"):
         optimal_lane_shares([1], [5.0], [25.0], [10.0], lane_change_distance=float("nan"))
+
+
+def test_lane_lp_policy_spreads_light_traffic_over_the_lanes():
+    # light load on the paper's ring: the vehicles the LP assigns at the ramps
+    # are spread over the three 25 m/s lanes, none carries most of them
+    from icv_envs.envs.highway_ramps_v0 import parallel_env
+
+    env = parallel_env(method="lane-lp", vgr=0.1, duration=150.0)
+    env.reset(seed=3)
+    while not env.episode_over:
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+    lanes = np.bincount(list(env.core.expert.assigned.values()), minlength=4)
+    assert lanes.sum() >= 20
+    assert lanes.max() <= 0.6 * lanes.sum(), lanes
+    assert (lanes[:3] > 0).all(), lanes
+    assert env.metrics()["collisions"] == 0
