@@ -199,8 +199,7 @@ def join_profile(t, T, d0, v0, a0):
 def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFILE_DECEL,
                   jerk: float = PROFILE_JERK, t_min: float = PROFILE_MIN_DURATION, grow: float = 1.05,
                   max_duration: float = 600.0, v_lo=-np.inf, v_hi=np.inf) -> np.ndarray:
-    """Shortest duration ``T >= t_min`` (on a geometric grid of ratio
-    ``grow``) for which the profile of :func:`join_profile` keeps its
+    """Shortest duration ``T >= t_min`` (to within a factor ``grow``) for which the profile of :func:`join_profile` keeps its
     acceleration within ``[-decel, accel]`` (widened to the initial
     acceleration ``a0`` if that lies outside), its jerk within ``+-jerk``
     and its relative speed within ``[v_lo, v_hi]`` (widened to ``v0``;
@@ -213,21 +212,48 @@ def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFI
         raise ValueError(f"grow must be > 1, got {grow!r}")
     d0, v0, a0 = np.broadcast_arrays(*(np.atleast_1d(_finite(n, x)) for n, x in
                                        (("d0", d0), ("v0", v0), ("a0", a0))))
-    T = np.full(d0.shape, float(t_min))
-    hi = np.maximum(accel, a0)
-    lo = np.minimum(-decel, a0)
+    hi_a = np.maximum(accel, a0)
+    lo_a = np.minimum(-decel, a0)
     vhi = np.maximum(np.broadcast_to(np.asarray(v_hi, dtype=np.float64), d0.shape), v0)
     vlo = np.minimum(np.broadcast_to(np.asarray(v_lo, dtype=np.float64), d0.shape), v0)
     tau = np.linspace(0.0, 1.0, 201)
-    todo = np.ones(d0.shape, dtype=bool)
-    while todo.any():
-        idx = np.flatnonzero(todo)
-        Ti = T[idx][:, None]
+
+    def feasible(T, idx):
+        Ti = T[:, None]
         _, v, a, j = _quintic(tau[None, :] * Ti, Ti, d0[idx][:, None], v0[idx][:, None], a0[idx][:, None])
-        ok = (a.max(axis=1) <= hi[idx] + 1e-9) & (a.min(axis=1) >= lo[idx] - 1e-9) & (
-            np.abs(j).max(axis=1) <= jerk + 1e-9) & (v.max(axis=1) <= vhi[idx] + 1e-9) & (
-            v.min(axis=1) >= vlo[idx] - 1e-9)
-        ok |= T[idx] >= max_duration
-        todo[idx[ok]] = False
-        T[idx[~ok]] *= grow
+        return ((a.max(axis=1) <= hi_a[idx] + 1e-9) & (a.min(axis=1) >= lo_a[idx] - 1e-9)
+                & (np.abs(j).max(axis=1) <= jerk + 1e-9) & (v.max(axis=1) <= vhi[idx] + 1e-9)
+                & (v.min(axis=1) >= vlo[idx] - 1e-9)) | (T >= max_duration)
+
+    # start from (0.7 x) the rest-to-rest estimate of the minimum-jerk move
+    # (peak acceleration 5.77 d / T^2, jerk 60 d / T^3), double until
+    # feasible, then bisect (in log T) between the last infeasible and the
+    # first feasible duration to a ratio of ``grow``
+    ad = np.abs(d0)
+    est = np.maximum.reduce([np.sqrt(5.7735 * ad / max(accel, decel)), np.cbrt(60.0 * ad / jerk),
+                             np.abs(v0) / max(accel, decel)])
+    lo = np.maximum(float(t_min), 0.7 * est)
+    idx_all = np.arange(d0.size)
+    ok = feasible(lo, idx_all)
+    T = lo.copy()
+    bad = np.flatnonzero(~ok)
+    if len(bad):
+        lo_b = lo[bad]
+        hi_b = np.minimum(2.0 * lo_b, max_duration)
+        todo = np.ones(len(bad), dtype=bool)
+        while todo.any():
+            k = np.flatnonzero(todo)
+            fk = feasible(hi_b[k], bad[k])
+            lo_b[k[~fk]] = hi_b[k[~fk]]
+            hi_b[k[~fk]] = np.minimum(2.0 * hi_b[k[~fk]], max_duration)
+            todo[k[fk]] = False
+        while True:
+            k = np.flatnonzero(hi_b > lo_b * grow)
+            if not len(k):
+                break
+            mid = np.sqrt(lo_b[k] * hi_b[k])
+            fm = feasible(mid, bad[k])
+            hi_b[k[fm]] = mid[fm]
+            lo_b[k[~fm]] = mid[~fm]
+        T[bad] = hi_b
     return T
