@@ -299,6 +299,10 @@ def _dispatch(args) -> int:
     if args.command == "compare" and args.target == "intersection":
         from icv_envs.experiments.intersection_compare import run_cli as compare_intersection_cli
 
+        if args.seeds != list(range(len(args.seeds))):
+            raise ValueError(f"--seeds {args.seeds}: the intersection comparison takes a count N (seeds 0..N-1)")
+        args.seeds = len(args.seeds)
+
         args.progress = _progress()
         summary = compare_intersection_cli(args, echo=lambda s: print(s, flush=True))
         print(json.dumps(summary))
@@ -308,9 +312,7 @@ def _dispatch(args) -> int:
 
         args.methods = args.methods or ["formation", "lane-lp", "idm"]
 
-        if args.seeds != list(range(len(args.seeds))):
-            raise ValueError(f"compare highway-ramps runs seeds 0..N-1; got the seed list {args.seeds}: give a count")
-        summary = compare_highway_ramps(args.methods, args.vgr, len(args.seeds), args.seconds, args.out,
+        summary = compare_highway_ramps(args.methods, args.vgr, args.seeds, args.seconds, args.out,
                                         backend=args.backend, workers=args.workers, progress=_progress())
         for row in summary["table"]:
             print(f"{row['method']:10s} vgr={row['vgr']:<5g} remaining={row['remaining']:7.1f} "

@@ -694,8 +694,8 @@ class HighwayFormationEnv(IcvAgentsEnv):
 
     # --------------------------------------------------------------- metrics
     def metrics(self, **kwargs) -> dict:
-        """Run metrics so far (see :mod:`icv_envs.experiments.metrics`)."""
-        from icv_envs.experiments.metrics import run_metrics
+        """Run metrics so far (see :mod:`icv_envs.sim.metrics`)."""
+        from icv_envs.sim.metrics import run_metrics
 
         return run_metrics(self.world)
 

@@ -360,7 +360,7 @@ class HighwayRampsEnv(HighwayFormationEnv):
 
         ``lost`` = spawned - exited - remaining - removed after a crash: a
         bookkeeping check that must be 0 (no vehicle disappears unaccounted)."""
-        from icv_envs.experiments.metrics import run_metrics
+        from icv_envs.sim.metrics import run_metrics
 
         m = run_metrics(self.world)
         st = self.world.stats

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from icv_envs.sim.formations import FormationManager
+from icv_envs.sim.metrics import HeadwayStats, MotionStats
 from icv_envs.sim.road import RoadLayout
 from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, leaders, rect_overlap
 
@@ -47,18 +48,18 @@ class World:
         self.traffic = Traffic(wheelbase, period=road.length if road.periodic else None)
         self.time = 0.0
         self._index = None
-        # run metrics, accumulated every substep (see icv_envs.experiments.metrics)
+        # run metrics (definitions in icv_envs.sim.metrics): event counts here,
+        # speed/acceleration every substep in ``motion``, gaps and time
+        # headways every policy step in ``headways``
         self.stats = {
-            "vehicle_steps": 0,
-            "speed_sum": 0.0,
-            "abs_accel_sum": 0.0,
             "collisions": 0,
             "exited": 0,
             "left_road": 0,
-            "min_gap": np.inf,
             "missed_exits": 0,
             "crashed_removed": 0,
         }
+        self.motion = MotionStats()
+        self.headways = HeadwayStats()
 
     # ---------------------------------------------------------------- queries
     def lane_index(self, reserved: bool = True):
@@ -101,15 +102,14 @@ class World:
         if tr.n:
             accel = np.where(tr.crashed, -6.0, accel)
             steer = np.where(tr.crashed, 0.0, steer)
+            v_before = tr.speed
             tr.step(accel, steer, self.dt, self.v_max)
+            self.motion.record(tr.vid, v_before, tr.speed, tr.accel, self.dt)
         self.time += self.dt
         self._index = None
         if not tr.n:
             return
         st = self.stats
-        st["vehicle_steps"] += tr.n
-        st["speed_sum"] += float(tr.speed.sum())
-        st["abs_accel_sum"] += float(np.abs(tr.accel).sum())
         cx, cy = tr.center()
         i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width,
                                period=self.road.length if self.road.periodic else None)
@@ -180,6 +180,8 @@ class World:
         return ids
 
     def record_min_gap(self) -> None:
+        """Sample the car-following gaps and time headways (once per policy
+        step; see :class:`icv_envs.sim.metrics.HeadwayStats`)."""
         if self.traffic.n > 1:
             gap, _ = self.own_lane_gaps()
-            self.stats["min_gap"] = min(self.stats["min_gap"], float(gap.min()))
+            self.headways.record(gap, self.traffic.speed)
