@@ -347,6 +347,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             desired_speed=float(c["formation"]["speed"]),
             ramp_speed=float(c["ramp_speed"]),
             exit_lookahead=float(c["formation"]["exit_lookahead"]),
+            lane_width=float(c["lane_width"]),
         )
 
     def _reset(self) -> None:

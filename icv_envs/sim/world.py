@@ -70,8 +70,10 @@ class World:
             cx, cy = self.traffic.center()
             args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
             self._index = (
-                lane_index(*args, periodic=self.road.periodic, reserved_lane=self.traffic.lc_lane),
-                lane_index(*args, periodic=self.road.periodic),
+                lane_index(*args, periodic=self.road.periodic, reserved_lane=self.traffic.lc_lane,
+                           length=self.traffic.length, heading=self.traffic.heading),
+                lane_index(*args, periodic=self.road.periodic, length=self.traffic.length,
+                           heading=self.traffic.heading),
             )
         return self._index[0] if reserved else self._index[1]
 
