@@ -109,6 +109,10 @@ class FormationExpert:
         # acceleration is BEZIER_PEAK * W v^2 / D^2, kept within the vehicle
         # model's bound (LAT_ACCEL_MAX): D >= v * sqrt(BEZIER_PEAK * W / a_y)
         self._lc_time_min = float(np.sqrt(BEZIER_PEAK * self.p.lane_width / self.p.lat_accel_max))
+        # ... and its peak curvature BEZIER_PEAK * W / D^2 within the steering
+        # limit tan(steer_max) / L: D >= sqrt(BEZIER_PEAK * W * L / tan(steer_max))
+        self._lc_length_min = float(np.sqrt(BEZIER_PEAK * self.p.lane_width * self.p.wheelbase
+                                            / np.tan(self.p.steer_max)))
 
     # ------------------------------------------------------------------ hooks
     def _lane_speeds(self, road, lane) -> np.ndarray:
@@ -197,8 +201,9 @@ class FormationExpert:
             # lane centre (until then the vehicle keeps steering for it)
             # (or stopped there: a vehicle held by a lane end before the end of
             # its curve is on the new lane and may plan its next change)
-            done = ((tr.x[a_rows] >= tr.lc_x0[a_rows] + tr.lc_len[a_rows]) | (v[a_rows] < 0.5)) & (
+            done = (tr.x[a_rows] >= tr.lc_x0[a_rows] + tr.lc_len[a_rows]) & (
                 np.abs(tr.y[a_rows] - tr.lc_y1[a_rows]) < 0.3)
+            done |= (v[a_rows] < 0.5) & (np.abs(cy[a_rows] - tr.lc_y1[a_rows]) < 0.3)
             tr.lc_lane[a_rows[stray | done]] = -1
             active = tr.lc_lane >= 0
 
@@ -230,8 +235,11 @@ class FormationExpert:
             room_own = 2.0 * (end_own - xw - 0.5 * tr.length[w_rows])
             room_nxt = end_nxt - xw - 0.5 * p.idm_s0 - k_after * p.lc_min_length
             length = np.minimum(length, np.minimum(room_own, room_nxt))
-            # shortened curves must stay within the vehicle's lateral-acceleration bound
-            ok &= length >= np.maximum(p.lc_min_length, vw * self._lc_time_min)
+            # shortened curves must stay within the vehicle's lateral-acceleration
+            # bound and, at low speed, its steering limit (lc_min_length is
+            # the planning unit of the lane-end stop lines, the physical
+            # minimum is shorter: slack for a vehicle that stopped late)
+            ok &= length >= np.maximum(self._lc_length_min, vw * self._lc_time_min)
             if road.has_ramp_lane:
                 into_ramp = nxt == road.ramp_lane
                 from_ramp = lane[w_rows] == road.ramp_lane
