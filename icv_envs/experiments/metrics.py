@@ -10,6 +10,13 @@
 * ``min_gap``: smallest bumper-to-bumper gap between a vehicle and its leader
   in the same lane, sampled at every policy step [m] (``null`` if never two
   vehicles shared a lane).
+* ``jammed``: vehicles that stood still longer than 30 s with at least
+  32 m of free lane ahead (nothing physical held them: a deadlock of the
+  driving logic), each counted once (:data:`icv_envs.sim.world.JAM_STOP_TIME`).
+* ``missed_exits``: vehicles with an exit that drove past the end of its
+  diverge segment on the main road.
+* ``collisions_by_fault``: collisions by type and by whether the at-fault
+  vehicle was expert-driven (see :meth:`icv_envs.sim.world.World.classify_collisions`).
 * ``vehicles``: vehicles that took part in the run (initial plus spawned);
   ``vehicles_final``: on the road at the end; ``exited``: reached their exit.
 """
@@ -35,4 +42,7 @@ def run_metrics(world) -> dict:
         "left_road": int(st["left_road"]),
         "sim_seconds": float(world.time),
         "vehicle_steps": int(st["vehicle_steps"]),
+        "jammed": int(st.get("jammed", 0)),
+        "missed_exits": int(st.get("missed_exits", 0)),
+        "collisions_by_fault": dict(st["collisions_by_fault"]) if "collisions_by_fault" in st else {},
     }

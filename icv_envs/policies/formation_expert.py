@@ -158,13 +158,21 @@ class FormationExpert:
             ramp = road.ramp_lane
             exiting = np.zeros(n, dtype=bool)
             has = (tr.exit >= 0) & ~member
+            # a vehicle on its off-ramp lane is exiting, member or not (the
+            # ramp leads nowhere else; it must not stop at the ramp's end)
+            has_any = tr.exit >= 0
+            if has_any.any() and road.n_exits:
+                ha = np.flatnonzero(has_any)
+                ds_a = road.diverge_start(tr.exit[ha])
+                past_a = road.wrap(cx[ha] - ds_a)
+                exiting[ha] = (lane[ha] == ramp) & (past_a >= 0) & (past_a <= road.exit_position(tr.exit[ha]) - ds_a)
             if has.any() and road.n_exits:
                 dist = road.exit_ahead(tr.exit[has], cx[has])
                 dlen = road.diverge_end(tr.exit[has]) - road.diverge_start(tr.exit[has])
                 ds = road.diverge_start(tr.exit[has])
                 past_ds = road.wrap(cx[has] - ds)
                 on_its_off_ramp = (lane[has] == ramp) & (past_ds >= 0) & (past_ds <= road.exit_position(tr.exit[has]) - ds)
-                exiting[has] = ((dist < p.exit_lookahead) & (dist >= -dlen)) | on_its_off_ramp
+                exiting[has] |= ((dist < p.exit_lookahead) & (dist >= -dlen)) | on_its_off_ramp
             desired = np.where(exiting, ramp, desired)
             # free vehicles on the ramp lane of an on-ramp move onto the main road
             on_ramp = (lane == ramp) & ~exiting & ~member

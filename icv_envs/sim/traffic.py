@@ -63,6 +63,8 @@ _FLOAT_FIELDS = (
     "lc_len",
     # formation manager: the assigned target, metres behind the front target
     "tgt_behind",
+    # standing time [s]: how long the vehicle has been below 0.1 m/s (jam detection)
+    "stopped_for",
 )
 _INT_FIELDS = (
     "vid",  # unique id, also the agent index ("icv_<vid>")
@@ -131,6 +133,7 @@ class Traffic:
             "lc_y1": 0.0,
             "lc_len": 0.0,
             "tgt_behind": 0.0,
+            "stopped_for": 0.0,
         }
         ids = np.arange(self.next_vid, self.next_vid + k, dtype=np.int64)
         self.next_vid += k

@@ -13,7 +13,15 @@ from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.road import RoadLayout
 from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, leaders, rect_overlap
 
-__all__ = ["World", "StepEvents"]
+__all__ = ["World", "StepEvents", "JAM_STOP_TIME", "JAM_FREE_GAP"]
+
+#: A vehicle standing (below 0.1 m/s) longer than this [s] ...
+JAM_STOP_TIME = 30.0
+#: ... while the road ahead of it is free over at least this distance [m] is
+#: jammed: nothing physical holds it. The distance is the IDM desired gap at
+#: the top speed, s0 + v_max T = 2 + 30 * 1 m (Treiber et al. 2000): a vehicle
+#: this far behind its leader (or the end of its lane) would accelerate.
+JAM_FREE_GAP = 32.0
 
 
 class StepEvents:
@@ -58,7 +66,9 @@ class World:
             "min_gap": np.inf,
             "missed_exits": 0,
             "crashed_removed": 0,
+            "jammed": 0,
         }
+        self._jammed: set[int] = set()
 
     # ---------------------------------------------------------------- queries
     def lane_index(self, reserved: bool = True):
@@ -104,6 +114,7 @@ class World:
             accel = np.where(tr.crashed, -6.0, accel)
             steer = np.where(tr.crashed, 0.0, steer)
             tr.step(accel, steer, self.dt, self.v_max)
+            tr.stopped_for = np.where(tr.speed < 0.1, tr.stopped_for + self.dt, 0.0)
         self.time += self.dt
         self._index = None
         if not tr.n:
@@ -182,6 +193,23 @@ class World:
         return ids
 
     def record_min_gap(self) -> None:
-        if self.traffic.n > 1:
+        """Per policy step: the smallest own-lane gap, and jam detection:
+        ``stats["jammed"]`` counts the vehicles that have at some time stood
+        longer than :data:`JAM_STOP_TIME` with at least :data:`JAM_FREE_GAP`
+        of free lane ahead (no leader, no lane end), each vehicle once."""
+        tr = self.traffic
+        if tr.n > 1:
             gap, _ = self.own_lane_gaps()
             self.stats["min_gap"] = min(self.stats["min_gap"], float(gap.min()))
+        if tr.n:
+            long_stop = tr.stopped_for > JAM_STOP_TIME
+            if long_stop.any():
+                rows = np.flatnonzero(long_stop)
+                gap = self.own_lane_gaps()[0][rows] if tr.n > 1 else np.full(len(rows), np.inf)
+                cx, cy = tr.center()
+                lane = self.road.lane_of(cy[rows])
+                to_end = self.road.interval_end(lane, cx[rows]) - cx[rows] - 0.5 * tr.length[rows]
+                free = (gap > JAM_FREE_GAP) & (to_end > JAM_FREE_GAP)
+                if free.any():
+                    self._jammed.update(int(v) for v in tr.vid[rows[free]])
+                    self.stats["jammed"] = len(self._jammed)
