@@ -322,6 +322,12 @@ class FormationExpert:
         lane_speed = self._lane_speeds(road, lane)
         lane_speed = np.where(exiting & (lane < road.n_lanes), p.exit_speed, lane_speed)
         lane_speed = np.where(blocked & ~member, np.maximum(lane_speed - p.blocked_slowdown, p.v_min), lane_speed)
+        # a vehicle refused on its way to its exit drops to the minimum speed:
+        # alongside traffic at the lane speed then passes it within seconds and
+        # opens the gap (at lane speed - blocked_slowdown the vehicles heading
+        # for the same exit stay side by side for hundreds of metres and one
+        # misses the exit)
+        lane_speed = np.where(blocked & ~member & exiting, np.minimum(lane_speed, p.v_min), lane_speed)
         acc = np.empty(n)
         free = ~member
         if free.any():
