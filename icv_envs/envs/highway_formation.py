@@ -71,6 +71,9 @@ _FORMATION_DEFAULTS = {
     "exit_lookahead": 400.0,
     "max_anchor_lead": 15.0,
 }
+#: body length of every vehicle [m] (paper Table 1) and the IDM jam distance s0 [m]
+VEHICLE_LENGTH = 5.0
+JAM_DISTANCE = 2.0
 _REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "formation": 0.5}
 
 
@@ -238,6 +241,17 @@ class HighwayFormationEnv(IcvAgentsEnv):
         if f["geometry"] not in ("interlaced", "parallel"):
             raise ValueError(f"formation geometry {f['geometry']!r} is invalid; allowed: 'interlaced', 'parallel'")
         _num(f, "spacing", 0.0, 1000.0, lo_open=True, allowed="a number > 0 metres (at most 1000)", where="['formation']")
+        # two targets in one lane are ``spacing`` apart (one lane, or the
+        # parallel geometry): the bodies (5 m) plus the IDM jam distance s0
+        # (2 m) must fit, even after the initial jitter moved both towards
+        # each other
+        min_spacing = VEHICLE_LENGTH + JAM_DISTANCE + 2.0 * float(c["initial_jitter"])
+        if f["spacing"] < min_spacing:
+            raise ValueError(
+                f"formation.spacing = {f['spacing']} m is below the physical minimum {min_spacing:g} m "
+                f"(vehicle length {VEHICLE_LENGTH:g} m + jam distance s0 {JAM_DISTANCE:g} m + "
+                f"2 x initial_jitter {c['initial_jitter']} m): vehicles one target apart in a lane would overlap"
+            )
         _num(f, "w1", 0.0, 1e6, allowed="a number in [0, 1e6]", where="['formation']")
         _num(f, "w2", 0.0, 1e6, allowed="a number in [0, 1e6]", where="['formation']")
         _num(f, "speed", sr[0], sr[1], allowed=f"a number within speed_range {list(sr)}", where="['formation']")
@@ -319,34 +333,61 @@ class HighwayFormationEnv(IcvAgentsEnv):
         # vehicles must fit on the road
         self._placement()
 
-    def _placement(self) -> list[tuple[int, float]]:
-        """(count, anchor) per initial formation; raises if they do not fit."""
+    def _placement(self) -> list[tuple[int, float, list[int]]]:
+        """(count, anchor, lanes) per initial formation; raises if they do not fit.
+
+        Each formation is sized for the main lanes drivable over the window
+        its formation layer will use, ``[anchor - length - 10 m, anchor +
+        lookahead]`` (:meth:`FormationManager._lane_set`): a lane that drops
+        or is blocked in that window is not used, so the targets the vehicles
+        are placed on are the targets the formation layer assigns (sizing for
+        the starting lane count but assigning on fewer lanes put vehicles on
+        top of each other). Lane set and length depend on each other and on
+        the anchors: iterated to a fixed point (at most a few rounds)."""
         c = self.config
         n, size = int(c["vehicles_count"]), int(c["formation_size"])
         k = math.ceil(n / size)
         counts = [n // k + (1 if i < n % k else 0) for i in range(k)]
-        lanes = self._initial_lane_count()
         f = c["formation"]
-        lengths = [formation_length(m, lanes, f["spacing"], f["geometry"]) for m in counts]
-        needed = sum(lengths) + c["formation_gap"] * (k - 1) + 10.0
+        road = self._make_road()
+        lane_sets = [list(range(int(c["lanes_count"]))) for _ in counts]
         front = c["initial_position"]
-        if front is None:
-            front = needed + 10.0
-        if not isinstance(front, (int, float)) or not math.isfinite(front):
+        auto = front is None
+        if not auto and (not isinstance(front, (int, float)) or isinstance(front, bool) or not math.isfinite(front)):
             raise ValueError(f"config['initial_position'] = {front!r}; allowed: a number or None (automatic)")
-        if front - needed < 0 or front > c["road_length"] - 100.0:
+
+        def layout(sets):
+            lengths = [formation_length(m, len(ls), f["spacing"], f["geometry"]) for m, ls in zip(counts, sets)]
+            needed = sum(lengths) + c["formation_gap"] * (k - 1) + 10.0
+            fr = needed + 10.0 if auto else float(front)
+            anchors, a = [], fr
+            for length in lengths:
+                anchors.append(a)
+                a -= length + c["formation_gap"]
+            return lengths, needed, fr, anchors
+
+        # lanes only ever shrink (intersection), so this terminates
+        for _ in range(int(c["lanes_count"]) * k + 1):
+            lengths, needed, fr, anchors = layout(lane_sets)
+            new = []
+            for a, length, ls in zip(anchors, lengths, lane_sets):
+                got = [lane for lane in road.drivable_main_lanes(a - length - 10.0, a + f["lookahead"]) if lane in ls]
+                new.append(got or ls[:1])
+            if new == lane_sets:
+                break
+            lane_sets = new
+        lengths, needed, fr, anchors = layout(lane_sets)
+        lanes = min(len(ls) for ls in lane_sets)
+        if fr - needed < 0 or fr > c["road_length"] - 100.0:
             per_m = max(lanes, 1) / (2.0 * f["spacing"]) * 2.0
-            cap = int(max(0.0, min(front, c["road_length"] - 100.0) - 10.0) * per_m * 0.5) + 1
+            cap = int(max(0.0, min(fr, c["road_length"] - 100.0) - 10.0) * per_m * 0.5) + 1
             raise ValueError(
                 f"vehicles_count={n} does not fit: {lanes} lanes with spacing {f['spacing']} m need {needed:.0f} m "
-                f"behind initial_position={front} (road_length={c['road_length']}); at most about {cap} vehicles fit "
-                f"there, or set initial_position=None to place them automatically"
+                f"behind initial_position={fr} (road_length={c['road_length']}); at most about {cap} vehicles fit "
+                + ("there: use fewer vehicles or a longer road" if auto else
+                   "there, or set initial_position=None to place them automatically")
             )
-        anchors, a = [], float(front)
-        for m, length in zip(counts, lengths):
-            anchors.append((m, a))
-            a -= length + c["formation_gap"]
-        return anchors
+        return [(m, a, ls) for m, a, ls in zip(counts, anchors, lane_sets)]
 
     def _initial_lane_count(self) -> int:
         c = self.config
@@ -387,6 +428,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             desired_speed=float(c["formation"]["speed"]),
             ramp_speed=float(c["ramp_speed"]),
             exit_lookahead=float(c["formation"]["exit_lookahead"]),
+            lane_width=float(c["lane_width"]),
         )
 
     def _reset(self) -> None:
@@ -407,8 +449,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         exits = {int(k): int(v) for k, v in c["exits"].items()}
         h = 0.5 * c["wheelbase"]
         idx = 0
-        for count, anchor in self._placement():
-            lanes = road.drivable_main_lanes(anchor - 200.0, anchor + f["lookahead"]) or [0]
+        for count, anchor, lanes in self._placement():
             tx, tl = formation_targets(count, len(lanes), f["spacing"], f["geometry"])
             lane_arr = np.asarray(lanes)[tl - 1]
             cx = anchor - tx + rng.uniform(-1, 1, count) * c["initial_jitter"]
@@ -630,6 +671,10 @@ class HighwayFormationEnv(IcvAgentsEnv):
         tr = w.traffic
         before = tr.vid.copy()
         acts_by_vid = {int(v): acts[i] for i, v in enumerate(before)}
+        if tr.n:
+            # who drives: an action equal to the expert's (float32) is expert-driven
+            ex = self.expert_actions()
+            w.set_expert_driven(before, np.all(np.abs(np.asarray(acts, dtype=np.float64) - ex) <= 1e-6, axis=1))
         events = self._advance(acts)
         self.time += 1.0 / c["policy_frequency"]
         self.steps += 1

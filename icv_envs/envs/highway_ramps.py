@@ -350,6 +350,8 @@ class HighwayRampsEnv(HighwayFormationEnv):
                 "exited": int(st["exited"]),
                 "missed_exits": int(st["missed_exits"]),
                 "collisions": int(st["collisions"]),
+                "stopped": int((tr.speed < 0.1).sum()),
+                "jammed": int(st["jammed"]),
                 "formations": len(w.manager.anchor),
             }
         )

@@ -245,7 +245,9 @@ class FormationManager:
             # vehicles still on a ramp merge first, as free vehicles, and join
             # from the main road (a formation cannot help them merge)
             _, cy = traffic.center()
-            free = free[road.lane_of(cy[free]) < road.n_lanes]
+            # ... and so do vehicles changing lanes into the ramp lane (an exit
+            # taken late: the centre crosses after the diverge segment ends)
+            free = free[(road.lane_of(cy[free]) < road.n_lanes) & (traffic.lc_lane[free] != road.ramp_lane)]
         if len(free) and road.n_exits:
             ex = traffic.exit[free]
             has = ex >= 0
@@ -283,6 +285,11 @@ class FormationManager:
             if len(rows):
                 d = road.exit_ahead(traffic.exit[rows], cx[rows])
                 leave = rows[d < self.exit_lookahead]
+                if road.has_ramp_lane:
+                    # a member on (or moving to) the ramp lane cannot hold a main-lane target
+                    _, cy_r = traffic.center()
+                    on_ramp = (road.lane_of(cy_r[rows]) == road.ramp_lane) | (traffic.lc_lane[rows] == road.ramp_lane)
+                    leave = rows[(d < self.exit_lookahead) | on_ramp]
                 for gid in np.unique(traffic.group[leave]):
                     changed.add(int(gid))
                 traffic.group[leave] = -1

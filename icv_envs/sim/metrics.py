@@ -202,5 +202,8 @@ def run_metrics(world) -> dict:
         "left_road": int(st["left_road"]),
         "sim_seconds": float(world.time),
         "vehicle_steps": int(world.motion.vehicle_steps),
+        "jammed": int(st.get("jammed", 0)),
+        "missed_exits": int(st.get("missed_exits", 0)),
+        "collisions_by_fault": dict(st["collisions_by_fault"]) if "collisions_by_fault" in st else {},
     })
     return m
