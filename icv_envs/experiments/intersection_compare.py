@@ -221,7 +221,8 @@ def run_cli(args, echo=print) -> dict:
         config["lane_use"] = args.lane_use
     summary = compare_intersection(methods, tps, args.seeds, float(args.seconds), args.out,
                                    backend=getattr(args, "backend", "process"),
-                                   workers=getattr(args, "workers", None), progress=True, config=config or None)
+                                   workers=getattr(args, "workers", None), progress=getattr(args, "progress", True),
+                                   config=config or None)
     for row in summary["table"]:
         delay = "n/a" if row["mean_delay"] is None else f"{row['mean_delay']:6.2f}"
         echo(f"{row['method']:9s} throughput={row['throughput']:<6g} achieved={row['achieved_throughput']:7.1f} "
