@@ -16,7 +16,10 @@ one process, arrays in and arrays out.
   ``actions (B, K, 2)``, ``rewards``/``terminated``/``truncated (B, K)`` and
   ``mask (B, K)`` (True where the slot holds a live agent whose next action
   is used; observations of empty slots are zeros and their actions are
-  ignored). A world whose episode is over is reset in the same step (its
+  ignored). A world whose episode is over
+  (:func:`icv_envs.rl.envs.episode_finished`: the time is up, or no agent is
+  left and none is due; on the open roads a world may be empty for a while)
+  is reset in the same step (its
   slots' last observations in ``info["final_obs"]``, ``info["reset"][b]``
   True); world ``b``'s episodes are seeded from
   ``numpy.random.SeedSequence(seed).spawn(B)[b]``.
@@ -41,6 +44,8 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
+
+from icv_envs.rl.envs import episode_finished
 
 __all__ = ["IcvVectorEnv", "BatchedWorlds"]
 
@@ -309,7 +314,7 @@ class BatchedWorlds:
                 self.truncated[b, k] = np.fromiter(trunc.values(), dtype=bool, count=len(names))
             if env.agents:
                 self.mask[b, self._slots(env.agents)] = True
-            if env.episode_over or (not env.agents and getattr(env.core, "MIN_VEHICLES", 1) > 0):
+            if episode_finished(env):
                 self.final_obs[b] = self.obs[b]
                 self.truncated[b] |= self.mask[b]
                 reset[b] = True

@@ -115,3 +115,16 @@ def test_sb3_ppo_trains_through_the_vector_env():
     model.learn(total_timesteps=64)
     assert model.num_timesteps >= 64
     venv.close()
+
+
+def test_batched_intersection_worlds_keep_going_while_empty():
+    bw = BatchedWorlds(1, env="intersection", config={"duration": 4.0}, seed=1, expert=True)
+    obs, mask = bw.reset()
+    acts = bw.expert_actions.copy()
+    resets = 0
+    for _ in range(25):  # 5 s: one reset at 4 s, none while the zones are merely empty
+        obs, rew, term, trunc, mask, info = bw.step(acts)
+        acts = info["expert_actions"]
+        resets += int(info["reset"][0])
+        assert (obs[0][~mask[0]] == 0).all()
+    assert resets == 1
