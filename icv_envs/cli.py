@@ -143,7 +143,6 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0, help="simulated seconds per scenario")
     d.add_argument("--no-video", action="store_true", help="skip the GIFs")
 
-    all_methods = tuple(dict.fromkeys(m for ms in METHODS.values() for m in ms))
     r = sub.add_parser("run", help="run one episode and print its metrics", formatter_class=fmt)
     r.add_argument("env", type=_choice("env", ENVS), metavar="ENV", help=f"one of: {', '.join(ENVS)}")
     r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default=None,
@@ -155,12 +154,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default=None, help="directory for metrics.json (and video.gif)")
     r.add_argument("--video", action="store_true", help="highway-formation, intersection: also write video.gif to --out")
     r.add_argument("--config", default=None, help="JSON object of extra env config keys (see docs/envs/)")
-    r.add_argument("--method", type=_choice("method", all_methods), default=None,
+    r.add_argument("--method", default=None,  # checked per env by validate_grid (exit 2)
                    help="highway-ramps: " + ", ".join(METHODS["highway-ramps"]) + " (default formation); "
                    "intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
-    r.add_argument("--vgr", type=_positive_float("--vgr"), default=None,
+    r.add_argument("--vgr", type=float, default=None,  # range checked by validate_grid (exit 2)
                    help="highway-ramps: vehicles/s per on-ramp, in (0, 1] (default 1/3)")
-    r.add_argument("--throughput", type=_positive_float("--throughput"), default=None,
+    r.add_argument("--throughput", type=float, default=None,  # range checked by validate_grid (exit 2)
                    help="intersection: vehicles/h entering the intersection, all legs (default 1500)")
     r.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default=None,
                    help=f"intersection: lane-use table, {', '.join(LANE_USES)} (default paper)")
@@ -172,7 +171,7 @@ def build_parser() -> argparse.ArgumentParser:
                    + "; intersection: " + ",".join(METHODS["intersection"]) + " (default: all of the target's)")
     c.add_argument("--throughput", default=None,
                    help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,1500,2000,2500,3000)")
-    c.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default=None,
+    c.add_argument("--lane-use", dest="lane_use", default=None,  # checked by the env config (exit 2)
                    help=f"intersection: {', '.join(LANE_USES)} (default paper)")
     c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5],
                    help="highway-ramps: vehicles/s per on-ramp, comma-separated")
@@ -204,7 +203,7 @@ def build_parser() -> argparse.ArgumentParser:
     _eval_args(sub.add_parser("evaluate", help="evaluate expert/zero/random or a model saved by baselines/"))
     k = sub.add_parser("conflicts", help="conflict matrix of the 12 intersection movements (derived from the lane use)",
                        formatter_class=fmt)
-    k.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default="paper",
+    k.add_argument("--lane-use", dest="lane_use", default="paper",  # checked by conflicts_report (exit 2)
                    help=f"lane-use table, {', '.join(LANE_USES)}")
     k.add_argument("--json", action="store_true", help="print only the JSON report")
     ls = sub.add_parser("list", help="list environments, scenarios, methods and policies", formatter_class=fmt)
@@ -213,7 +212,7 @@ def build_parser() -> argparse.ArgumentParser:
     ds.add_argument("--env", required=True, help="Gymnasium id (the ego) or PettingZoo id (one episode per vehicle)")
     ds.add_argument("--episodes", type=int, required=True, help="env episodes (seeds SEED, SEED+1, ...)")
     ds.add_argument("--out", required=True, help="directory of the Minari datasets (MINARI_DATASETS_PATH)")
-    ds.add_argument("--seed", type=int, default=0)
+    ds.add_argument("--seed", type=int, default=0, help="seed of the first episode")
     ds.add_argument("--config", default=None, help="JSON dict of env config (or a .json file)")
     ds.add_argument("--dataset-id", dest="dataset_id", default=None, help="default: icv_envs/<family>/expert-v0")
     return p
@@ -424,6 +423,8 @@ def _run_intersection(args) -> int:
     from icv_envs.envs.intersection_v0 import parallel_env
 
     method = args.method or DEFAULT_METHOD["intersection"]
+    args.throughput = 1500.0 if args.throughput is None else args.throughput
+    args.lane_use = args.lane_use or "paper"
     validate_grid([method], [args.throughput], 1, args.seconds)
     if args.video and not args.out:
         raise ValueError("--video needs --out DIR to write the video to")

@@ -251,7 +251,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         if c["missing_action"] not in ("error", "expert"):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
         flag(c, "expert_in_info")
-        check_render(c, flags=("show_formation",))
+        check_render(c, flags=("show_formation", "show_overlay"))
         if c["lane_drop"] is not None:
             d = c["lane_drop"]
             check_keys(d, "lane_drop", {"position", "lanes"}, {"position", "lanes"})

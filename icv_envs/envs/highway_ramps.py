@@ -128,6 +128,7 @@ class HighwayRampsEnv(HighwayFormationEnv):
         if not isinstance(c["arrivals"], str) or c["arrivals"] not in ("poisson", "fixed"):
             raise ValueError(f"arrivals = {c['arrivals']!r}; allowed: 'poisson', 'fixed'")
         L = _num(c, "road_length", 100.0, 1e5, allowed="a number in [100, 100000] metres")
+        _num(c, "lanes_count", 1, 6, integer=True, allowed="an integer in [1, 6]")
         n = _num(c, "ramps", 1, 20, integer=True, allowed="an integer in [1, 20]")
         ex = c["exit_choices"]
         if ex is not None:

@@ -55,7 +55,7 @@ from icv_envs.platoon.conflicts import required_layer_gap
 from icv_envs.platoon.geometry import LANE_USE_PRESETS, LEGS, movement_name
 from icv_envs.policies.fcfs import FcfsExpert
 from icv_envs.policies.platoon_expert import Corridors, PlatoonExpert, PlatoonParams
-from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents
+from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents, validate_radii
 
 __all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "MAX_THROUGHPUT"]
 
@@ -226,11 +226,11 @@ class IntersectionEnv(IcvAgentsEnv):
         _num(c, "max_node_size", 1, 100, integer=True, allowed="an integer in [1, 100]")
         fc = c["fcfs"]
         check_keys(fc, "fcfs", _FCFS_DEFAULTS)
-        _num(fc, "tile", 0.1, 5.0, allowed="a number in [0.1, 5] metres")
-        _num(fc, "time_buffer", 0, 100, integer=True, allowed="an integer number of steps in [0, 100]")
-        _num(fc, "space_buffer", 0.0, 5.0, allowed="a number in [0, 5] metres")
-        _num(fc, "request_distance", 1.0, 1000.0, allowed="a number in [1, 1000] metres")
-        _num(fc, "a_plan", 0.0, ar[1], lo_open=True, allowed=f"a number in (0, a_max = {ar[1]}] m/s^2")
+        _num(fc, "tile", 0.1, 5.0, allowed="a number in [0.1, 5] metres", where="['fcfs']")
+        _num(fc, "time_buffer", 0, 100, integer=True, allowed="an integer number of steps in [0, 100]", where="['fcfs']")
+        _num(fc, "space_buffer", 0.0, 5.0, allowed="a number in [0, 5] metres", where="['fcfs']")
+        _num(fc, "request_distance", 1.0, 1000.0, allowed="a number in [1, 1000] metres", where="['fcfs']")
+        _num(fc, "a_plan", 0.0, ar[1], lo_open=True, allowed=f"a number in (0, a_max = {ar[1]}] m/s^2", where="['fcfs']")
         _num(c, "simulation_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
         _num(c, "policy_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
         if c["simulation_frequency"] % c["policy_frequency"]:
@@ -254,13 +254,17 @@ class IntersectionEnv(IcvAgentsEnv):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
         for key in ("envelope_in_box", "expert_in_info"):
             flag(c, key)
-        check_render(c, flags=("show_zones", "show_groups"))
+        check_render(c, flags=("show_zones", "show_groups", "show_overlay"))
         check_possible_agents(self._n_possible_agents(), "throughput x (duration + warmup)")
         # geometry, lane use, radii (raise ValueError with their own messages)
-        self.layout = IntersectionLayout(
-            lu, c["lane_width"], c["box_half"], c["R1"], c["R2"], c["R3"], c["departure_length"],
-            bool(c["opposing_left_conflict"]),
-        )
+        validate_radii(c["R1"], c["R2"], c["R3"], c["box_half"])
+        try:
+            self.layout = IntersectionLayout(
+                lu, c["lane_width"], c["box_half"], c["R1"], c["R2"], c["R3"], c["departure_length"],
+                bool(c["opposing_left_conflict"]),
+            )
+        except (ValueError, TypeError) as exc:  # the radii are fine: the lane-use table is not
+            raise ValueError(f"config['lane_use'] = {lu!r} is invalid: {exc}") from None
         need = required_layer_gap(self.layout.model)
         self.layout.model_gap = need
         if c["D_t"] == "auto":

@@ -84,7 +84,7 @@ class ObservationType:
         if len(set(feats)) != len(feats):
             raise ValueError(f"observation features = {list(feats)} repeat a feature; allowed: each at most once")
         self.features = tuple(feats)
-        return np.array([list(self.env.OBS_FEATURES).index(f) for f in feats], dtype=np.int64)
+        return np.array([list(allowed).index(f) for f in feats], dtype=np.int64)
 
     # highway-env's ObservationType interface (used by its viewer / wrappers)
     def observe(self):

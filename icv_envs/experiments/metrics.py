@@ -3,7 +3,7 @@
 * ``mean_speed``: mean of vehicle speed over all vehicle-substeps [m/s].
 * ``speed_fluctuation``: mean absolute acceleration |a| over all
   vehicle-substeps [m/s^2]. The paper's Fig. 11 caption calls its
-  "speed fluctuation" an average acceleration (NOTES.md §3); we use mean |a|
+  "speed fluctuation" an average acceleration (docs/metrics.md#speed-fluctuation); we use mean |a|
   so that braking and accelerating both count.
 * ``collisions``: vehicles involved in a collision (or that left the
   drivable surface).

@@ -4,7 +4,7 @@ Paper Sec. 2.2, eq. (law) (Xu et al., IET ITS 2021)::
 
     a_i = k_p (X_i - X_ref,i) + k_v (v_i - v_ref,i)
 
-``X`` points forward, so both gains must be negative (NOTES.md §1).  The
+``X`` points forward, so both gains must be negative (docs/formation.md#feedback-law).  The
 paper gives no values; ours are :data:`DEFAULT_KP` and :data:`DEFAULT_KV`.
 """
 

@@ -1,6 +1,6 @@
 """First-come-first-served tile reservation at the intersection (the paper's reference).
 
-After Dresner & Stone's AIM (NOTES.md §4), with the tile table of
+After Dresner & Stone's AIM (docs/intersection.md#reference-methods), with the tile table of
 :class:`icv_envs.platoon.reservation.ReservationTable`.  The approaching and
 adjusting zones are those of :class:`~icv_envs.policies.platoon_expert.
 PlatoonExpert` (interlaced formations, division, lane changes to the

@@ -1,7 +1,7 @@
 """Optimal lane assignment (Dao et al. 2007), the paper's highway reference.
 
 The exact formulation is not public; this is the reconstruction of
-NOTES.md §3 as a pure function over numpy arrays:
+docs/methods.md#lane-lp as a pure function over numpy arrays:
 
     variables  p[e, l] >= 0   share of exit group e put on lane l
     minimise   sum_{e,l} n_e p[e, l] D_e / v_l           (total travel time)

@@ -1,6 +1,6 @@
 """Intersection experts: vehicle regrouping and the improved virtual platoon.
 
-Paper Sec. 4-5 (Xu et al., IET ITS 2021), NOTES.md §4.  One class,
+Paper Sec. 4-5 (Xu et al., IET ITS 2021), docs/intersection.md.  One class,
 :class:`PlatoonExpert`, is both the coordination layer (run by the
 environment every policy step, as V2X infrastructure would) and the
 per-vehicle controller that turns its references into actions in the agents'

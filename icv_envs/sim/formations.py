@@ -9,7 +9,7 @@ and of the formation-keeping reward. How a vehicle tracks its reference is
 the policy's business (:class:`icv_envs.policies.FormationExpert` or a
 learned one).
 
-Decisions the paper leaves open (NOTES.md §5), each a config value:
+Decisions the paper leaves open (docs/decisions.md), each a config value:
 
 * the front target (``anchor``) moves at the formation speed; it is held back
   so that it never leads the best-placed member's implied front by more than

@@ -1,6 +1,6 @@
 """Vectorised 2-D simulation core of the multi-lane unsignalized intersection.
 
-Paper Sec. 4-5 and Table 2 (Xu et al., IET ITS 2021), NOTES.md §4.  Knows
+Paper Sec. 4-5 and Table 2 (Xu et al., IET ITS 2021), docs/intersection.md.  Knows
 nothing about Gymnasium, PettingZoo or the coordination methods: the
 environment :mod:`icv_envs.envs.intersection` and the policies in
 :mod:`icv_envs.policies.platoon_expert` / :mod:`icv_envs.policies.fcfs` are
