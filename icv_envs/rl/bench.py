@@ -171,7 +171,9 @@ def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096
     res = {"bench": "rl-train", "vehicles": int(vehicles), "icv_envs": icv}
     if batched:
         for key, ex in (("batched_learned_actions", False), ("batched_expert_actions", True)):
-            res[key] = b = batched_sps(vehicles, expert=ex, seed=seed)
+            # 16 worlds: one batch step is 16 env steps of 20 agents; env_steps / 20
+            # batch steps (100 by default) time about as many world steps as the env alone
+            res[key] = b = batched_sps(vehicles, expert=ex, seed=seed, steps=max(2, env_steps // 20))
             if echo is not None:
                 echo(f"batched worlds ({b['worlds']} x {vehicles} agents, {'expert' if ex else 'external'} actions): "
                      f"{b['agent_steps_per_cpu_s']:,.0f} agent-steps per CPU s "
