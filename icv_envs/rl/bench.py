@@ -20,6 +20,14 @@ Episode resets are included in the timings. Reported per env:
 * ``env_sim_seconds_per_second``: simulated seconds per wall second, env
   alone (``env_sps / policy_frequency``).
 
+Beside them, the batched worlds of :mod:`icv_envs.vector` (16
+HighwayFormation worlds of ``vehicles`` agents in this process,
+:func:`batched_sps`): agent-steps per CPU second and per wall second with
+external actions (no expert computed) and with the expert's action computed
+for every agent (``batched_learned_actions`` / ``batched_expert_actions``),
+and highway-fast-v0's agent-steps per second (one controlled vehicle: its
+``env_sps``).
+
 A step is not the same amount of driving in both: icv_envs acts at 5 Hz
 (0.2 s per step, physics at 25 Hz), highway-fast-v0 at 1 Hz (1 s per step,
 physics at 5 Hz). ``env_speedup`` / ``ppo_speedup`` compare steps (what an RL
