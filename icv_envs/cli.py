@@ -7,7 +7,7 @@
     icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
     icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333] [--vs-sumo]
-    icv-envs compare intersection --methods multi-vp,single-vp,fcfs --throughput 1000,1500,2000,2500,3000 --seeds 3 --seconds 600 --out DIR [--lane-use paper|exclusive] [--backend ray]
+    icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,...,5000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
     icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
@@ -97,6 +97,15 @@ def _floats(name):
     return parse
 
 
+def _seed_list(text):
+    from icv_envs.experiments.seeds import parse_seeds
+
+    try:
+        return parse_seeds(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def _names(text):
     return [v.strip() for v in text.split(",") if v.strip()]
 
@@ -168,14 +177,17 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("target", type=_choice("comparison", COMPARES), metavar="TARGET", help=f"one of: {', '.join(COMPARES)}")
     c.add_argument("--methods", type=_names, default=None,
                    help="comma-separated; highway-ramps: " + ",".join(METHODS["highway-ramps"])
-                   + "; intersection: " + ",".join(METHODS["intersection"]) + " (default: all of the target's)")
+                   + "; intersection: " + ",".join(METHODS["intersection"]) + " (default: all of the target's but fcfs-tight)")
     c.add_argument("--throughput", default=None,
                    help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,1500,2000,2500,3000)")
     c.add_argument("--lane-use", dest="lane_use", default=None,  # checked by the env config (exit 2)
                    help=f"intersection: {', '.join(LANE_USES)} (default paper)")
     c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5],
                    help="highway-ramps: vehicles/s per on-ramp, comma-separated")
-    c.add_argument("--seeds", type=int, default=3, help="runs use seeds 0..N-1")
+    c.add_argument("--warmup", type=float, default=None,
+                   help="intersection: seconds run before the statistics start (default 100)")
+    c.add_argument("--seeds", type=_seed_list, default=[0, 1, 2],
+                   help="a count N (seeds 0..N-1) or a list/range such as 5,7,10-12")
     c.add_argument("--seconds", type=float, default=600.0, help="simulated seconds per run")
     c.add_argument("--out", default="compare_out", help="output directory (CSV, JSON, plots)")
     c.add_argument("--backend", type=_choice("backend", BACKENDS), default="process",
@@ -298,7 +310,9 @@ def _dispatch(args) -> int:
 
         args.methods = args.methods or ["formation", "lane-lp", "idm"]
 
-        summary = compare_highway_ramps(args.methods, args.vgr, args.seeds, args.seconds, args.out,
+        if args.seeds != list(range(len(args.seeds))):
+            raise ValueError(f"compare highway-ramps runs seeds 0..N-1; got the seed list {args.seeds}: give a count")
+        summary = compare_highway_ramps(args.methods, args.vgr, len(args.seeds), args.seconds, args.out,
                                         backend=args.backend, workers=args.workers, progress=_progress())
         for row in summary["table"]:
             print(f"{row['method']:10s} vgr={row['vgr']:<5g} remaining={row['remaining']:7.1f} "

@@ -43,7 +43,9 @@ coordinating (`<= R1`), where the `method` decides who enters the box when:
   with j}`, references `X_ref,1^k = X_0 + m D_t + sum max len` (Sec. 4.2),
   followers `X_1^k + x_gi`;
 * `single-vp`: the same tree with one vehicle per node;
-* `fcfs`: tile reservation, first come first served (Dresner & Stone).
+* `fcfs`: tile reservation, first come first served (Dresner & Stone), with
+  buffers chosen for equal safety (minimum PET) with the virtual platoon;
+* `fcfs-tight`: the same with a 0.2 s / 0.5 m buffer.
 
 The expert (:class:`icv_envs.policies.platoon_expert.PlatoonExpert` or
 :class:`icv_envs.policies.fcfs.FcfsExpert`) drives through the same action
@@ -146,22 +148,29 @@ the road.
 
 ## Metrics
 
-`env.metrics()`: `collisions`, `lost` (spawned - removed - left_road -
-remaining - crashed_removed: must be 0), `spawned`, `cleared`, `remaining`,
-`queued` (arrivals waiting for a free spawn point), `achieved_throughput`
-(vehicles/h that cleared the box), `mean_speed`, `speed_fluctuation` (mean
-|a|, :mod:`icv_envs.experiments.metrics`), `mean_delay` (travel time from R3
-until clearing the box minus the same distance at `desired_speed`),
-`envelope_box_binding` (vehicle-steps in which the safety envelope had to
-cut a command in the box: 0 when the coordination is right),
-`virtual_cap_binding`, `nodes`, `merges`, `lane_changes`, and for `fcfs`
-`requests`, `granted`, `rejected`, `max_plan_error`.
+`env.metrics()` (definitions in :mod:`icv_envs.sim.intersection_metrics`):
+`collisions`, `lost` (spawned - removed - left_road - remaining -
+crashed_removed: must be 0), `spawned`, `cleared`, `remaining`, `queued`
+(arrivals waiting for a free spawn point), `achieved_throughput` (vehicles/h
+that cleared the box), `mean_speed`, `speed_fluctuation` (mean |dv/dt| of the
+REALISED speed: a vehicle held at 0 m/s while braking is commanded adds 0),
+`speed_std` (per-vehicle speed standard deviation, mean over vehicles),
+`stopped_share` (share of vehicle-time below 0.1 m/s), `commanded_abs_accel`
+(mean commanded |a|, a diagnostic), `pet_min`, `pet_p05`, `pet_samples`
+(post-encroachment time at the conflict areas of crossing and merging
+paths), `jammed` (vehicles stopped > 10 s outside a queue at the box) and
+`jammed_vehicle_seconds`, `mean_delay` (travel time from R3 until clearing
+the box minus the same distance at `desired_speed`), `envelope_box_binding`
+(vehicle-steps in which the safety envelope had to cut a command in the box:
+0 when the coordination is right), `virtual_cap_binding`, `nodes`, `merges`,
+`lane_changes`, and for `fcfs` / `fcfs-tight` `requests`, `granted`,
+`rejected`, `max_plan_error`.
 
 ## Arguments
 
 | key | default | meaning |
 |---|---|---|
-| `method` | `"multi-vp"` | `multi-vp`, `single-vp`, `fcfs` |
+| `method` | `"multi-vp"` | `multi-vp`, `single-vp`, `fcfs` (reservation, buffers matched to the virtual platoon's minimum PET: none), `fcfs-tight` (reservation with 0.2 s / 0.5 m buffers) |
 | `lane_use` | `"paper"` | `paper`, `exclusive` or a dict (turn name / movement id / (leg, turn) -> lanes); a movement without a lane is an error |
 | `throughput` | 1500 | vehicles/h entering the intersection (all legs), > 0 |
 | `turn_shares` | [1/3, 1/3, 1/3] | left, straight, right |
@@ -174,7 +183,7 @@ cut a command in the box: 0 when the coordination is right),
 | `speed_range` | [0, 20] | m/s (Table 2) |
 | `gap_outside`, `gap_inside` | 15, 9 | formation gap L_s outside / inside the coordinating zone (m) |
 | `merge_range`, `max_node_size` | 60, 12 | merging |
-| `fcfs` | `{"tile": 1, "time_buffer": 5, "space_buffer": 0.5, "request_distance": 80, "a_plan": 1.5}` | reservation parameters |
+| `fcfs` | `{"tile": 1, "time_buffer": 0, "space_buffer": 0, "request_distance": 80, "a_plan": 1.5}` | reservation parameters (`fcfs-tight` fixes time_buffer 5 steps, space_buffer 0.5 m) |
 | `envelope_in_box` | True | False switches the safety envelope off inside the box (to show the coordination alone is collision-free) |
 | `duration` | 120 | seconds |
 | `max_vehicles` | None | cap on arrivals (possible agents) |

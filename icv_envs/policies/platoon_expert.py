@@ -54,8 +54,21 @@ Adjusting zone (regrouping, Sec. 5), when the formation's front crosses ``R2``
        theirs lies between them.
 Coordinating zone (virtual platoon, Sec. 4.2)
     A sub-formation becomes a node when its first vehicle crosses ``R1``
-    (``single-vp``: every vehicle when it crosses ``R1``).  Every policy step
-    the nodes are sorted by the distance ``X`` of their first vehicle,
+    (``single-vp``: every vehicle when it crosses ``R1``), with only its
+    SETTLED members (in their expected lane, no lane change left, at most
+    ``settle_tolerance`` = 15 m behind their slot): the longest settled
+    prefix in target order becomes the node, the rest stays a sub-formation
+    and becomes a node of its own once settled (issue 8: a member still
+    changing lanes held its node's bound over every later conflicting node,
+    whose stopped vehicles then blocked its lane change, a circular wait).
+    Inside ``R1`` no lane change is required: a vehicle not yet in its
+    expected lane but in a lane its movement may use keeps that lane.  A
+    vehicle of the zone that is not in a node stops before the stop line.
+    The nodes keep the order in which they entered (``vp_order``, see
+    :meth:`PlatoonExpert._insert_node`: the paper's distance order at ``R1``,
+    except that a late node never pre-empts a conflicting node of another
+    leg that can no longer stop comfortably behind it, and never goes
+    before a node it physically follows in its own leg);
     :func:`icv_envs.platoon.tree.tree_depths` gives the tree-layers over the
     derived conflict matrix, and
     :func:`icv_envs.platoon.tree.reference_positions` the paper's references
@@ -79,8 +92,10 @@ Coordinating zone (virtual platoon, Sec. 4.2)
     whatever their speeds (``D_t >= required_layer_gap``, checked by the
     environment).
 Safety envelope
-    The command is capped by IDM's interaction term towards the leader in
-    every corridor the vehicle occupies: the approach lanes it covers (or is
+    The command is capped by IDM's interaction term and by Gipps' (1981)
+    safe speed (stop behind the leader even if it brakes at ``|a_min|`` now,
+    reacting one policy period later) towards the leader in every corridor
+    the vehicle occupies: the approach lanes it covers (or is
     changing into, or waits to change into, which makes the follower there
     yield), its path through the box, its departure lane.  Members of one
     (sub-)formation use a short time gap (0.25 s, ``s0`` 1 m) so the 9 m
@@ -92,6 +107,10 @@ Safety envelope
     ``stats["envelope_box_binding_member"]`` counts the same within one
     node, where the envelope is the formation's own car following; and
     ``envelope_in_box=False`` switches it off in the box (tests run that).
+    A vehicle slower than 1 m/s in the box whose body covers a vehicle's
+    path ahead (whatever path it is on itself) is treated as a leader too
+    (:meth:`PlatoonExpert._path_obstacles`; issue 11: an fcfs vehicle with a
+    reservation drove into a vehicle stopped in the box).
 
 Lateral control: pure pursuit (:func:`icv_envs.formation.bezier.
 pure_pursuit_steering`) on a preview point ``max(preview_min, v *
@@ -148,6 +167,7 @@ class PlatoonParams:
     merge_range: float = 60.0  # [m] rear of the front sub-formation to the first of the rear one
     max_node_size: int = 12
     slot_tolerance: float = 4.0  # [m] a vehicle in division starts its lane change this close to its slot
+    settle_tolerance: float = 15.0  # [m] at most this far (one outside slot L_s) behind its slot to join a node
     lc_duration: float = 3.0  # [s] Bezier length = clip(v * lc_duration, lc_min_length, lc_max_length)
     lc_min_length: float = 15.0
     lc_max_length: float = 40.0
@@ -305,13 +325,16 @@ class PlatoonExpert:
         self.nodes: dict[int, dict] = {}  # virtual-platoon nodes
         self.node_depth: dict[int, int] = {}
         self.node_order: list[int] = []
+        self.vp_order: list[int] = []  # node ids in the virtual platoon's order
         self._stamp = None
         self._order_counter = 0
         self._tree = None
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self._vcap = np.zeros(0)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
-                      "nodes": 0, "lane_changes": 0}
+                      "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
+                      "path_obstacle_binding": 0, "node_yielded": 0,
+                      "held_at_line": 0}
 
     # ---------------------------------------------------------------- fields
     def attach(self, world) -> None:
@@ -380,6 +403,7 @@ class PlatoonExpert:
                 store[k]["members"] = [v for v in store[k]["members"] if v in alive]
                 if not store[k]["members"]:
                     del store[k]
+        self.vp_order = [k for k in self.vp_order if k in self.nodes]
 
     # ------------------------------------------------------------ lane changes
     def _lane_change_progress(self, world, rs) -> None:
@@ -552,8 +576,13 @@ class PlatoonExpert:
             k = np.flatnonzero(f.tlane[rows] == ln)
             tidx[k[np.argsort(dist[k], kind="stable")]] = np.sort(tidx[k])
         f.tidx[rows] = tidx
-        # compact target indices in member order (members are kept sorted by target)
-        rank = np.argsort(np.argsort(tidx, kind="stable"), kind="stable")
+        # ranks in physical order (distance to the centre; ties: target order):
+        # the first vehicle is the sub-formation's physical front and every
+        # member's slot is behind every member ahead of it, whatever lane it
+        # is in, so no member has to pass another one (a member ranked ahead
+        # of one in front of it in its current lane waits for it, and it for
+        # the member: a circular wait)
+        rank = np.argsort(np.lexsort((tidx, dist)), kind="stable")
         f.tidx[rows] = rank
         first = rows[rank == 0][0]
         f.ref[rows] = f.vid[first]
@@ -635,16 +664,55 @@ class PlatoonExpert:
             f.stage[rb[need_lc]] = ST_LC
 
     # ------------------------------------------------------- coordinating zone
+    def _settled(self, world, rs, rows) -> np.ndarray:
+        """May these vehicles join the virtual platoon now?  In their expected
+        lane, no lane change in progress, and at most ``settle_tolerance``
+        behind the slot they track (their formation reference, when they have
+        one).  Only settled vehicles hold a node's bound over later nodes: a
+        member still changing lanes, or a slot behind, cannot be relied on to
+        move up, and the later nodes it would hold could block its way (the
+        circular wait of issue 8)."""
+        f = world.fleet
+        ok = (f.klane[rows] == f.tlane[rows]) & (f.lc_lane[rows] < 0) & (rs.phase[rows] == 0)
+        ok |= rs.phase[rows] > 0
+        err = self._slot_error(world, rs, rows)
+        return ok & (-err <= self.p.settle_tolerance)
+
+    def _keep_lane_inside(self, world, rs, rows) -> None:
+        """No lane change is required inside the coordinating zone: a vehicle
+        there that is not yet in its expected lane but in a lane the lane-use
+        table allows for its movement keeps that lane (and has a finished
+        lane change count as done)."""
+        f = world.fleet
+        lay = world.layout
+        k = rows[(rs.dist[rows] <= lay.R1) & (rs.phase[rows] == 0) & (f.lc_lane[rows] < 0)
+                 & (f.klane[rows] != f.tlane[rows])]
+        if len(k):
+            ok = lay.allowed[f.mv[k], np.clip(f.klane[k], 0, 2)]
+            f.tlane[k[ok]] = f.klane[k[ok]]
+            self.stats["kept_lane_in_R1"] += int(ok.sum())
+
     def _coordinate(self, world, rs) -> None:
-        """Nodes enter the virtual platoon; nodes that cleared the box leave."""
+        """Nodes enter the virtual platoon; nodes that cleared the box leave.
+
+        ``multi-vp``: when a sub-formation's first vehicle crosses ``R1`` its
+        members get the in-zone targets, and the longest prefix of them (in
+        target order) that is settled (:meth:`_settled`) becomes a node; the
+        rest stays a sub-formation, with the next member as its first, and is
+        handled the same way at every later step until all are in nodes.
+        ``single-vp``: a vehicle becomes a node once inside ``R1`` and settled.
+        """
         f = world.fleet
         lay = world.layout
         R1 = lay.R1
         single = self.method == "single-vp"
         for sid, S in list(self.subs.items()):
             rows = f.rows(S["members"])
+            self._keep_lane_inside(world, rs, rows)
             if single:
-                new = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0)]
+                cand = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0)]
+                # one vehicle per node: no slot to keep, only the lane
+                new = cand[((f.klane[cand] == f.tlane[cand]) & (f.lc_lane[cand] < 0)) | (rs.phase[cand] > 0)]
                 for r in new:
                     self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
                 if np.all(f.node[rows] >= 0):
@@ -653,12 +721,28 @@ class PlatoonExpert:
             first = rows[np.argmin(rs.dist[rows])]
             if rs.dist[first] <= R1:
                 n_l = len(S["lanes"])
-                length = formation_length(len(rows), n_l, self.p.gap_in)
                 self._set_sub_targets(world, S)
-                self._new_node(world, list(S["members"]), S["mv"], n_lanes=n_l, length=length)
-                del self.subs[sid]
+                rows = f.rows(S["members"])  # target order
+                rows = rows[np.argsort(f.tidx[rows], kind="stable")]
+                ok = self._settled(world, rs, rows)
+                k = int(np.argmin(ok)) if not ok.all() else len(rows)
+                if k == 0:
+                    continue
+                members = [int(v) for v in f.vid[rows[:k]]]
+                rest = [int(v) for v in f.vid[rows[k:]]]
+                self._new_node(world, members, S["mv"], n_lanes=n_l,
+                               length=formation_length(k, n_l, self.p.gap_in))
+                f.sub[rows[:k]] = -1
+                if rest:
+                    S["members"] = rest
+                    self._set_sub_targets(world, S)
+                    self.stats["held_out_of_node"] += len(rest)
+                else:
+                    del self.subs[sid]
         # vehicles in the zone without a sub-formation (not expected, but safe)
         orphan = np.flatnonzero((rs.dist <= R1) & (f.node < 0) & (f.sub < 0) & (rs.phase < 2) & ~f.cleared)
+        if len(orphan):
+            orphan = orphan[(f.klane[orphan] == f.tlane[orphan]) & (f.lc_lane[orphan] < 0) | (rs.phase[orphan] > 0)]
         for r in orphan:
             self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
         if not single:
@@ -721,12 +805,65 @@ class PlatoonExpert:
         rows = f.rows(members)
         self.nodes[nid] = {"id": nid, "mv": int(mv), "members": list(members), "n_lanes": n_lanes,
                            "length": float(length)}
+        self._insert_node(world, nid, rows)
         f.node[rows] = nid
         f.stage[rows] = ST_COORD
         if len(rows) == 1:
             f.ref[rows] = -1
             f.xg[rows] = 0.0
         self.stats["nodes"] += 1
+
+    def _insert_node(self, world, nid, rows) -> None:
+        """Place a new node in the virtual platoon's order (``self.vp_order``).
+
+        The paper orders nodes by the distance of their first vehicle to the
+        centre when they enter at ``R1``; with every node entering there,
+        that is the entry order.  A node that enters later (members held out
+        until they settled, detached members) would, placed by distance,
+        impose its bound ``rear + D_t`` on conflicting nodes that are already
+        closer to the box than that bound and cannot stop behind it at the
+        comfortable deceleration (they may be in the box).  So (our rule):
+        the node goes to its distance rank, then behind every later
+        conflicting node of ANOTHER leg whose first vehicle cannot stop
+        comfortably (``comfort[0]``) before ``X_rear + D_t``; nodes of its
+        own leg that it passes this way and that are physically behind it
+        (further from the centre) move along right behind it, so no node is
+        ever ordered before a node it physically follows in its own leg."""
+        f = world.fleet
+        rs = world.route()
+        lay = world.layout
+        N = self.nodes[nid]
+        order = [k for k in self.vp_order if k in self.nodes and k != nid]
+        d_new = float(rs.dist[rows].min())
+        xr_new = float(rs.X[rows].max())
+        leg = int(lay.leg_of[N["mv"]])
+        info = {}
+        for k in order:
+            r = f.rows(self.nodes[k]["members"])
+            r = r[r >= 0]
+            i0 = r[np.argmin(rs.dist[r])]
+            info[k] = (float(rs.dist[i0]), float(rs.X[i0]), float(f.speed[i0]), float(rs.dist[r].max()))
+        pos = next((i for i, k in enumerate(order) if info[k][0] > d_new), len(order))
+        b = abs(self.p.comfort[0])
+        j = pos
+        while j < len(order):
+            k = order[j]
+            K = self.nodes[k]
+            if lay.conflict[N["mv"], K["mv"]] and int(lay.leg_of[K["mv"]]) != leg:
+                d_k, x_k, v_k, _ = info[k]
+                if x_k - v_k * v_k / (2.0 * b) < xr_new + self.p.D_t:
+                    # N goes behind k; same-leg nodes physically behind N that it passes come along
+                    mid = order[pos:j]
+                    follow = [m for m in mid if int(lay.leg_of[self.nodes[m]["mv"]]) == leg and info[m][0] > d_new]
+                    rest = [m for m in mid if m not in follow]
+                    order = order[:pos] + rest + [k] + follow + order[j + 1:]
+                    pos = pos + len(rest) + 1
+                    j = pos + len(follow)
+                    self.stats["node_yielded"] += 1
+                    continue
+            j += 1
+        order.insert(pos, nid)
+        self.vp_order = order
 
     def tree(self, world, rs):
         """Current virtual platoon: ``(node ids in order, depths (with the leader at 0), references)``."""
@@ -756,8 +893,9 @@ class PlatoonExpert:
             rear[k] = X[i1]
             mvs[k] = N["mv"]
             lens[k] = N["length"]
-        # nodes in the order of their first vehicle's distance to the centre
-        o = np.lexsort((ids, key))
+        # nodes in the virtual platoon's order (_insert_node)
+        rank = {k: i for i, k in enumerate(self.vp_order)}
+        o = np.argsort([rank.get(k, len(rank) + k) for k in ids], kind="stable")
         xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
         ids = [ids[i] for i in o]
         C = world.layout.conflict[np.ix_(mvs, mvs)]
@@ -781,6 +919,7 @@ class PlatoonExpert:
         xref = np.zeros(n)  # MODE_FOLLOW: u reference; MODE_TREE: X reference
         vref = np.full(n, p.v0)
         tight = np.zeros(n, dtype=bool)  # the safety bound binds: full braking allowed
+        hold = np.zeros(n, dtype=bool)  # the bound is violated: stop before the box
         # formation following (approach / adjusting zones, and followers of nodes before R1)
         fol = (f.ref >= 0) & (f.node < 0)
         if fol.any():
@@ -828,6 +967,11 @@ class PlatoonExpert:
             bind = lb > paper
             pred_rear = T["rear_row"][T["pred"][kk]]
             mode[rows_all] = MODE_TREE
+            # the hard spacing to an earlier conflicting node is already lost
+            # (a node that entered late, close to the box): the virtual lane
+            # cannot restore it, so the vehicle stops before the box until
+            # that node's rear has moved D_safe ahead of it
+            hold[rows_all] = rs.X[rows_all] < lb - (p.D_t - p.D_safe) - 1e-9
             xref[rows_all] = np.where(bind, lb, paper)
             vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
             tight[rows_all] = bind
@@ -836,6 +980,10 @@ class PlatoonExpert:
         # may a vehicle enter the box? only from an allowed lane, lane change finished
         allowed = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
         self._stop = (rs.phase == 0) & (~allowed | (f.lc_lane >= 0) | (f.klane != f.tlane))
+        # in the coordinating zone only coordinated vehicles (a node / a reservation) may enter
+        self._stop |= (rs.phase == 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
+        self._stop |= (rs.phase == 0) & hold
+        self.stats["held_at_line"] += int(((rs.phase == 0) & hold).sum())
         self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
 
     def _virtual_cap(self, world, rs) -> np.ndarray:
@@ -960,6 +1108,11 @@ class PlatoonExpert:
             v = f.speed[me]
             dv = v - f.speed[ld]
             safe = idm_acceleration(v, p.v_max, gap, dv, p.a_max, p.idm_b, T, s0, free_term=False)
+            # Gipps (1981) safe speed: stop behind the leader even if it brakes
+            # at |a_min| from now on and this vehicle reacts one policy period
+            # (cap_tau) later; IDM's interaction term alone does not guarantee
+            # it when a member closes in fast on a leader that brakes hard
+            safe = np.minimum(safe, self._gipps(v, f.speed[ld], gap - p.member_s0))
             if not p.envelope_in_box:
                 safe = np.where(rs.phase[me] == 1, np.inf, safe)
             np.minimum.at(cap, me, safe)
@@ -967,6 +1120,16 @@ class PlatoonExpert:
             # what the coordination must make unnecessary)
             same = (grp[me] == grp[ld]) & (grp[me] >= 0)
             np.minimum.at(cap_other, me[~same], safe[~same])
+        # a (nearly) stopped vehicle in the box on this vehicle's path, whatever its own path
+        qi, oj, og = self._path_obstacles(world, rs)
+        if len(qi):
+            v = f.speed[qi]
+            vo = f.speed[oj]
+            safe = idm_acceleration(v, p.v_max, og, v - vo, p.a_max, p.idm_b, p.idm_T, p.idm_s0, free_term=False)
+            safe = np.minimum(safe, self._gipps(v, vo, og - p.member_s0))
+            np.minimum.at(cap, qi, safe)
+            np.minimum.at(cap_other, qi, safe)
+            self.stats["path_obstacle_binding"] += int((safe < 0).sum())
         # stop line for vehicles that may not enter
         st = np.flatnonzero(self._stop)
         if len(st):
@@ -979,6 +1142,55 @@ class PlatoonExpert:
         self.stats["envelope_box_binding"] += int(other.sum())
         self.stats["envelope_box_binding_member"] += int((box & ~other).sum())
         return cap
+
+    def _path_obstacles(self, world, rs, v_stopped: float = 1.0, look: float = 60.0):
+        """Pairs ``(vehicle, obstacle, bumper gap)``: a vehicle slower than
+        ``v_stopped`` in the box (or within 10 m past it) whose body covers the
+        path of a vehicle approaching (within 40 m of the stop line) or in the
+        box, ahead of it by at most ``look`` metres.  The corridors only know
+        leaders on one's own lane or path; a vehicle stopped across it (after
+        a crash, or stopped by its own controller) must be seen too.  Lateral
+        test: the obstacle's rectangle, turned by its heading relative to the
+        path, overlaps the vehicle's width plus 0.2 m; gap: along the path,
+        bumper to the obstacle's nearest extent."""
+        f = world.fleet
+        lay = world.layout
+        e = np.zeros(0, dtype=np.int64)
+        obs = np.flatnonzero(((rs.phase == 1) | ((rs.phase == 2) & (rs.s - rs.L < 10.0))) & (f.speed < v_stopped))
+        if not len(obs):
+            return e, e, np.zeros(0)
+        q = np.flatnonzero((((rs.phase == 0) & (rs.u > -40.0)) | (rs.phase == 1)) & ~f.crashed)
+        if not len(q):
+            return e, e, np.zeros(0)
+        qi = np.repeat(q, len(obs))
+        oj = np.tile(obs, len(q))
+        k = qi != oj
+        qi, oj = qi[k], oj[k]
+        pid = rs.pid[qi]
+        s_o, lat_o = lay.project(pid, rs.cx[oj], rs.cy[oj], np.ones(len(qi), dtype=np.int64))
+        past = s_o > lay.L[pid]
+        if past.any():
+            s2, l2 = lay.project(pid[past], rs.cx[oj[past]], rs.cy[oj[past]], np.full(int(past.sum()), 2))
+            s_o[past], lat_o[past] = s2, l2
+        _, _, hp = lay.route_points(pid, s_o)
+        dh = f.heading[oj] - hp
+        c, sn = np.abs(np.cos(dh)), np.abs(np.sin(dh))
+        across = 0.5 * (f.length[oj] * sn + f.width[oj] * c)
+        along = 0.5 * (f.length[oj] * c + f.width[oj] * sn)
+        gap = s_o - along - rs.s[qi] - 0.5 * f.length[qi]
+        hit = (np.abs(lat_o) < 0.5 * f.width[qi] + across + 0.2) & (s_o > rs.s[qi]) & (gap < look)
+        return qi[hit], oj[hit], gap[hit]
+
+    def _gipps(self, v, v_lead, room) -> np.ndarray:
+        """Acceleration cap ``(v_safe - v) / tau`` with Gipps' safe speed
+        ``v_safe = -b tau + sqrt((b tau)^2 + v_lead^2 + 2 b room)``, ``b =
+        |a_min|``, ``tau = cap_tau`` (the policy period), ``room`` the bumper
+        gap minus the standstill margin."""
+        p = self.p
+        b = abs(p.a_min)
+        tau = p.cap_tau
+        vs = -b * tau + np.sqrt((b * tau) ** 2 + v_lead ** 2 + 2.0 * b * np.maximum(room, 0.0))
+        return (vs - v) / tau
 
     def _coordinated(self, f) -> np.ndarray:
         return f.node >= 0
