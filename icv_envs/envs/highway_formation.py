@@ -641,36 +641,24 @@ class HighwayFormationEnv(IcvAgentsEnv):
 
     def _ma_infos(self, agents, rows, parts) -> dict:
         c = self.config
-        infos = {}
         ex = self.expert_actions() if c["expert_in_info"] and len(rows) else None
         tr = self.world.traffic
-        x_ref, lane_ref, v_ref, member = self.world.manager.references(tr)
-        lanes = self.world.road.lane_of(tr.center()[1]).tolist()
-        speeds = tr.speed.tolist()
-        groups = tr.group.tolist()
-        tlanes = lane_ref.tolist()
-        for i, a in enumerate(agents):
-            r = int(rows[i])
-            info = {
-                "speed": speeds[r],
-                "lane": lanes[r],
-                "formation": groups[r],
-                "target_lane": tlanes[r],
-                "crashed": False,
-            }
-            if ex is not None:
-                info["expert_action"] = ex[r].copy()
-            if parts:
-                info["rewards"] = {k: float(v[i]) for k, v in parts.items()}
-            infos[a] = info
-        return infos
+        _, lane_ref, _, _ = self.world.manager.references(tr)
+        rows = np.asarray(rows, dtype=np.int64)
+        cols = {
+            "speed": tr.speed[rows].tolist(),
+            "lane": self.world.road.lane_of(tr.center()[1])[rows].tolist(),
+            "formation": tr.group[rows].tolist(),
+            "target_lane": lane_ref[rows].tolist(),
+            "crashed": [False] * len(rows),
+        }
+        return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
 
     def _ma_advance(self, acts: np.ndarray):
         c = self.config
         w = self.world
         tr = w.traffic
         before = tr.vid.copy()
-        acts_by_vid = {int(v): acts[i] for i, v in enumerate(before)}
         if tr.n:
             # who drives: an action equal to the expert's (float32) is expert-driven
             ex = self.expert_actions()
@@ -681,22 +669,18 @@ class HighwayFormationEnv(IcvAgentsEnv):
         # formations react to what happened, then new vehicles appear
         w.manager.update(tr, w.road, 1.0 / c["policy_frequency"])
         crashed_rows = np.flatnonzero(tr.crashed)
-        self._last_actions = np.array([acts_by_vid.get(int(v), np.zeros(2)) for v in tr.vid]).reshape(-1, 2)
+        self._last_actions = self._realign_rows(before, np.asarray(acts, dtype=np.float64).reshape(-1, 2), tr.vid)
         rows = np.arange(tr.n)
-        agents = [f"icv_{v}" for v in tr.vid]
+        agents = [f"icv_{v}" for v in tr.vid.tolist()]
         crashed_now = tr.crashed.copy()
         F = self._features()  # once per step, for rewards and observations
         rew, parts = self._rewards_rows(rows, crashed_now, F)
         obs = self._observe_rows(rows, F)
         truncated_all = w.time >= float(c["duration"]) - 1e-9
-        observations = {a: obs[i] for i, a in enumerate(agents)}
-        rewards = {a: float(rew[i]) for i, a in enumerate(agents)}
-        terms = {a: bool(crashed_now[i]) for i, a in enumerate(agents)}
-        truncs = {a: bool(truncated_all) for a in agents}
+        observations, rewards, terms, truncs = self._agent_dicts(agents, obs, rew, crashed_now, truncated_all)
         infos = self._ma_infos(agents, rows, parts)
-        for i, a in enumerate(agents):
-            if crashed_now[i]:
-                infos[a]["crashed"] = True
+        for i in np.flatnonzero(crashed_now).tolist():
+            infos[agents[i]]["crashed"] = True
         # vehicles that left the simulation during the step: exits are
         # terminal successes, the end of the road is a truncation
         gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)

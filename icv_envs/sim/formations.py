@@ -58,6 +58,7 @@ from icv_envs.formation.control import (
     join_profile,
 )
 from icv_envs.formation.targets import formation_targets
+from icv_envs.sim._kernels import drivable_lane_bits, segment_max
 
 __all__ = ["FormationManager"]
 
@@ -277,8 +278,9 @@ class FormationManager:
         changed: set[int] = set()
         self.time += dt
         gids = list(self.anchor)
-        for gid in gids:
-            self.anchor[gid] = float(road.mod(self.anchor[gid] + self.speed * dt))
+        if gids:  # one array operation for all front targets
+            moved = road.mod(np.array([self.anchor[g] for g in gids]) + self.speed * dt)
+            self.anchor.update(zip(gids, moved.tolist()))
         if traffic.n and road.n_exits:
             # members about to exit leave (the vehicle becomes free and heads for its ramp)
             rows = np.flatnonzero((traffic.exit >= 0) & (traffic.group >= 0))
@@ -352,47 +354,7 @@ class FormationManager:
             rel = np.where(rel > -Lf[:, None], rel, np.inf)
             nearest = rel.min(axis=1)
             room = {g: float(r) - self.formation_gap for g, r in zip(gids, nearest) if np.isfinite(r)}
-        if traffic.n:
-            grp = traffic.group
-            order_rows = np.argsort(grp, kind="stable")
-            sorted_g = grp[order_rows]
-            starts = np.searchsorted(sorted_g, gids, side="left")
-            ends = np.searchsorted(sorted_g, gids, side="right")
-        for k, gid in enumerate(gids):
-            rows = order_rows[starts[k]:ends[k]] if traffic.n else np.zeros(0, dtype=np.int64)
-            if not len(rows):
-                continue
-            # the front target slows down (by at most ``anchor_brake`` m/s) rather
-            # than jumping back, so members see a smooth reference
-            back = 0.0
-            if gid not in changed:
-                implied = float(wrap(cx[rows] + traffic.tgt_behind[rows] - self.anchor[gid]).max())
-                if implied < -self.max_anchor_lead:
-                    back = min(back, implied + self.max_anchor_lead)
-            r = room.get(gid)
-            if r is not None and r < 0:
-                back = min(back, r)
-            if back < 0:
-                self.anchor[gid] = float(road.mod(self.anchor[gid] + max(back, -self.anchor_brake * dt)))
-            if gid not in changed and self._lane_set(road, self.anchor[gid], self.length[gid]) != self.lanes[gid]:
-                changed.add(gid)
-            # a member that stays far from its target after its plan should
-            # have brought it there (e.g. it joined ahead of the formation and
-            # its target lies beyond a member in its lane) triggers a
-            # re-assignment from the current positions
-            vid = traffic.vid[rows]
-            self._grow(int(vid.max()) + 1)
-            err = np.abs(wrap(cx[rows] - (self.anchor[gid] - traffic.tgt_behind[rows])))
-            late = (err > self.stall_error) & (self.time > self._p_deadline[vid])
-            if gid in changed:
-                self.stalled_for[gid] = 0.0
-            elif late.any():
-                self.stalled_for[gid] = self.stalled_for.get(gid, 0.0) + dt
-                if self.stalled_for[gid] >= self.stall_time:
-                    changed.add(gid)
-                    self.stalled_for[gid] = 0.0
-            else:
-                self.stalled_for[gid] = 0.0
+        self._hold_targets(traffic, road, gids, changed, room, cx, dt)
         for gid in sorted(changed):
             self._reform(traffic, road, gid, cx)
         # members that fell off their reference (held back by traffic) re-plan
@@ -409,6 +371,88 @@ class FormationManager:
                 for d in (self.anchor, self.lanes, self.count, self.length, self.stalled_for):
                     d.pop(gid, None)
         return sorted(changed)
+
+    def _hold_targets(self, traffic, road, gids, changed: set, room: dict, cx, dt: float) -> None:
+        """Per formation (all at once, as arrays): the front target slows
+        down (by at most ``anchor_brake`` m/s, so members see a smooth
+        reference) when it leads its best-placed member by more than
+        ``max_anchor_lead`` or comes closer than ``formation_gap`` to the
+        formation ahead; a change of the drivable lane set over the
+        formation's window, or a member far from its target for
+        ``stall_time`` (e.g. it joined ahead of the formation and its target
+        lies beyond a member in its lane), marks it for re-forming. The
+        segment reductions and lane windows run in :mod:`icv_envs.sim._kernels`;
+        the arithmetic is the scalar code's, element by element."""
+        if not traffic.n or not gids:
+            return
+        grp = traffic.group
+        order_rows = np.argsort(grp, kind="stable")
+        sorted_g = grp[order_rows]
+        starts = np.searchsorted(sorted_g, gids, side="left")
+        ends = np.searchsorted(sorted_g, gids, side="right")
+        has = ends > starts
+        if not has.any():
+            return
+        G = len(gids)
+        A = np.array([self.anchor[g] for g in gids])
+        Lf = np.array([self.length[g] for g in gids])
+        chg = np.array([g in changed for g in gids])
+        # rows of every formation, concatenated in formation order
+        counts = ends - starts
+        seg_end = np.cumsum(counts)
+        seg_start = seg_end - counts
+        pos = np.arange(int(seg_end[-1])) - np.repeat(seg_start - starts, counts)
+        rr = order_rows[pos]
+        kk = np.repeat(np.arange(G), counts)
+        tb = traffic.tgt_behind[rr]
+        implied = segment_max(road.wrap(cx[rr] + tb - A[kk]), seg_start, seg_end)
+        back = np.where(~chg & (implied < -self.max_anchor_lead), implied + self.max_anchor_lead, 0.0)
+        r = np.array([room.get(g, np.nan) for g in gids])
+        back = np.where(r < 0, np.minimum(back, r), back)
+        brake = has & (back < 0)
+        if brake.any():
+            A[brake] = road.mod(A[brake] + np.maximum(back[brake], -self.anchor_brake * dt))
+            self.anchor.update(zip([gids[k] for k in np.flatnonzero(brake)], A[brake].tolist()))
+        check = np.flatnonzero(has & ~chg)
+        if len(check):
+            bits = self._lane_bits(road, A[check], Lf[check])
+            for k, b in zip(check.tolist(), bits.tolist()):
+                if b != sum(1 << lane for lane in self.lanes[gids[k]]):
+                    changed.add(gids[k])
+        # a member far from its target AFTER its plan should have brought it
+        # there (the join profile's deadline) counts as stalled
+        vid = traffic.vid[rr]
+        self._grow(int(vid.max()) + 1)
+        late_rows = (np.abs(road.wrap(cx[rr] - (A[kk] - tb))) > self.stall_error) & (self.time > self._p_deadline[vid])
+        late = segment_max(late_rows.astype(np.float64), seg_start, seg_end) > 0.5
+        for k in np.flatnonzero(has).tolist():
+            gid = gids[k]
+            if gid in changed:
+                self.stalled_for[gid] = 0.0
+            elif late[k]:
+                self.stalled_for[gid] = self.stalled_for.get(gid, 0.0) + dt
+                if self.stalled_for[gid] >= self.stall_time:
+                    changed.add(gid)
+                    self.stalled_for[gid] = 0.0
+            else:
+                self.stalled_for[gid] = 0.0
+
+    def _lane_bits(self, road, anchors: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+        """:meth:`_lane_set` for many formations at once, as bit sets."""
+        x0 = anchors - lengths - 10.0
+        x1 = anchors + self.lookahead
+        L = float(road.length)
+        span = np.minimum(np.maximum(x1 - x0, 0.0), L)
+        a = np.mod(x0, L)
+        allowed = np.ones(road.n_lanes, dtype=bool)
+        if self.allowed_lanes is not None:
+            allowed[:] = False
+            allowed[[lane for lane in self.allowed_lanes if lane < road.n_lanes]] = True
+        ob_lane = np.asarray(road._ob_lane, dtype=np.int64) if len(road._ob_lane) else np.zeros(0, dtype=np.int64)
+        ob_lo = np.asarray(road._ob_lo, dtype=np.float64) if len(road._ob_lane) else np.zeros(0)
+        ob_hi = np.asarray(road._ob_hi, dtype=np.float64) if len(road._ob_lane) else np.zeros(0)
+        return drivable_lane_bits(a, span, x0, x1, bool(road.periodic), L, road.lane_ends, ob_lane, ob_lo, ob_hi,
+                                  allowed)
 
     def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-vehicle ``(x_ref, lane_ref, v_ref, member)``: body-centre
