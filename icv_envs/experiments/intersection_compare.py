@@ -280,7 +280,9 @@ def plot_results(results, out) -> list[str]:
         seeds = sorted({r["seed"] for r in results})
         ax.set_xlabel("demand [vehicles/h entering the intersection, all legs]")
         ax.set_ylabel(label)
-        ax.set_title(f"Intersection: {key.replace('_', ' ')} ({len(seeds)} seeds, band: 95% CI)", fontsize=10)
+        band = ", band: 95% CI over seeds" if len(seeds) > 1 and key != "pet_min" else ""
+        ax.set_title(f"Intersection: {key.replace('_', ' ')} ({len(seeds)} seed{'s' if len(seeds) != 1 else ''}{band})",
+                     fontsize=10)
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
