@@ -370,13 +370,18 @@ class FormationExpert:
         end = road.interval_end(q_lanes, cx[q_rows])
         leaving = (tr.lc_lane[q_rows] >= 0) & (tr.lc_lane[q_rows] != q_lanes)
         exit_ramp_end = (q_lanes == road.n_lanes) & exiting[q_rows]  # exits: leave at the ramp end
-        gap_end = np.where(leaving | exit_ramp_end, np.inf, end - cx[q_rows] - 0.5 * tr.length[q_rows])
+        # lane ends bind in the lane of the body centre (where leaving the
+        # road is judged) and in the lane being entered, not in a lane a
+        # corner of the footprint merely overlaps
+        own_or_target = (q_lanes == lane[q_rows]) | (q_lanes == tr.lc_lane[q_rows])
+        gap_end = np.where(leaving | exit_ramp_end | ~own_or_target, np.inf, end - cx[q_rows] - 0.5 * tr.length[q_rows])
         # a vehicle that must leave a lane before it ends (merging from a
         # ramp, or k lanes to cross at a lane drop) stops with its centre s0
         # before the line ``end - k * lc_min_length``: room for those k lane
         # changes from standstill (``lc_min_length`` each) before the lane ends
         k_q = np.abs(desired[q_rows] - q_lanes)
-        must_leave = (k_q > 0) & ~leaving & ~exit_ramp_end & (end < road.interval_end(desired[q_rows], cx[q_rows]))
+        must_leave = (k_q > 0) & ~leaving & ~exit_ramp_end & own_or_target & (
+            end < road.interval_end(desired[q_rows], cx[q_rows]))
         gap_end = np.where(must_leave, end - k_q * p.lc_min_length - cx[q_rows], gap_end)
         use_end = gap_end < gap
         gap = np.where(use_end, gap_end, gap)

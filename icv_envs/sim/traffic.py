@@ -266,8 +266,10 @@ def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool =
 
     ``reserved_lane[i] >= 0`` lists vehicle ``i`` in that lane too: a vehicle
     that has started a lane change holds its target lane before its body
-    reaches it (a turn signal), so two vehicles do not move into one gap."""
-    rows, lanes = occupied_lanes(cy, width, lane_width, n_lanes)
+    reaches it (a turn signal), so two vehicles do not move into one gap.
+    ``length`` and ``heading`` give each vehicle's footprint (see
+    :func:`occupied_lanes`)."""
+    rows, lanes = occupied_lanes(cy, width, lane_width, n_lanes, length=length, heading=heading)
     if reserved_lane is not None:
         res = np.flatnonzero((reserved_lane >= 0) & (reserved_lane < n_lanes))
         if len(res):
