@@ -6,8 +6,8 @@
     icv-envs run intersection --method multi-vp --throughput 1500 --lane-use paper --seconds 120 --seed 0 --out DIR [--video]
     icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
-    icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333]
-    icv-envs compare intersection --methods multi-vp,single-vp,fcfs --throughput 1000,1500,2000,2500,3000 --seeds 3 --seconds 600 --out DIR [--lane-use paper|exclusive] [--backend ray]
+    icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333] [--vs-sumo]
+    icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,...,5000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
     icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
@@ -98,6 +98,15 @@ def _floats(name):
     return parse
 
 
+def _seed_list(text):
+    from icv_envs.experiments.seeds import parse_seeds
+
+    try:
+        return parse_seeds(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def _names(text):
     return [v.strip() for v in text.split(",") if v.strip()]
 
@@ -144,7 +153,6 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0, help="simulated seconds per scenario")
     d.add_argument("--no-video", action="store_true", help="skip the GIFs")
 
-    all_methods = tuple(dict.fromkeys(m for ms in METHODS.values() for m in ms))
     r = sub.add_parser("run", help="run one episode and print its metrics", formatter_class=fmt)
     r.add_argument("env", type=_choice("env", ENVS), metavar="ENV", help=f"one of: {', '.join(ENVS)}")
     r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default=None,
@@ -156,12 +164,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default=None, help="directory for metrics.json (and video.gif)")
     r.add_argument("--video", action="store_true", help="highway-formation, intersection: also write video.gif to --out")
     r.add_argument("--config", default=None, help="JSON object of extra env config keys (see docs/envs/)")
-    r.add_argument("--method", type=_choice("method", all_methods), default=None,
+    r.add_argument("--method", default=None,  # checked per env by validate_grid (exit 2)
                    help="highway-ramps: " + ", ".join(METHODS["highway-ramps"]) + " (default formation); "
                    "intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
-    r.add_argument("--vgr", type=_positive_float("--vgr"), default=None,
+    r.add_argument("--vgr", type=float, default=None,  # range checked by validate_grid (exit 2)
                    help="highway-ramps: vehicles/s per on-ramp, in (0, 1] (default 1/3)")
-    r.add_argument("--throughput", type=_positive_float("--throughput"), default=None,
+    r.add_argument("--throughput", type=float, default=None,  # range checked by validate_grid (exit 2)
                    help="intersection: vehicles/h entering the intersection, all legs (default 1500)")
     r.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default=None,
                    help=f"intersection: lane-use table, {', '.join(LANE_USES)} (default paper)")
@@ -170,14 +178,17 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("target", type=_choice("comparison", COMPARES), metavar="TARGET", help=f"one of: {', '.join(COMPARES)}")
     c.add_argument("--methods", type=_names, default=None,
                    help="comma-separated; highway-ramps: " + ",".join(METHODS["highway-ramps"])
-                   + "; intersection: " + ",".join(METHODS["intersection"]) + " (default: all of the target's)")
+                   + "; intersection: " + ",".join(METHODS["intersection"]) + " (default: all of the target's but fcfs-tight)")
     c.add_argument("--throughput", default=None,
                    help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,1500,2000,2500,3000)")
-    c.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default=None,
+    c.add_argument("--lane-use", dest="lane_use", default=None,  # checked by the env config (exit 2)
                    help=f"intersection: {', '.join(LANE_USES)} (default paper)")
     c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5],
                    help="highway-ramps: vehicles/s per on-ramp, comma-separated")
-    c.add_argument("--seeds", type=int, default=3, help="runs use seeds 0..N-1")
+    c.add_argument("--warmup", type=float, default=None,
+                   help="intersection: seconds run before the statistics start (default 100)")
+    c.add_argument("--seeds", type=_seed_list, default=[0, 1, 2],
+                   help="a count N (seeds 0..N-1) or a list/range such as 5,7,10-12")
     c.add_argument("--seconds", type=float, default=600.0, help="simulated seconds per run")
     c.add_argument("--out", default="compare_out", help="output directory (CSV, JSON, plots)")
     c.add_argument("--backend", type=_choice("backend", BACKENDS), default="process",
@@ -196,6 +207,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--throughput", type=float, default=None, help="intersection: vehicles/h (default 2200: about 60-70 vehicles)")
     b.add_argument("--method", type=_choice("method", METHODS["intersection"]), default=None,
                    help="intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
+    b.add_argument("--vs-sumo", dest="vs_sumo", action="store_true",
+                   help="highway-ramps: time the last 100 s beside SUMO on the same ring, alternately (extra 'bench')")
     b.add_argument("--out", default=None, help="also write the JSON to DIR/bench.json")
 
     from icv_envs.rl.evaluate import add_arguments as _eval_args
@@ -206,7 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
     _board_args(sub.add_parser("leaderboard", help="every policy on every task, held-out seeds, IQM + bootstrap CIs"))
     k = sub.add_parser("conflicts", help="conflict matrix of the 12 intersection movements (derived from the lane use)",
                        formatter_class=fmt)
-    k.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default="paper",
+    k.add_argument("--lane-use", dest="lane_use", default="paper",  # checked by conflicts_report (exit 2)
                    help=f"lane-use table, {', '.join(LANE_USES)}")
     k.add_argument("--json", action="store_true", help="print only the JSON report")
     ls = sub.add_parser("list", help="list environments, scenarios, methods and policies", formatter_class=fmt)
@@ -215,7 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
     ds.add_argument("--env", required=True, help="Gymnasium id (the ego) or PettingZoo id (one episode per vehicle)")
     ds.add_argument("--episodes", type=int, required=True, help="env episodes (seeds SEED, SEED+1, ...)")
     ds.add_argument("--out", required=True, help="directory of the Minari datasets (MINARI_DATASETS_PATH)")
-    ds.add_argument("--seed", type=int, default=0)
+    ds.add_argument("--seed", type=int, default=0, help="seed of the first episode")
     ds.add_argument("--config", default=None, help="JSON dict of env config (or a .json file)")
     ds.add_argument("--dataset-id", dest="dataset_id", default=None, help="default: icv_envs/<family>/expert-v0")
     return p
@@ -296,6 +309,10 @@ def _dispatch(args) -> int:
     if args.command == "compare" and args.target == "intersection":
         from icv_envs.experiments.intersection_compare import run_cli as compare_intersection_cli
 
+        if args.seeds != list(range(len(args.seeds))):
+            raise ValueError(f"--seeds {args.seeds}: the intersection comparison takes a count N (seeds 0..N-1)")
+        args.seeds = len(args.seeds)
+
         args.progress = _progress()
         summary = compare_intersection_cli(args, echo=lambda s: print(s, flush=True))
         print(json.dumps(summary))
@@ -355,6 +372,8 @@ def _dispatch(args) -> int:
     if args.command == "bench":
         from icv_envs.experiments.bench import bench_highway_formation, bench_highway_ramps
 
+        if args.vs_sumo and args.target != "highway-ramps":
+            raise ValueError(f"--vs-sumo is an option of 'bench highway-ramps', not of 'bench {args.target}'")
         if args.target == "intersection":
             from icv_envs.experiments.intersection_bench import run_cli as bench_intersection_cli
 
@@ -366,7 +385,12 @@ def _dispatch(args) -> int:
         elif args.target == "highway-ramps":
             if not 0 < args.vgr <= 1.0:
                 raise ValueError(f"--vgr {args.vgr!r}; allowed: 0 < vgr <= 1")
-            res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))
+            if args.vs_sumo:
+                from icv_envs.experiments.sumo_bench import ramps_vs_sumo
+
+                res = ramps_vs_sumo(args.seconds or 600.0, vgr=args.vgr, echo=lambda s: print(s, flush=True))
+            else:
+                res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))
         else:
             res = bench_highway_formation(args.sizes, args.seconds or 10.0, args.stock_seconds,
                                           echo=lambda s: print(s, flush=True))
@@ -423,6 +447,8 @@ def _run_intersection(args) -> int:
     from icv_envs.envs.intersection_v0 import parallel_env
 
     method = args.method or DEFAULT_METHOD["intersection"]
+    args.throughput = 1500.0 if args.throughput is None else args.throughput
+    args.lane_use = args.lane_use or "paper"
     validate_grid([method], [args.throughput], 1, args.seconds)
     if args.video and not args.out:
         raise ValueError("--video needs --out DIR to write the video to")

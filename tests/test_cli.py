@@ -68,10 +68,15 @@ def test_help_lists_the_choices(command, option, names):
 
 def test_bad_choice_names_the_value_and_the_allowed_ones(capsys):
     with pytest.raises(SystemExit) as exc:
-        main(["run", "intersection", "--method", "warp"])
+        main(["run", "intersection", "--lane-use", "warp"])
     assert exc.value.code == 2
     err = capsys.readouterr().err
-    assert "'warp'" in err and "multi-vp" in err and "formation" in err
+    assert "'warp'" in err and "paper" in err and "exclusive" in err
+    assert main(["run", "intersection", "--method", "warp", "--seconds", "5"]) == 2
+    err = capsys.readouterr().err
+    assert "'warp'" in err and "multi-vp" in err
+    assert main(["run", "intersection", "--throughput", "-5", "--seconds", "5"]) == 2
+    assert "throughput -5.0 is invalid" in capsys.readouterr().err
 
 
 def test_list_names_every_env_scenario_method_and_policy(capsys):

@@ -113,3 +113,24 @@ def test_fcfs_and_gym_ego_legends(mod):
     img = env.render()
     assert img.std() > 10 and "learned ego" in [i[0] for i in env.unwrapped.viewer.legend_items()]
     env.close()
+
+
+@pytest.mark.parametrize("mod", [highway_formation_v0, highway_ramps_v0, intersection_v0])
+def test_show_overlay_must_be_a_bool(mod):
+    with pytest.raises(ValueError, match=r"show_overlay.*True or False"):
+        mod.parallel_env(show_overlay="yes")
+
+
+def test_env_pickles_after_render_and_draws_the_same_frame():
+    import pickle
+
+    env = intersection_v0.parallel_env(render_mode="rgb_array", duration=20.0, throughput=2000.0)
+    env.reset(seed=0)
+    for _ in range(20):
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+    frame = env.render()
+    clone = pickle.loads(pickle.dumps(env))
+    np.testing.assert_array_equal(clone.render(), frame)
+    env.close()
+    clone.close()

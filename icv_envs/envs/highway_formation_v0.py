@@ -22,7 +22,7 @@ Intelligent and connected vehicles (ICVs) drive on a straight multi-lane
 highway (1 to 6 lanes) in the interlaced multi-lane formation of Xu et al.
 (2021), Sec. 3: a formation layer (run by the environment, as V2X
 infrastructure would) generates the formation's targets (Sec. 3.2, the
-corrected target equation of NOTES.md §2) on the lanes that are drivable
+corrected target equation of docs/formation.md#target-equation) on the lanes that are drivable
 ahead and assigns them to the members by minimum total cost with the
 Hungarian method (Sec. 3.3); it re-forms whenever lanes close or open (a lane
 drop, an obstacle blocking a lane) or a vehicle joins (on-ramp) or leaves
@@ -154,8 +154,15 @@ the road. Use it for centralised critics.
 | `expert_in_info` | True | put the expert's action in infos (costs one vectorised expert call per step) |
 | `missing_action` | `"error"` | or `"expert"` |
 | `show_formation` | True | draw targets and the assignment when rendering |
+| `show_overlay` | True | draw the title (env, scenario), the time and a legend on every frame (docs/rendering.md) |
 
 Invalid values raise `ValueError` naming the key, the value and what is allowed.
+Bounds that keep a run within memory: `duration` <= 86400 s, at most 200,000
+possible agents, `acceleration_range` within +-20 m/s^2 (see `icv_envs/envs/_config.py`).
+highway-env keys the env does not use (`other_vehicles_type`, `manual_control`,
+`show_trajectories`) must keep their defaults. A config passed to
+`reset(options={"config": ...})` is validated before it is applied: a rejected one
+leaves the env as it was.
 """
 
 from __future__ import annotations

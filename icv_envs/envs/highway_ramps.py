@@ -128,6 +128,7 @@ class HighwayRampsEnv(HighwayFormationEnv):
         if not isinstance(c["arrivals"], str) or c["arrivals"] not in ("poisson", "fixed"):
             raise ValueError(f"arrivals = {c['arrivals']!r}; allowed: 'poisson', 'fixed'")
         L = _num(c, "road_length", 100.0, 1e5, allowed="a number in [100, 100000] metres")
+        _num(c, "lanes_count", 1, 6, integer=True, allowed="an integer in [1, 6]")
         n = _num(c, "ramps", 1, 20, integer=True, allowed="an integer in [1, 20]")
         ex = c["exit_choices"]
         if ex is not None:
@@ -349,6 +350,8 @@ class HighwayRampsEnv(HighwayFormationEnv):
                 "exited": int(st["exited"]),
                 "missed_exits": int(st["missed_exits"]),
                 "collisions": int(st["collisions"]),
+                "stopped": int((tr.speed < 0.1).sum()),
+                "jammed": int(st["jammed"]),
                 "formations": len(w.manager.anchor),
             }
         )
@@ -359,7 +362,7 @@ class HighwayRampsEnv(HighwayFormationEnv):
 
         ``lost`` = spawned - exited - remaining - removed after a crash: a
         bookkeeping check that must be 0 (no vehicle disappears unaccounted)."""
-        from icv_envs.experiments.metrics import run_metrics
+        from icv_envs.sim.metrics import run_metrics
 
         m = run_metrics(self.world)
         st = self.world.stats

@@ -69,7 +69,13 @@ N steps (PettingZoo's `max_cycles`).
 ## Episode end
 
 An agent terminates when it reaches its exit or collides, and every agent is
-truncated after `duration` (600 s) seconds.
+truncated after `duration` (600 s) seconds. `agents` can be empty for a
+while (between arrivals); `env.episode_over` tells when time is up, and the
+AEC `env()` keeps stepping by itself until then. The arrivals do not depend
+on `duration`: a shorter episode with the same seed is a prefix of a longer
+one. Keys of `highway_formation_v0` that do not apply here (`vehicles_count`,
+`initial_position`, `spawns`, `exits`, the layout sections, `ego_vehicle`:
+the Gymnasium ego is the first arrival) must keep their defaults.
 
 ## Metrics
 

@@ -55,11 +55,16 @@ from icv_envs.platoon.conflicts import required_layer_gap
 from icv_envs.platoon.geometry import LANE_USE_PRESETS, LEGS, movement_name
 from icv_envs.policies.fcfs import FcfsExpert
 from icv_envs.policies.platoon_expert import Corridors, PlatoonExpert, PlatoonParams
-from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents
+from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents, validate_radii
 
 __all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "MAX_THROUGHPUT"]
 
-METHODS = ("multi-vp", "single-vp", "fcfs")
+METHODS = ("multi-vp", "single-vp", "fcfs", "fcfs-tight")
+#: FCFS reservation buffers of the method ``fcfs-tight`` (the buffers of the
+#: first implementation: 5 steps = 0.2 s, 0.5 m; "tight" is its historical
+#: name: by PET it is the MORE cautious variant, see ``_FCFS_DEFAULTS``), kept
+#: so the effect of the margin is visible; ``fcfs`` uses ``_FCFS_DEFAULTS``
+FCFS_TIGHT = {"time_buffer": 5, "space_buffer": 0.5}
 MAX_THROUGHPUT = 20000.0  # veh/h: beyond any lane's capacity; a sanity bound for the config
 
 OBS_FEATURES = (
@@ -81,7 +86,15 @@ OBS_FEATURES = (
 STATE_FEATURES = OBS_FEATURES
 
 _REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "tracking": 0.5}
-_FCFS_DEFAULTS = {"tile": 1.0, "time_buffer": 5, "space_buffer": 0.5, "request_distance": 80.0, "a_plan": 1.5}
+#: Reservation parameters of ``fcfs``.  Buffers chosen so that FCFS's measured
+#: minimum PET is as close as the tile reservation allows to the virtual
+#: platoon's (issue 8, "equal safety"): at 2500 veh/h, seed 0, 300 s,
+#: multi-vp's minimum PET is 0.20 s (single-vp 0.08 s), FCFS's 0.24 s with no
+#: buffer, 0.44 s with 0 s / 0.5 m and 0.60 s (seed 2) with 0.2 s / 0.5 m
+#: (``fcfs-tight``): the virtual platoon's D_t = 21 m is the tighter margin,
+#: so the fair FCFS has no extra buffer (the 1 m tiles, the footprint grown
+#: by the 0.1 m lookup step, remain).
+_FCFS_DEFAULTS = {"tile": 1.0, "time_buffer": 0, "space_buffer": 0.0, "request_distance": 80.0, "a_plan": 1.5}
 _OBS_DEFAULTS = {"type": "Kinematics", "vehicles_count": 8, "perception_distance": 100.0}
 #: highway-env keys this env does not use: setting them is an error
 UNUSED_KEYS = {
@@ -226,11 +239,16 @@ class IntersectionEnv(IcvAgentsEnv):
         _num(c, "max_node_size", 1, 100, integer=True, allowed="an integer in [1, 100]")
         fc = c["fcfs"]
         check_keys(fc, "fcfs", _FCFS_DEFAULTS)
-        _num(fc, "tile", 0.1, 5.0, allowed="a number in [0.1, 5] metres")
-        _num(fc, "time_buffer", 0, 100, integer=True, allowed="an integer number of steps in [0, 100]")
-        _num(fc, "space_buffer", 0.0, 5.0, allowed="a number in [0, 5] metres")
-        _num(fc, "request_distance", 1.0, 1000.0, allowed="a number in [1, 1000] metres")
-        _num(fc, "a_plan", 0.0, ar[1], lo_open=True, allowed=f"a number in (0, a_max = {ar[1]}] m/s^2")
+        _num(fc, "tile", 0.1, 5.0, allowed="a number in [0.1, 5] metres", where="['fcfs']")
+        _num(fc, "time_buffer", 0, 100, integer=True, allowed="an integer number of steps in [0, 100]", where="['fcfs']")
+        _num(fc, "space_buffer", 0.0, 5.0, allowed="a number in [0, 5] metres", where="['fcfs']")
+        _num(fc, "request_distance", 1.0, 1000.0, allowed="a number in [1, 1000] metres", where="['fcfs']")
+        _num(fc, "a_plan", 0.0, ar[1], lo_open=True, allowed=f"a number in (0, a_max = {ar[1]}] m/s^2", where="['fcfs']")
+        if c["method"] == "fcfs-tight":
+            own = {k: fc[k] for k in FCFS_TIGHT if fc[k] != _FCFS_DEFAULTS[k]}
+            if own:
+                raise ValueError(f"method 'fcfs-tight' fixes the reservation buffers {FCFS_TIGHT}; got fcfs = {own}: "
+                                 f"use method 'fcfs' to set fcfs.time_buffer / fcfs.space_buffer")
         _num(c, "simulation_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
         _num(c, "policy_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
         if c["simulation_frequency"] % c["policy_frequency"]:
@@ -254,13 +272,17 @@ class IntersectionEnv(IcvAgentsEnv):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
         for key in ("envelope_in_box", "expert_in_info"):
             flag(c, key)
-        check_render(c, flags=("show_zones", "show_groups"))
+        check_render(c, flags=("show_zones", "show_groups", "show_overlay"))
         check_possible_agents(self._n_possible_agents(), "throughput x (duration + warmup)")
         # geometry, lane use, radii (raise ValueError with their own messages)
-        self.layout = IntersectionLayout(
-            lu, c["lane_width"], c["box_half"], c["R1"], c["R2"], c["R3"], c["departure_length"],
-            bool(c["opposing_left_conflict"]),
-        )
+        validate_radii(c["R1"], c["R2"], c["R3"], c["box_half"])
+        try:
+            self.layout = IntersectionLayout(
+                lu, c["lane_width"], c["box_half"], c["R1"], c["R2"], c["R3"], c["departure_length"],
+                bool(c["opposing_left_conflict"]),
+            )
+        except (ValueError, TypeError) as exc:  # the radii are fine: the lane-use table is not
+            raise ValueError(f"config['lane_use'] = {lu!r} is invalid: {exc}") from None
         need = required_layer_gap(self.layout.model)
         self.layout.model_gap = need
         if c["D_t"] == "auto":
@@ -353,8 +375,10 @@ class IntersectionEnv(IcvAgentsEnv):
                                   v_max=float(c["speed_range"][1]), v_free=float(c["desired_speed"]))
         self.world = world
         params = self._params()
-        if c["method"] == "fcfs":
-            fc = c["fcfs"]
+        if c["method"] in ("fcfs", "fcfs-tight"):
+            fc = dict(c["fcfs"])
+            if c["method"] == "fcfs-tight":
+                fc.update(FCFS_TIGHT)
             self.expert = FcfsExpert(lay, params, frames=self._frames(), dt=world.dt, tile=fc["tile"],
                                      time_buffer=int(fc["time_buffer"]), space_buffer=fc["space_buffer"],
                                      request_distance=fc["request_distance"], a_plan=fc["a_plan"])
@@ -407,6 +431,7 @@ class IntersectionEnv(IcvAgentsEnv):
             w.stats[k] = math.inf if k == "min_speed_in_box" else (0.0 if isinstance(w.stats[k], float) else 0)
         w.stats["spawned"] = int(f.n)
         w.collision_log.clear()
+        w.reset_metrics()
         for k in self.expert.stats:
             self.expert.stats[k] = 0.0 if isinstance(self.expert.stats[k], float) else 0
         self._ego_vid = int(f.vid[-1]) if f.n else int(f.next_vid)
@@ -592,34 +617,29 @@ class IntersectionEnv(IcvAgentsEnv):
 
     def _ma_infos(self, agents, rows, parts) -> dict:
         c = self.config
-        infos = {}
         if not len(rows):
-            return infos
+            return {}
         ex = self.expert_actions() if c["expert_in_info"] else None
         f = self.world.fleet
         rs = self.world.route()
-        speeds = f.speed.tolist()
-        mvs = f.mv.tolist()
-        nodes = f.node.tolist()
+        rows = np.asarray(rows, dtype=np.int64)
+        nodes = f.node[rows].tolist()
         depth = self.expert.node_depth
-        X = rs.dist.tolist()
-        for i, a in enumerate(agents):
-            r = int(rows[i])
-            info = {"speed": speeds[r], "movement": mvs[r], "distance": X[r], "node": nodes[r],
-                    "tree_layer": depth.get(nodes[r], -1), "crashed": False}
-            if ex is not None:
-                info["expert_action"] = ex[r].copy()
-            if parts:
-                info["rewards"] = {k: float(v[i]) for k, v in parts.items()}
-            infos[a] = info
-        return infos
+        cols = {
+            "speed": f.speed[rows].tolist(),
+            "movement": f.mv[rows].tolist(),
+            "distance": np.asarray(rs.dist)[rows].tolist(),
+            "node": nodes,
+            "tree_layer": [depth.get(nd, -1) for nd in nodes],
+            "crashed": [False] * len(rows),
+        }
+        return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
 
     def _ma_advance(self, acts: np.ndarray):
         c = self.config
         w = self.world
         f = w.fleet
         before = f.vid.copy()
-        acts_by_vid = {int(v): acts[i] for i, v in enumerate(before)}
         events = self._advance(acts)
         self.time += 1.0 / c["policy_frequency"]
         self.steps += 1
@@ -630,23 +650,19 @@ class IntersectionEnv(IcvAgentsEnv):
         self.expert.update(w)
         f = w.fleet
         crashed_now = np.concatenate([crashed_now, np.zeros(f.n - len(crashed_now), dtype=bool)])
-        self._last_actions = np.array([acts_by_vid.get(int(v), np.zeros(2)) for v in f.vid]).reshape(-1, 2)
+        self._last_actions = self._realign_rows(before, np.asarray(acts, dtype=np.float64).reshape(-1, 2), f.vid)
         rows = np.arange(f.n)
-        agents = [f"icv_{v}" for v in f.vid]
+        agents = [f"icv_{v}" for v in f.vid.tolist()]
         F = self._features() if f.n else np.zeros((0, len(OBS_FEATURES)))
         rew, parts = self._rewards_rows(rows, crashed_now, F)
         obs = self._observe_rows(rows, F)
-        observations = {a: obs[i] for i, a in enumerate(agents)}
-        rewards = {a: float(rew[i]) for i, a in enumerate(agents)}
-        terms = {a: bool(crashed_now[i]) for i, a in enumerate(agents)}
-        truncs = {a: bool(truncated_all) and not crashed_now[i] for i, a in enumerate(agents)}
+        observations, rewards, terms, truncs = self._agent_dicts(
+            agents, obs, rew, crashed_now, bool(truncated_all) & ~crashed_now)
         infos = self._ma_infos(agents, rows, parts)
-        newset = set(new)
-        for i, a in enumerate(agents):
-            if crashed_now[i]:
-                infos[a]["crashed"] = True
-            if int(f.vid[i]) in newset:
-                rewards[a] = 0.0
+        for i in np.flatnonzero(crashed_now).tolist():
+            infos[agents[i]]["crashed"] = True
+        for v in new:
+            rewards[f"icv_{v}"] = 0.0
         # vehicles that left during the step: the departure end is a terminal
         # success, driving back out of the approach road a truncation
         gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
@@ -699,8 +715,9 @@ class IntersectionEnv(IcvAgentsEnv):
             "wrong_exits": int(st["wrong_exits"]),
             "lost": int(st["spawned"] - st["removed"] - st["left_road"] - remaining - st["crashed_removed"]),
             "achieved_throughput": st["cleared"] * 3600.0 / sim,
-            "mean_speed": st["speed_sum"] / n,
-            "speed_fluctuation": st["abs_accel_sum"] / n,
+            **w.motion.summary(),
+            **w.pet.summary(),
+            **w.jams.summary(),
             "mean_delay": st["delay_sum"] / st["cleared"] if st["cleared"] else None,
             "mean_travel_time": st["travel_time_sum"] / st["cleared"] if st["cleared"] else None,
             "sim_seconds": float(w.time),
@@ -712,7 +729,7 @@ class IntersectionEnv(IcvAgentsEnv):
             "merges": int(ex.get("merges", 0)),
             "lane_changes": int(ex.get("lane_changes", 0)),
         }
-        if self.config["method"] == "fcfs":
+        if self.config["method"] in ("fcfs", "fcfs-tight"):
             m.update({k: ex[k] for k in ("requests", "granted", "rejected", "cancelled", "max_plan_error")})
         return m
 

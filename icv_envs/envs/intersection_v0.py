@@ -19,7 +19,7 @@
 | PettingZoo id | `icv_envs/intersection-v0` (`pettingzoo.make("parallel", ...)`) |
 
 The multi-lane unsignalized intersection of Xu et al. (2021), Sec. 4-5 and
-Table 2 (NOTES.md §4): four legs (N, E, S, W), each with three approach and
+Table 2 (docs/intersection.md): four legs (N, E, S, W), each with three approach and
 three departure lanes of 4 m; a lane-use table (`lane_use`: `"paper"`, left
 lane left turn / middle lane straight and right / right lane right turn, or
 `"exclusive"`, one movement per lane, or a custom dict) decides which
@@ -43,7 +43,9 @@ coordinating (`<= R1`), where the `method` decides who enters the box when:
   with j}`, references `X_ref,1^k = X_0 + m D_t + sum max len` (Sec. 4.2),
   followers `X_1^k + x_gi`;
 * `single-vp`: the same tree with one vehicle per node;
-* `fcfs`: tile reservation, first come first served (Dresner & Stone).
+* `fcfs`: tile reservation, first come first served (Dresner & Stone), with
+  buffers chosen for equal safety (minimum PET) with the virtual platoon;
+* `fcfs-tight`: the same with a 0.2 s / 0.5 m buffer.
 
 The expert (:class:`icv_envs.policies.platoon_expert.PlatoonExpert` or
 :class:`icv_envs.policies.fcfs.FcfsExpert`) drives through the same action
@@ -135,7 +137,8 @@ An agent *terminates* when it reaches the end of the departure stretch
 vehicle is removed); it is *truncated* if it drives back out of its approach
 road, and every agent is truncated after `duration` seconds.  Vehicles keep
 arriving: `agents` can be empty for a while; `env.episode_over` tells when
-time is up.
+time is up (the AEC `env()` then keeps stepping by itself: `agent_iter()`
+ends only when time is up).
 
 ## State
 
@@ -145,22 +148,29 @@ the road.
 
 ## Metrics
 
-`env.metrics()`: `collisions`, `lost` (spawned - removed - left_road -
-remaining - crashed_removed: must be 0), `spawned`, `cleared`, `remaining`,
-`queued` (arrivals waiting for a free spawn point), `achieved_throughput`
-(vehicles/h that cleared the box), `mean_speed`, `speed_fluctuation` (mean
-|a|, :mod:`icv_envs.experiments.metrics`), `mean_delay` (travel time from R3
-until clearing the box minus the same distance at `desired_speed`),
-`envelope_box_binding` (vehicle-steps in which the safety envelope had to
-cut a command in the box: 0 when the coordination is right),
-`virtual_cap_binding`, `nodes`, `merges`, `lane_changes`, and for `fcfs`
-`requests`, `granted`, `rejected`, `max_plan_error`.
+`env.metrics()` (definitions in :mod:`icv_envs.sim.intersection_metrics`):
+`collisions`, `lost` (spawned - removed - left_road - remaining -
+crashed_removed: must be 0), `spawned`, `cleared`, `remaining`, `queued`
+(arrivals waiting for a free spawn point), `achieved_throughput` (vehicles/h
+that cleared the box), `mean_speed`, `speed_fluctuation` (mean |dv/dt| of the
+REALISED speed: a vehicle held at 0 m/s while braking is commanded adds 0),
+`speed_std` (per-vehicle speed standard deviation, mean over vehicles),
+`stopped_share` (share of vehicle-time below 0.1 m/s), `commanded_abs_accel`
+(mean commanded |a|, a diagnostic), `pet_min`, `pet_p05`, `pet_samples`
+(post-encroachment time at the conflict areas of crossing and merging
+paths), `jammed` (vehicles stopped > 10 s outside a queue at the box) and
+`jammed_vehicle_seconds`, `mean_delay` (travel time from R3 until clearing
+the box minus the same distance at `desired_speed`), `envelope_box_binding`
+(vehicle-steps in which the safety envelope had to cut a command in the box:
+0 when the coordination is right), `virtual_cap_binding`, `nodes`, `merges`,
+`lane_changes`, and for `fcfs` / `fcfs-tight` `requests`, `granted`,
+`rejected`, `max_plan_error`.
 
 ## Arguments
 
 | key | default | meaning |
 |---|---|---|
-| `method` | `"multi-vp"` | `multi-vp`, `single-vp`, `fcfs` |
+| `method` | `"multi-vp"` | `multi-vp`, `single-vp`, `fcfs` (reservation, buffers matched to the virtual platoon's minimum PET: none), `fcfs-tight` (reservation with 0.2 s / 0.5 m buffers) |
 | `lane_use` | `"paper"` | `paper`, `exclusive` or a dict (turn name / movement id / (leg, turn) -> lanes); a movement without a lane is an error |
 | `throughput` | 1500 | vehicles/h entering the intersection (all legs), > 0 |
 | `turn_shares` | [1/3, 1/3, 1/3] | left, straight, right |
@@ -173,7 +183,7 @@ cut a command in the box: 0 when the coordination is right),
 | `speed_range` | [0, 20] | m/s (Table 2) |
 | `gap_outside`, `gap_inside` | 15, 9 | formation gap L_s outside / inside the coordinating zone (m) |
 | `merge_range`, `max_node_size` | 60, 12 | merging |
-| `fcfs` | `{"tile": 1, "time_buffer": 5, "space_buffer": 0.5, "request_distance": 80, "a_plan": 1.5}` | reservation parameters |
+| `fcfs` | `{"tile": 1, "time_buffer": 0, "space_buffer": 0, "request_distance": 80, "a_plan": 1.5}` | reservation parameters (`fcfs-tight` fixes time_buffer 5 steps, space_buffer 0.5 m) |
 | `envelope_in_box` | True | False switches the safety envelope off inside the box (to show the coordination alone is collision-free) |
 | `duration` | 120 | seconds |
 | `max_vehicles` | None | cap on arrivals (possible agents) |
@@ -183,8 +193,16 @@ cut a command in the box: 0 when the coordination is right),
 | `reward` | see Rewards | |
 | `expert_in_info`, `missing_action` | True, `"error"` | as in `highway_formation_v0` |
 | `show_zones`, `show_groups` | True | rendering: zone circles; group lines and tree-layer labels |
+| `show_overlay` | True | rendering: title (method, demand, lane use), time, legend and a true-size inset of the box (docs/rendering.md) |
+| `scaling` | 0.54 | rendering: pixels per metre; 0.54 on 900 px shows the scene out to R3 = 800 m |
 
 Invalid values raise `ValueError` naming the key, the value and what is allowed.
+Bounds that keep a run within memory: `duration` <= 86400 s, at most 200,000
+possible agents, `acceleration_range` within +-20 m/s^2 (see `icv_envs/envs/_config.py`).
+highway-env keys the env does not use (`other_vehicles_type`, `manual_control`,
+`show_trajectories`) must keep their defaults. A config passed to
+`reset(options={"config": ...})` is validated before it is applied: a rejected one
+leaves the env as it was.
 """
 
 from __future__ import annotations
