@@ -23,9 +23,8 @@ Read top to bottom:
    * ``gamma = 0.98``: at the 5 Hz policy rate the effective horizon
      ``1 / (1 - gamma)`` is 50 steps = 10 s, the time scale of the task (a
      lane change takes ~3-5 s, closing a 20 m formation gap at 2-5 m/s of
-     relative speed 4-10 s, a 1 s headway at 25 m/s is 25 m). highway-env's
-     own PPO examples use 0.8-0.9 at 1-5 Hz; 0.99 at 5 Hz would look 20 s
-     ahead, past the 60 s episode's structure, with noisier advantages.
+     relative speed 4-10 s, a 1 s headway at 25 m/s is 25 m); 0.99 at 5 Hz
+     would look 20 s ahead, with noisier advantages.
    * ``gae_lambda = 0.95`` (the PPO paper's value).
    * **Reward scale**: per-step rewards are O(1) (progress ~0.33, formation
      ~0.5, safety in [-1, 0]); with gamma 0.98 returns are ~40, so the
@@ -52,8 +51,8 @@ Read top to bottom:
 
 3. **Initialisation** ``--init PATH`` (optional): start from a behaviour clone
    of the expert (a ``bc_expert.py`` model, same network), i.e. BC followed by
-   RL fine-tuning (the standard way to reach a strong demonstrator with RL:
-   Rajeswaran et al. 2018, DAPG; Nair et al. 2018). A fresh critic would feed
+   RL fine-tuning (the BC-initialisation step of Rajeswaran et al. 2018,
+   DAPG, without its BC term in the policy loss). A fresh critic would feed
    the pretrained actor random advantages, so for ``--critic-warmup`` slot-steps
    only the value function learns (actor frozen), then both.
 4. **Train** ``--total-timesteps`` slot-steps (agent-steps, placeholders of
