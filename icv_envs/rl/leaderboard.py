@@ -399,7 +399,7 @@ def plot(path: Path, rows: list[dict], models_dir) -> None:
 
 # ---------------------------------------------------------------- CLI
 def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    p.add_argument("--out", default="results/leaderboard")
+    p.add_argument("--out", default="results/leaderboard", help="output directory (leaderboard.csv/.md/.png, evals/)")
     p.add_argument("--models", default="results/learned", help="directory of saved models (DIR/*/model.zip)")
     p.add_argument("--tasks", default=None, help=f"comma-separated subset of {', '.join(TASKS)}")
     p.add_argument("--episodes", type=int, default=None, help="episodes per policy (default: each task's own)")
