@@ -43,6 +43,14 @@ def _register() -> None:
 
 _register()
 
+import sys as _sys  # noqa: E402
+
 from icv_envs.envs import highway_formation_v0, highway_ramps_v0, intersection_v0  # noqa: E402
+
+# ``import icv_envs.highway_formation_v0`` works as a submodule import, as
+# ``import pettingzoo.butterfly.pistonball_v6`` does: the same module objects
+for _m in (highway_formation_v0, highway_ramps_v0, intersection_v0):
+    _sys.modules[f"{__name__}.{_m.__name__.rsplit('.', 1)[1]}"] = _m
+del _m
 
 __all__ = ["highway_formation_v0", "highway_ramps_v0", "intersection_v0", "GYM_IDS", "PETTINGZOO_IDS", "__version__"]

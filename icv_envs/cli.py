@@ -3,19 +3,23 @@
     icv-envs demo [--out DIR] [--seed S] [--no-video]
     icv-envs run highway-formation --scenario lane-drop --policy expert --seconds 60 --seed 0 --out DIR [--video]
     icv-envs run highway-ramps --method formation --vgr 0.333 --seconds 600 --seed 0 --out DIR
+    icv-envs run intersection --method multi-vp --throughput 1500 --lane-use paper --seconds 120 --seed 0 --out DIR [--video]
     icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
-    icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333]
-    icv-envs compare intersection --methods multi-vp,single-vp,fcfs --throughput 1000,1500,2000,2500,3000 --seeds 3 --seconds 600 --out DIR [--lane-use paper|exclusive] [--backend ray]
+    icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333] [--vs-sumo]
+    icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,...,5000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
     icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
     icv-envs evaluate --env ID --policy expert|idm|lane-lp|single-vp|fcfs|zero|random|PATH --episodes N --seed S [--out DIR]
-    icv-envs list
+    icv-envs list [--json]
+    icv-envs --version
 
-Every command prints one JSON line last (metrics or benchmark results).
-Bad arguments exit with status 2 and a message naming the value and what is
-allowed.
+Every command prints one JSON line last, on stdout (metrics or benchmark
+results). Progress bars go to stderr and are shown only when stderr is a
+terminal, so redirected output holds result lines only. Bad arguments exit
+with status 2 and a message naming the value and what is allowed.
+Documentation: docs/index.md (``mkdocs serve`` in the repository).
 """
 
 from __future__ import annotations
@@ -25,10 +29,44 @@ import json
 import sys
 from pathlib import Path
 
+from icv_envs import __version__
+from icv_envs.envs.highway_ramps import METHODS as RAMP_METHODS
+from icv_envs.envs.intersection import METHODS as INTERSECTION_METHODS
 from icv_envs.envs.scenarios import SCENARIOS
+from icv_envs.platoon.geometry import LANE_USE_PRESETS
 from icv_envs.policies import POLICIES
 
-ENVS = ("highway-formation", "highway-ramps")
+ENVS = ("highway-formation", "highway-ramps", "intersection")
+#: what each ``--method`` means, per env (``icv-envs list``)
+METHODS = {"highway-ramps": tuple(RAMP_METHODS), "intersection": tuple(INTERSECTION_METHODS)}
+DEFAULT_METHOD = {"highway-ramps": "formation", "intersection": "multi-vp"}
+LANE_USES = tuple(LANE_USE_PRESETS)
+BACKENDS = ("process", "ray")
+SCENARIO_HELP = {
+    "free": "no event: formations drive on a straight 4-lane road",
+    "lane-drop": "Fig. 7a: 4 lanes become 3 at 700 m; the formation re-forms on 3 lanes",
+    "lane-change": "Fig. 7b: an obstacle blocks lane 2 at 900 m; lane changes inside the formation",
+    "off-ramp": "Fig. 7c: a member leaves the formation at the off-ramp at 900 m",
+    "on-ramp": "Fig. 7d: a vehicle joins from the on-ramp (merge 650-750 m)",
+}
+METHOD_HELP = {
+    "formation": "interlaced formations on the left three lanes, the formation expert drives (paper Sec. 3)",
+    "lane-lp": "optimal lane assignment LP at the ramps (Dao et al. 2007), IDM/MOBIL drive",
+    "idm": "IDM car following and MOBIL lane changes, no coordination",
+    "multi-vp": "regrouping + improved virtual platoon, a node per sub-formation (paper Sec. 4-5)",
+    "single-vp": "virtual platoon with one vehicle per node",
+    "fcfs": "tile reservation, first come first served (Dresner & Stone's AIM)",
+}
+POLICY_HELP = {
+    "expert": "the env's scripted expert (infos[agent]['expert_action'])",
+    "zero": "coast straight: action [0, 0]",
+    "random": "uniform random actions (seeded)",
+}
+
+
+def _progress() -> bool:
+    """Show progress bars only on a terminal (they go to stderr)."""
+    return sys.stderr.isatty()
 BENCHES = ("highway-formation", "highway-ramps", "train", "intersection")
 COMPARES = ("highway-ramps", "intersection")
 
@@ -59,6 +97,15 @@ def _floats(name):
     return parse
 
 
+def _seed_list(text):
+    from icv_envs.experiments.seeds import parse_seeds
+
+    try:
+        return parse_seeds(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def _names(text):
     return [v.strip() for v in text.split(",") if v.strip()]
 
@@ -82,61 +129,104 @@ def _choice(name, allowed):
     return parse
 
 
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Appends ``(default: X)`` only where there is a default worth showing."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if action.default in (None, False) or "default" in text:
+            return text
+        return super()._get_help_string(action)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="icv-envs", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = p.add_subparsers(dest="command", required=True)
+    p.add_argument("--version", action="version", version=f"icv-envs {__version__}",
+                   help="print the package version and exit")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    fmt = _HelpFormatter
 
-    d = sub.add_parser("demo", help="run the four Fig. 7 scenarios with the expert; metrics + GIFs")
-    d.add_argument("--out", default="demo_out", help="output directory (default: demo_out)")
-    d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0)
+    d = sub.add_parser("demo", help="run the four Fig. 7 scenarios with the expert; metrics + GIFs", formatter_class=fmt)
+    d.add_argument("--out", default="demo_out", help="output directory")
+    d.add_argument("--seed", type=int, default=0, help="episode seed")
+    d.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0, help="simulated seconds per scenario")
     d.add_argument("--no-video", action="store_true", help="skip the GIFs")
 
-    r = sub.add_parser("run", help="run one episode and print its metrics")
-    r.add_argument("env", type=_choice("env", ENVS), help=f"one of: {', '.join(ENVS)}")
-    r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default="lane-drop")
-    r.add_argument("--policy", type=_choice("policy", POLICIES), default="expert")
-    r.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0)
-    r.add_argument("--seed", type=int, default=0)
+    r = sub.add_parser("run", help="run one episode and print its metrics", formatter_class=fmt)
+    r.add_argument("env", type=_choice("env", ENVS), metavar="ENV", help=f"one of: {', '.join(ENVS)}")
+    r.add_argument("--scenario", type=_choice("scenario", sorted(SCENARIOS)), default=None,
+                   help=f"highway-formation (default lane-drop): {', '.join(sorted(SCENARIOS))}")
+    r.add_argument("--policy", type=_choice("policy", POLICIES), default=None,
+                   help=f"highway-formation (default expert): who drives every vehicle, {', '.join(POLICIES)}")
+    r.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0, help="simulated seconds")
+    r.add_argument("--seed", type=int, default=0, help="episode seed")
     r.add_argument("--out", default=None, help="directory for metrics.json (and video.gif)")
-    r.add_argument("--video", action="store_true", help="also write video.gif to --out")
-    r.add_argument("--config", default=None, help="JSON dict of extra env config")
-    r.add_argument("--method", default="formation", help="highway-ramps: formation, lane-lp or idm")
-    r.add_argument("--vgr", type=float, default=1.0 / 3.0, help="highway-ramps: vehicles/s per on-ramp")
+    r.add_argument("--video", action="store_true", help="highway-formation, intersection: also write video.gif to --out")
+    r.add_argument("--config", default=None, help="JSON object of extra env config keys (see docs/envs/)")
+    r.add_argument("--method", default=None,  # checked per env by validate_grid (exit 2)
+                   help="highway-ramps: " + ", ".join(METHODS["highway-ramps"]) + " (default formation); "
+                   "intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
+    r.add_argument("--vgr", type=float, default=None,  # range checked by validate_grid (exit 2)
+                   help="highway-ramps: vehicles/s per on-ramp, in (0, 1] (default 1/3)")
+    r.add_argument("--throughput", type=float, default=None,  # range checked by validate_grid (exit 2)
+                   help="intersection: vehicles/h entering the intersection, all legs (default 1500)")
+    r.add_argument("--lane-use", dest="lane_use", type=_choice("lane use", LANE_USES), default=None,
+                   help=f"intersection: lane-use table, {', '.join(LANE_USES)} (default paper)")
 
-    c = sub.add_parser("compare", help="methods x parameters x seeds sweep, in parallel, CSV + plots")
-    c.add_argument("target", type=_choice("comparison", COMPARES))
+    c = sub.add_parser("compare", help="methods x parameters x seeds sweep, in parallel, CSV + plots", formatter_class=fmt)
+    c.add_argument("target", type=_choice("comparison", COMPARES), metavar="TARGET", help=f"one of: {', '.join(COMPARES)}")
     c.add_argument("--methods", type=_names, default=None,
-                   help="highway-ramps: formation,lane-lp,idm (default); intersection: multi-vp,single-vp,fcfs (default)")
+                   help="comma-separated; highway-ramps: " + ",".join(METHODS["highway-ramps"])
+                   + "; intersection: " + ",".join(METHODS["intersection"]) + " (default: all of the target's but fcfs-tight)")
     c.add_argument("--throughput", default=None,
-                   help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,...,3000)")
-    c.add_argument("--lane-use", dest="lane_use", default=None, help="intersection: paper (default) or exclusive")
-    c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5])
-    c.add_argument("--seeds", type=int, default=3, help="runs use seeds 0..N-1")
-    c.add_argument("--seconds", type=float, default=600.0)
-    c.add_argument("--out", default="compare_out")
-    c.add_argument("--backend", default="process", help="process (local pool, default) or ray")
+                   help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,1500,2000,2500,3000)")
+    c.add_argument("--lane-use", dest="lane_use", default=None,  # checked by the env config (exit 2)
+                   help=f"intersection: {', '.join(LANE_USES)} (default paper)")
+    c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5],
+                   help="highway-ramps: vehicles/s per on-ramp, comma-separated")
+    c.add_argument("--warmup", type=float, default=None,
+                   help="intersection: seconds run before the statistics start (default 100)")
+    c.add_argument("--seeds", type=_seed_list, default=[0, 1, 2],
+                   help="a count N (seeds 0..N-1) or a list/range such as 5,7,10-12")
+    c.add_argument("--seconds", type=float, default=600.0, help="simulated seconds per run")
+    c.add_argument("--out", default="compare_out", help="output directory (CSV, JSON, plots)")
+    c.add_argument("--backend", type=_choice("backend", BACKENDS), default="process",
+                   help="process (local pool) or ray")
     c.add_argument("--workers", type=int, default=None, help="local pool size (default: all cores)")
 
-    b = sub.add_parser("bench", help="speed benchmarks (ratios against a reference measured in the same run)")
-    b.add_argument("target", type=_choice("benchmark", BENCHES))
-    b.add_argument("--sizes", type=_sizes, default=[50, 200, 800])
+    b = sub.add_parser("bench", help="speed benchmarks (ratios against a reference measured in the same run)",
+                       formatter_class=fmt)
+    b.add_argument("target", type=_choice("benchmark", BENCHES), metavar="TARGET", help=f"one of: {', '.join(BENCHES)}")
+    b.add_argument("--sizes", type=_sizes, default=[50, 200, 800], help="highway-formation: vehicle counts, comma-separated")
     b.add_argument("--seconds", type=_positive_float("--seconds"), default=None,
                    help="simulated seconds (highway-formation: per size, default 10; highway-ramps: default 600)")
     b.add_argument("--stock-seconds", type=_positive_float("--stock-seconds"), default=1.0,
-                   help="simulated seconds of highway-v0 per size (it is slow)")
+                   help="highway-formation: simulated seconds of highway-v0 per size (it is slow)")
     b.add_argument("--vgr", type=float, default=1.0 / 3.0, help="highway-ramps: vehicles/s per on-ramp")
     b.add_argument("--throughput", type=float, default=None, help="intersection: vehicles/h (default 2200: about 60-70 vehicles)")
-    b.add_argument("--method", default=None, help="intersection: multi-vp (default), single-vp or fcfs")
+    b.add_argument("--method", type=_choice("method", METHODS["intersection"]), default=None,
+                   help="intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
+    b.add_argument("--vs-sumo", dest="vs_sumo", action="store_true",
+                   help="highway-ramps: time the last 100 s beside SUMO on the same ring, alternately (extra 'bench')")
     b.add_argument("--out", default=None, help="also write the JSON to DIR/bench.json")
 
     from icv_envs.rl.evaluate import add_arguments as _eval_args
 
     _eval_args(sub.add_parser("evaluate", help="evaluate expert/zero/random or a model saved by baselines/"))
-    k = sub.add_parser("conflicts", help="conflict matrix of the 12 intersection movements (derived from the lane use)")
-    k.add_argument("--lane-use", dest="lane_use", default="paper", help="paper (default) or exclusive")
+    k = sub.add_parser("conflicts", help="conflict matrix of the 12 intersection movements (derived from the lane use)",
+                       formatter_class=fmt)
+    k.add_argument("--lane-use", dest="lane_use", default="paper",  # checked by conflicts_report (exit 2)
+                   help=f"lane-use table, {', '.join(LANE_USES)}")
     k.add_argument("--json", action="store_true", help="print only the JSON report")
-    sub.add_parser("list", help="list environments, scenarios and policies")
+    ls = sub.add_parser("list", help="list environments, scenarios, methods and policies", formatter_class=fmt)
+    ls.add_argument("--json", action="store_true", help="print only the JSON line")
+    ds = sub.add_parser("dataset", help="record the expert as a Minari dataset (see icv_envs.rl.dataset)", formatter_class=fmt)
+    ds.add_argument("--env", required=True, help="Gymnasium id (the ego) or PettingZoo id (one episode per vehicle)")
+    ds.add_argument("--episodes", type=int, required=True, help="env episodes (seeds SEED, SEED+1, ...)")
+    ds.add_argument("--out", required=True, help="directory of the Minari datasets (MINARI_DATASETS_PATH)")
+    ds.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    ds.add_argument("--config", default=None, help="JSON dict of env config (or a .json file)")
+    ds.add_argument("--dataset-id", dest="dataset_id", default=None, help="default: icv_envs/<family>/expert-v0")
     return p
 
 
@@ -150,21 +240,46 @@ def main(argv=None) -> int:
         return 2
 
 
+#: ``run`` options that apply to one env only: given for another, they are an error
+_RUN_ONLY = {"--scenario": ("scenario", ("highway-formation",)), "--policy": ("policy", ("highway-formation",)),
+             "--method": ("method", ("highway-ramps", "intersection")), "--vgr": ("vgr", ("highway-ramps",)),
+             "--throughput": ("throughput", ("intersection",)), "--lane-use": ("lane_use", ("intersection",)),
+             "--video": ("video", ("highway-formation", "intersection"))}
+
+
+def _reject_foreign_run_options(args) -> None:
+    for flag, (attr, env) in _RUN_ONLY.items():
+        v = getattr(args, attr, None)
+        if v not in (None, False) and args.env not in env:
+            raise ValueError(f"{flag} {v!r} does not apply to run {args.env}: it is an option of run "
+                             + " / run ".join(env))
+
+
 def _dispatch(args) -> int:
     if args.command == "evaluate":
         from icv_envs.rl.evaluate import run
 
         return run(args)
-    if args.command == "list":
-        import icv_envs
+    if args.command == "dataset":
+        from icv_envs.rl.dataset import record_expert_dataset
+        from icv_envs.rl.envs import parse_config
 
-        out = {"gymnasium": sorted(icv_envs.GYM_IDS), "pettingzoo": sorted(icv_envs.PETTINGZOO_IDS),
-               "scenarios": sorted(SCENARIOS), "policies": list(POLICIES)}
-        print(json.dumps(out))
+        res = record_expert_dataset(args.env, args.episodes, args.out, seed=args.seed,
+                                    config=parse_config(args.config), dataset_id=args.dataset_id,
+                                    progress=sys.stderr.isatty())
+        print(json.dumps(res))
         return 0
+    if args.command == "list":
+        return _list(args.json)
+    if args.command == "run":
+        _reject_foreign_run_options(args)
+    if args.command == "run" and args.env == "intersection":
+        return _run_intersection(args)
     if args.command == "run" and args.env == "highway-ramps":
         from icv_envs.experiments.compare import run_ramps, validate_grid
 
+        args.method = args.method or DEFAULT_METHOD["highway-ramps"]
+        args.vgr = 1.0 / 3.0 if args.vgr is None else args.vgr
         validate_grid([args.method], [args.vgr], 1, args.seconds)
         m = run_ramps(args.method, args.vgr, args.seed, args.seconds,
                       json.loads(args.config) if args.config else None)
@@ -186,6 +301,11 @@ def _dispatch(args) -> int:
     if args.command == "compare" and args.target == "intersection":
         from icv_envs.experiments.intersection_compare import run_cli as compare_intersection_cli
 
+        if args.seeds != list(range(len(args.seeds))):
+            raise ValueError(f"--seeds {args.seeds}: the intersection comparison takes a count N (seeds 0..N-1)")
+        args.seeds = len(args.seeds)
+
+        args.progress = _progress()
         summary = compare_intersection_cli(args, echo=lambda s: print(s, flush=True))
         print(json.dumps(summary))
         return 0
@@ -195,7 +315,7 @@ def _dispatch(args) -> int:
         args.methods = args.methods or ["formation", "lane-lp", "idm"]
 
         summary = compare_highway_ramps(args.methods, args.vgr, args.seeds, args.seconds, args.out,
-                                        backend=args.backend, workers=args.workers, progress=True)
+                                        backend=args.backend, workers=args.workers, progress=_progress())
         for row in summary["table"]:
             print(f"{row['method']:10s} vgr={row['vgr']:<5g} remaining={row['remaining']:7.1f} "
                   f"mean_speed={row['mean_speed']:6.2f} speed_fluctuation={row['speed_fluctuation']:.3f} "
@@ -216,8 +336,8 @@ def _dispatch(args) -> int:
                 raise ValueError(f"--config must be a JSON object, got {args.config!r}")
         if args.video and not args.out:
             raise ValueError("--video needs --out DIR to write the video to")
-        m = run_highway_formation(args.scenario, args.policy, args.seconds, args.seed, args.out, args.video,
-                                  config, progress=sys.stderr.isatty())
+        m = run_highway_formation(args.scenario or "lane-drop", args.policy or "expert", args.seconds, args.seed, args.out, args.video,
+                                  config, progress=_progress())
         print(json.dumps(m))
         return 0
     if args.command == "demo":
@@ -227,10 +347,11 @@ def _dispatch(args) -> int:
 
         out = Path(args.out)
         results = {}
-        for scen in tqdm(["lane-drop", "lane-change", "off-ramp", "on-ramp"], desc="scenarios"):
+        for scen in tqdm(["lane-drop", "lane-change", "off-ramp", "on-ramp"], desc="scenarios",
+                         disable=not _progress()):
             m = run_highway_formation(scen, "expert", args.seconds, args.seed, out / scen, not args.no_video)
             results[scen] = m
-            tqdm.write(
+            tqdm.write(  # stdout; the bar is on stderr (and only on a terminal)
                 f"{scen:12s} collisions={m['collisions']} mean_speed={m['mean_speed']:.2f} m/s "
                 f"speed_fluctuation={m['speed_fluctuation']:.3f} m/s^2 min_gap={m['min_gap']:.1f} m "
                 f"formation_error_x={m['formation_error_x']:.2f} m off_target_lane={m['off_target_lane']}"
@@ -243,6 +364,8 @@ def _dispatch(args) -> int:
     if args.command == "bench":
         from icv_envs.experiments.bench import bench_highway_formation, bench_highway_ramps
 
+        if args.vs_sumo and args.target != "highway-ramps":
+            raise ValueError(f"--vs-sumo is an option of 'bench highway-ramps', not of 'bench {args.target}'")
         if args.target == "intersection":
             from icv_envs.experiments.intersection_bench import run_cli as bench_intersection_cli
 
@@ -254,7 +377,12 @@ def _dispatch(args) -> int:
         elif args.target == "highway-ramps":
             if not 0 < args.vgr <= 1.0:
                 raise ValueError(f"--vgr {args.vgr!r}; allowed: 0 < vgr <= 1")
-            res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))
+            if args.vs_sumo:
+                from icv_envs.experiments.sumo_bench import ramps_vs_sumo
+
+                res = ramps_vs_sumo(args.seconds or 600.0, vgr=args.vgr, echo=lambda s: print(s, flush=True))
+            else:
+                res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))
         else:
             res = bench_highway_formation(args.sizes, args.seconds or 10.0, args.stock_seconds,
                                           echo=lambda s: print(s, flush=True))
@@ -264,6 +392,107 @@ def _dispatch(args) -> int:
         print(json.dumps(res))
         return 0
     raise ValueError(f"unknown command {args.command!r}")  # pragma: no cover
+
+
+def _list(json_only: bool) -> int:
+    """``icv-envs list``: every env id, scenario, method and policy."""
+    import icv_envs
+    from icv_envs.rl.evaluate import NAMED_POLICIES, REFERENCE_POLICIES
+
+    out = {
+        "gymnasium": sorted(icv_envs.GYM_IDS),
+        "pettingzoo": sorted(icv_envs.PETTINGZOO_IDS),
+        "cli_envs": list(ENVS),
+        "scenarios": sorted(SCENARIOS),
+        "methods": {env: list(ms) for env, ms in METHODS.items()},
+        "policies": list(POLICIES),
+        "evaluate_policies": {fam: list(NAMED_POLICIES) + list(refs) + ["PATH"]
+                              for fam, refs in REFERENCE_POLICIES.items()},
+        "lane_uses": list(LANE_USES),
+    }
+    if not json_only:
+        lines = ["Gymnasium ids (one learned ego among experts):"]
+        lines += [f"  {g}" for g in out["gymnasium"]]
+        lines += ["PettingZoo ids (every vehicle an agent; pettingzoo.make('parallel', ID)):"]
+        lines += [f"  {z}  (module icv_envs.{icv_envs.PETTINGZOO_IDS[z].rsplit('.', 1)[1]})" for z in out["pettingzoo"]]
+        lines += ["Scenarios (icv-envs run highway-formation --scenario NAME):"]
+        lines += [f"  {n:12s} {SCENARIO_HELP.get(n, '')}" for n in out["scenarios"]]
+        for env, ms in METHODS.items():
+            lines += [f"Methods of {env} (icv-envs run {env} --method NAME):"]
+            lines += [f"  {m:12s} {METHOD_HELP.get(m, '')}" for m in ms]
+        lines += ["Policies (icv-envs run highway-formation --policy NAME):"]
+        lines += [f"  {n:12s} {POLICY_HELP.get(n, '')}" for n in out["policies"]]
+        lines += ["Policies of icv-envs evaluate (per env family; PATH = a model saved by baselines/):"]
+        lines += [f"  {fam:18s} {', '.join(ps)}" for fam, ps in out["evaluate_policies"].items()]
+        lines += [f"Lane uses (intersection --lane-use): {', '.join(out['lane_uses'])}"]
+        print("\n".join(lines))
+    print(json.dumps(out))
+    return 0
+
+
+def _run_intersection(args) -> int:
+    """``icv-envs run intersection``: one episode driven by the method's
+    expert; prints the metrics (and writes metrics.json / video.gif to --out)."""
+    import time
+
+    from icv_envs.experiments.intersection_compare import validate_grid
+    from icv_envs.envs.intersection_v0 import parallel_env
+
+    method = args.method or DEFAULT_METHOD["intersection"]
+    args.throughput = 1500.0 if args.throughput is None else args.throughput
+    args.lane_use = args.lane_use or "paper"
+    validate_grid([method], [args.throughput], 1, args.seconds)
+    if args.video and not args.out:
+        raise ValueError("--video needs --out DIR to write the video to")
+    cfg = {"expert_in_info": False}
+    cfg.update(_json_config(args.config))
+    cfg.update({"method": method, "throughput": float(args.throughput), "duration": float(args.seconds),
+                "lane_use": args.lane_use})
+    env = parallel_env(render_mode="rgb_array" if args.video else None, **cfg)
+    env.reset(seed=int(args.seed))
+    frames = [env.render()] if args.video else []
+    from tqdm import tqdm
+
+    n_steps = int(round(args.seconds * env.core.config["policy_frequency"]))
+    bar = tqdm(total=n_steps, desc=f"intersection/{method}", leave=False, disable=not _progress())
+    t0 = time.perf_counter()
+    while not env.episode_over:
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+        bar.update(1)
+        if args.video:
+            frames.append(env.render())
+    bar.close()
+    wall = time.perf_counter() - t0
+    m = env.metrics()
+    m.update({"env": "intersection", "method": method, "throughput": float(args.throughput), "seed": int(args.seed),
+              "seconds": float(args.seconds), "lane_use": args.lane_use, "wall_seconds": wall})
+    fps = 2 * env.core.config["policy_frequency"]  # twice real time
+    env.close()
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        if frames:
+            import imageio.v2 as imageio
+
+            imageio.mimsave(out / "video.gif", frames, duration=1000.0 / fps, loop=0)
+            m["video"] = str(out / "video.gif")
+        (out / "metrics.json").write_text(json.dumps(m, indent=2))
+    print(json.dumps(m))
+    return 0
+
+
+def _json_config(text) -> dict:
+    """``--config`` parsed: a JSON object, else ValueError naming it."""
+    if not text:
+        return {}
+    try:
+        config = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"--config is not valid JSON: {exc}") from None
+    if not isinstance(config, dict):
+        raise ValueError(f"--config must be a JSON object, got {text!r}")
+    return config
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -27,7 +27,7 @@ def make(**config):
          r"movement 8 \(S-right\) has no approach lane"),
         ({"lane_use": {"left": [5], "straight": [1], "right": [2]}}, r"lane of movement 'left'.*0\.\.2.*5"),
         ({"lane_use": {"uturn": [0]}}, r"unknown lane-use key 'uturn'"),
-        ({"method": "traffic-lights"}, r"unknown method 'traffic-lights'; allowed: \['multi-vp', 'single-vp', 'fcfs'\]"),
+        ({"method": "traffic-lights"}, r"unknown method 'traffic-lights'; allowed: \['multi-vp', 'single-vp', 'fcfs', 'fcfs-tight'\]"),
         ({"R1": 500.0, "R2": 300.0}, r"box_half < R1 < R2 < R3.*R1=500, R2=300, R3=800"),
         ({"R2": 900.0}, r"box_half < R1 < R2 < R3.*R2=900, R3=800"),
         ({"R1": 500.0}, r"box_half < R1 < R2 < R3"),
@@ -131,7 +131,8 @@ def test_step_after_the_ego_is_done_or_before_reset():
         ((["fcfs"], [0.0], 1, 10.0), r"throughput 0.0 is invalid; allowed: 0 < throughput"),
         ((["fcfs"], [-5.0], 1, 10.0), r"throughput -5.0 is invalid"),
         ((["fcfs"], [], 1, 10.0), r"no throughput given"),
-        ((["fcfs"], [1000.0], 0, 10.0), r"seeds = 0"),
+        ((["fcfs"], [1000.0], 0, 10.0), r"seeds 0: a count must be in 1"),
+        ((["fcfs"], [1000.0], "4-2", 10.0), r"range '4-2' is empty"),
         ((["fcfs"], [1000.0], 1, -1.0), r"seconds = -1.0"),
     ],
 )
@@ -162,3 +163,17 @@ def test_bad_throughput_text_and_cli_errors(tmp_path):
         intersection_bench.run_cli(argparse.Namespace(seconds=1.0, throughput=None, method="teleport"))
     with pytest.raises(ValueError, match=r"throughput -3.0 is invalid"):
         intersection_bench.run_cli(argparse.Namespace(seconds=1.0, throughput=[-3.0], method=None))
+
+
+def test_fcfs_tight_fixes_its_buffers():
+    from icv_envs.envs.intersection import FCFS_TIGHT, IntersectionEnv
+
+    env = IntersectionEnv({"method": "fcfs-tight", "duration": 5.0})
+    env.reset(seed=0)
+    assert env.expert.table is not None and env.expert.space_buffer == FCFS_TIGHT["space_buffer"]
+    assert env.expert.table.time_buffer == FCFS_TIGHT["time_buffer"]
+    fair = IntersectionEnv({"method": "fcfs", "duration": 5.0})
+    fair.reset(seed=0)
+    assert fair.expert.space_buffer == 0.0 and fair.expert.table.time_buffer == 0
+    with pytest.raises(ValueError, match="fcfs-tight' fixes the reservation buffers"):
+        IntersectionEnv({"method": "fcfs-tight", "fcfs": {"time_buffer": 2}})

@@ -30,10 +30,11 @@ def test_sweep_writes_csv_json_and_plots(tmp_path):
 
 def test_cli_runner_prints_a_line_per_cell(tmp_path):
     lines = []
-    ns = argparse.Namespace(methods="single-vp", throughput="2000", seeds=1, seconds=30.0, out=str(tmp_path),
-                            backend="process", workers=1, lane_use="exclusive")
+    ns = argparse.Namespace(methods="single-vp", throughput="2000", seeds="3,", seconds=30.0, out=str(tmp_path),
+                            backend="process", workers=1, lane_use="exclusive", warmup=0.0)
     s = intersection_compare.run_cli(ns, echo=lines.append)
-    assert len(lines) == 1 and lines[0].startswith("single-vp") and "collisions=0 lost=0" in lines[0]
+    assert len(lines) == 2 and lines[0].startswith("single-vp") and "collisions=0 jammed=0 lost=0" in lines[0]
+    assert "capacity=" in lines[1] and s["table"][0]["seed_list"] == [3]
     assert s["out"] == str(tmp_path) and json.dumps(s)
     row = next(csv.DictReader(open(tmp_path / "results.csv")))
     assert row["lane_use"] == "exclusive"

@@ -40,11 +40,12 @@ def kernel_env(tmp_path, monkeypatch):
     return tmp_path
 
 
-def run_notebook(name: str):
-    """Execute notebooks/<name> in a fresh python3 kernel; returns the executed notebook."""
+def run_notebook(name: str, cwd=NOTEBOOKS):
+    """Execute notebooks/<name> in a fresh python3 kernel (working directory
+    ``cwd``); returns the executed notebook."""
     nb = nbformat.read(NOTEBOOKS / name, as_version=4)
     client = nbclient.NotebookClient(nb, kernel_name="python3", timeout=300,
-                                     resources={"metadata": {"path": str(NOTEBOOKS)}})
+                                     resources={"metadata": {"path": str(cwd)}})
     client.execute()
     return nb
 
@@ -85,7 +86,9 @@ def test_quickstart(kernel_env):
 def test_expert_vs_learned(kernel_env):
     pytest.importorskip("torch")
     pytest.importorskip("stable_baselines3")
-    nb = run_notebook("expert_vs_learned.ipynb")
+    elsewhere = kernel_env / "elsewhere"  # not inside the repository: runs from any directory
+    elsewhere.mkdir()
+    nb = run_notebook("expert_vs_learned.ipynb", cwd=elsewhere)
     models = kernel_env / "models"
     for name in ("bc", "ppo"):
         assert (models / name / "model.zip").is_file()

@@ -1,4 +1,4 @@
-"""Tests for icv_envs.platoon.conflicts (paper Sec. 4.2, NOTES.md §4)."""
+"""Tests for icv_envs.platoon.conflicts (paper Sec. 4.2, docs/intersection.md#conflicts)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tests for icv_envs.platoon.geometry (paper Sec. 4, NOTES.md §4)."""
+"""Tests for icv_envs.platoon.geometry (paper Sec. 4, docs/intersection.md#geometry)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tests for icv_envs.platoon.reservation (FCFS tile reservation, NOTES.md §4)."""
+"""Tests for icv_envs.platoon.reservation (FCFS tile reservation, docs/intersection.md#reference-methods)."""
 
 from __future__ import annotations
 

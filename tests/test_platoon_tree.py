@@ -1,4 +1,4 @@
-"""Tests for icv_envs.platoon.tree (paper Sec. 4.2, NOTES.md §4)."""
+"""Tests for icv_envs.platoon.tree (paper Sec. 4.2, docs/intersection.md#tree-layers)."""
 
 from __future__ import annotations
 

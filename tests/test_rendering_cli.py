@@ -76,7 +76,7 @@ def test_cli_bench_small(capsys):
 
 def test_cli_list(capsys):
     assert main(["list"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert "icv_envs/HighwayFormation-v0" in out["gymnasium"] and "lane-drop" in out["scenarios"]
 
 

@@ -1,4 +1,4 @@
-"""Tests for icv_envs.formation.targets (paper Sec. 3.1-3.2, NOTES.md §2)."""
+"""Tests for icv_envs.formation.targets (paper Sec. 3.1-3.2, docs/formation.md#target-equation)."""
 
 from __future__ import annotations
 

@@ -3,22 +3,31 @@
 agents, driven through one action space.
 
 Subclasses provide the simulation (``_reset``, ``_ma_advance``,
-``_observe_rows``, ``_ma_infos``, ``expert_actions``, ``_sync_render_road``),
+``_features``, ``_ma_infos``, ``expert_actions``, ``_sync_render_road``),
 the vehicle arrays (:meth:`_vehicles`, anything with ``n`` and a sorted
 ``vid``), the observation columns (``OBS_FEATURES``) and the viewer
-(:meth:`_make_viewer`). This class holds the parts that are the same for all:
-spaces, the Gymnasium single-ego ``reset``/``step``, the multi-agent action
-checks of ``ma_step``, and rendering.
+(:meth:`_make_viewer`), and for the observation types the feature scales
+(``_obs_scales``) and neighbour search (``_neighbours``). This class holds the
+parts that are the same for all: the observation / action types and their
+spaces (:mod:`icv_envs.envs.observations`, :mod:`icv_envs.envs.actions`), the
+Gymnasium single-ego ``reset``/``step``, ``ma_step`` (action checks and
+conversion), and rendering.
 """
 
 from __future__ import annotations
+
+import copy
+import functools
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from highway_env.envs.common.abstract import AbstractEnv
 
-__all__ = ["IcvAgentsEnv"]
+from icv_envs.envs.actions import ContinuousAction, action_factory, check_actions
+from icv_envs.envs.observations import observation_factory
+
+__all__ = ["IcvAgentsEnv", "check_actions"]
 
 
 class IcvAgentsEnv(AbstractEnv):
@@ -26,13 +35,82 @@ class IcvAgentsEnv(AbstractEnv):
     OBS_FEATURES: tuple = ()
 
     def __init__(self, config: dict | None = None, render_mode: str | None = None) -> None:
+        # highway-env's AbstractEnv.__init__ without its final reset(): an env
+        # is usable after reset() only (Gymnasium's contract), so step() and
+        # render() before it raise "call reset() before ..."
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is invalid; allowed: {self.metadata['render_modes']} or None")
         self.world = None
         self.expert = None
         self._ma_mode = False
-        self.possible_agents: list[str] = []
-        super().__init__(config, render_mode)
+        self._expert_cache = None
+        self.render_mode = render_mode
+        self.viewer = None
+        self._record_video_wrapper = None
+        self.enable_auto_render = False
+        self.config = self.default_config()
+        self.configure(config)
+        self.road = None
+        self.controlled_vehicles = []
+        self.action_type = None
+        self.action_space = None
+        self.observation_type = None
+        self.observation_space = None
+        self.define_spaces()
+        self.time = 0
+        self.steps = 0
+        self.done = False
+        self.possible_agents: list[str] = [f"icv_{i}" for i in range(self._n_possible_agents())]
+
+    # ------------------------------------------------------------------ config
+    #: attributes derived from the config by ``_validate_config`` (restored with it)
+    _CONFIG_DERIVED: tuple = ()
+
+    def configure(self, config: dict | None) -> None:
+        """Apply ``config`` on top of the current config and validate the
+        result; on an error the previous config is kept (so a failed
+        ``reset(options={"config": ...})`` leaves the env as it was)."""
+        saved = copy.deepcopy(self.config)
+        derived = {k: self.__dict__[k] for k in self._CONFIG_DERIVED if k in self.__dict__}
+        try:
+            self._apply_config(config)
+            self._validate_config()
+        except BaseException:
+            self.config = saved
+            for k in self._CONFIG_DERIVED:
+                self.__dict__.pop(k, None)
+            self.__dict__.update(derived)
+            raise
+
+    def preview_config(self, config: dict | None) -> int:
+        """Validate ``config`` as :meth:`configure` would, without applying it;
+        returns the number of possible agents it would give."""
+        saved = copy.deepcopy(self.config)
+        derived = {k: self.__dict__[k] for k in self._CONFIG_DERIVED if k in self.__dict__}
+        try:
+            self.configure(config)
+            return self._n_possible_agents()
+        finally:
+            self.config = saved
+            self.__dict__.update(derived)
+
+    def _apply_config(self, config: dict | None) -> None:
+        AbstractEnv.configure(self, config)
+
+    def _validate_config(self) -> None:
+        raise NotImplementedError
+
+    def _n_possible_agents(self) -> int:
+        """The number of possible agents, from the config alone."""
+        raise NotImplementedError
+
+    def __getstate__(self) -> dict:
+        # the viewer holds pygame surfaces (not picklable); a copy draws anew
+        state = dict(self.__dict__)
+        state["viewer"] = None
+        state["_record_video_wrapper"] = None
+        state["enable_auto_render"] = False
+        return state
 
     # ------------------------------------------------------------- subclasses
     def _vehicles(self):
@@ -43,67 +121,208 @@ class IcvAgentsEnv(AbstractEnv):
         raise NotImplementedError
 
     # ------------------------------------------------------------------ spaces
+    def _spaces_key(self) -> str:
+        import json
+
+        c = self.config
+        return json.dumps([c["observation"], c["action"], c["speed_range"]], sort_keys=True, default=repr)
+
+    def _validate_spaces_config(self) -> None:
+        """Build the observation and action types once, so that a bad
+        ``observation`` / ``action`` config raises at ``configure`` time."""
+        observation_factory(self, self.config["observation"])
+        action_factory(self, self.config["action"])
+
     def define_spaces(self) -> None:
-        V = int(self.config["observation"]["vehicles_count"])
-        self.observation_space = spaces.Box(-1.0, 1.0, (V, len(self.OBS_FEATURES)), dtype=np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
-        self.observation_type = _ObservationStub(self)
-        self.action_type = None
+        """The observation / action types of ``config`` (see
+        :mod:`icv_envs.envs.observations`, :mod:`icv_envs.envs.actions`);
+        rebuilt only when their config changes, so the spaces stay the same
+        objects across resets."""
+        key = self._spaces_key()
+        if getattr(self, "_spaces_built_for", None) != key:
+            self._obs_type = observation_factory(self, self.config["observation"])
+            self._act_type = action_factory(self, self.config["action"])
+            self._spaces_built_for = key
+        self.observation_type = self._obs_type
+        self.action_type = self._act_type
+        self.observation_space = self._obs_type.space_
+        self.action_space = self._act_type.space
 
     def state_space_for(self, n_slots: int) -> spaces.Box:
         return spaces.Box(-1.0, 1.0, (n_slots, len(self.OBS_FEATURES)), dtype=np.float32)
 
-    # ------------------------------------------------------------- multi-agent
-    def _check_action(self, action, who: str = "agent") -> np.ndarray:
-        arr = np.asarray(action, dtype=np.float64)
-        if arr.shape != (2,):
-            raise ValueError(f"action of {who} has shape {arr.shape}; allowed: shape (2,) [acceleration, steering] in [-1, 1]")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"action of {who} = {arr.tolist()} holds NaN or inf; allowed: finite values in [-1, 1]")
-        return np.clip(arr, -1.0, 1.0)
+    # ------------------------------------------------------------ observations
+    PERCEPTION_DISTANCE = 150.0  # default of the Kinematics option perception_distance [m]
 
+    def _check_action(self, action, who: str = "agent"):
+        return self._act_type.check(action, who)
+
+
+    def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
+        """Normalisation scales of the features ``(absolute, relative)``."""
+        raise NotImplementedError
+
+    def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
+        """``(sel, present)``: for each observer row, the traffic rows of its
+        up-to-``K`` nearest vehicles within ``pd`` (nearest first) and which of
+        the columns hold one."""
+        raise NotImplementedError
+
+    def _wrap_dx(self, dx):
+        """Longitudinal differences as the observer sees them (round a ring)."""
+        return dx
+
+    def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
+        """Observations of the vehicles at traffic ``rows`` (the observation type's layout)."""
+        rows = np.asarray(rows, dtype=np.int64)
+        if len(rows) and F is None:
+            F = self._features()
+        return self._obs_type.observe_rows(rows, F)
+
+    # ------------------------------------------------------------- multi-agent
     def ma_step(self, actions: dict):
-        """Multi-agent step: ``actions`` maps live agent names to actions.
-        Actions are clipped to [-1, 1]; a wrong shape or a NaN raises
-        ``ValueError`` naming the agent; agents left out raise too unless
-        ``missing_action="expert"``."""
+        """Multi-agent step: ``actions`` maps live agent names to actions of
+        the configured action type. A malformed action raises ``ValueError``
+        naming the agent; agents left out raise too unless
+        ``missing_action="expert"`` (the expert then drives them)."""
+        if self.world is None:
+            raise RuntimeError("call reset() before step()")
         veh = self._vehicles()
-        live = [f"icv_{v}" for v in veh.vid]
-        live_set = set(live)
+        live = [f"icv_{v}" for v in veh.vid.tolist()]
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
-        unknown = [a for a in actions if a not in live_set]
-        if unknown:
-            raise ValueError(f"actions for agents that are not live: {unknown[:5]}; live agents: {live[:5]}...")
-        missing = [a for a in live if a not in actions]
+        missing = []
+        if len(actions) != len(live) or actions.keys() != set(live):  # the usual case is one set comparison
+            live_set = set(live)
+            unknown = [a for a in actions if a not in live_set]
+            if unknown:
+                raise ValueError(f"actions for agents that are not live: {unknown[:5]}; live agents: {live[:5]}...")
+            missing = [a for a in live if a not in actions]
         if missing and self.config["missing_action"] == "error":
             raise ValueError(
                 f"no action for live agents {missing[:5]} ({len(missing)} missing); pass an action for every agent "
                 f"or configure missing_action='expert'"
             )
+        # 1. the expert drives agents left out; 2. the action type converts the
+        # given actions into normalised controls; 3. the simulation advances
         acts = np.zeros((veh.n, 2), dtype=np.float64)
         if missing:
             acts[:] = self.expert_actions()
-        given = [i for i, a in enumerate(live) if a in actions]
-        if given:
-            vals = []
-            for i in given:
-                arr = np.asarray(actions[live[i]], dtype=np.float64)
-                if arr.shape != (2,) or not np.all(np.isfinite(arr)):
-                    self._check_action(arr, live[i])  # raises with the agent's name
-                vals.append(arr)
-            acts[given] = np.clip(np.stack(vals), -1.0, 1.0)
+            given = np.array([i for i, a in enumerate(live) if a in actions], dtype=np.int64)
+            names = [live[i] for i in given]
+        else:
+            given, names = np.arange(veh.n), live
+        if names:
+            at = self._act_type
+            values = [actions[a] for a in names]
+            if isinstance(at, ContinuousAction):
+                vals = self._check_actions(names, values)
+            else:
+                vals = [at.check(v, a) for a, v in zip(names, values)]
+            acts[given] = at.controls(given, vals)
         return self._ma_advance(acts)
+
+    def _check_actions(self, names: list, values: list) -> np.ndarray:
+        """Continuous actions of all agents checked and converted at once: one
+        array, one finiteness check, clipped to [-1, 1]. Anything the fast
+        path cannot take as one real ``(n, 2)`` array (a wrong shape, a
+        string, a dict, complex or boolean values) goes through the action
+        type's per-agent check, whose error names the agent; non-finite values
+        raise naming every bad agent."""
+        try:
+            arr = np.array(values)
+        except (ValueError, TypeError, OverflowError):
+            arr = None
+        if arr is None or arr.shape != (len(names), 2) or arr.dtype.kind not in "fiu":
+            arr = np.stack([self._check_action(v, a) for a, v in zip(names, values)])
+        else:
+            arr = arr.astype(np.float64, copy=False)
+        finite = np.isfinite(arr).all(axis=1)
+        if not finite.all():
+            bad = [names[i] for i in np.flatnonzero(~finite)]
+            more = f" (and {len(bad) - 1} more: {bad[1:10]}{' ...' if len(bad) > 10 else ''})" if len(bad) > 1 else ""
+            raise ValueError(f"action of {bad[0]} = {arr[~finite][0].tolist()} holds NaN or inf{more}; "
+                             f"allowed: finite values in [-1, 1]")
+        return np.clip(arr, -1.0, 1.0)
+
+    # ------------------------------------------- array -> PettingZoo dicts
+    # The env builds observations, rewards and infos as arrays over its rows;
+    # these turn them into the per-agent dicts once, at the API's edge.
+    @staticmethod
+    def _agent_dicts(agents: list, obs: np.ndarray, rew: np.ndarray, term: np.ndarray, trunc) -> tuple:
+        """``(observations, rewards, terminations, truncations)`` dicts from
+        row arrays (``trunc`` an array or one bool for all)."""
+        observations = dict(zip(agents, obs))
+        rewards = dict(zip(agents, np.asarray(rew, dtype=np.float64).tolist()))
+        terms = dict(zip(agents, np.asarray(term, dtype=bool).tolist()))
+        if np.ndim(trunc) == 0:
+            truncs = dict.fromkeys(agents, bool(trunc))
+        else:
+            truncs = dict(zip(agents, np.asarray(trunc, dtype=bool).tolist()))
+        return observations, rewards, terms, truncs
+
+    @staticmethod
+    def _info_dicts(agents: list, columns: dict, expert: np.ndarray | None = None, parts: dict | None = None) -> dict:
+        """One info dict per agent from per-agent columns (lists aligned with
+        ``agents``), the expert's action rows (one copy, one row each) and the
+        reward components (``info["rewards"]``)."""
+        keys = list(columns)
+        vals = [columns[k] for k in keys]
+        if expert is not None:
+            keys.append("expert_action")
+            vals.append(list(np.array(expert, copy=True)))
+        pk = list(parts) if parts else []
+        vals += [np.asarray(parts[k], dtype=np.float64).tolist() for k in pk]
+        return _dict_builder(tuple(keys), tuple(pk))(agents, vals)
+
+    @staticmethod
+    def _realign_rows(before_vid: np.ndarray, values: np.ndarray, vid: np.ndarray) -> np.ndarray:
+        """``values`` (rows aligned with the sorted ids ``before_vid``) moved
+        to the rows of the sorted ids ``vid``; zeros for ids not in
+        ``before_vid`` (vehicles that appeared since)."""
+        out = np.zeros((len(vid),) + values.shape[1:], dtype=values.dtype)
+        if len(before_vid) and len(vid):
+            pos = np.minimum(np.searchsorted(before_vid, vid), len(before_vid) - 1)
+            ok = before_vid[pos] == vid
+            out[ok] = values[pos[ok]]
+        return out
+
+    # ------------------------------------------------------------------ expert
+    def _expert_key(self) -> tuple:
+        """What the expert's actions depend on: the world, its clock and the
+        set of vehicles (ids are never reused, so a removal plus a spawn in
+        the same step changes the key even when the count does not)."""
+        w = self.world
+        return id(w), w.time, self._vehicles().vid.tobytes()
+
+    def expert_actions(self) -> np.ndarray:
+        """The expert's (the env method's controller's) normalised actions for
+        every vehicle now (rows in vehicle order), computed once per state."""
+        if self.world is None:
+            raise RuntimeError("call reset() before expert_actions()")
+        key = self._expert_key()
+        if self._expert_cache is None or self._expert_cache[0] != key:
+            self._expert_cache = (key, self.expert.compute(self.world).astype(np.float32))
+        return self._expert_cache[1]
 
     # ------------------------------------------------------- gymnasium (ego)
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         gym.Env.reset(self, seed=seed, options=options)
         if options and "config" in options:
             self.configure(options["config"])
+            # spaces are created once: keep the same objects (and their
+            # seeded RNGs) unless the new config changes them
+            old = (self.observation_space, self.action_space)
+            self.define_spaces()
+            if old[0] is not None and old[0] == self.observation_space:
+                self.observation_space = old[0]
+            if old[1] is not None and old[1] == self.action_space:
+                self.action_space = old[1]
+            self.possible_agents = [f"icv_{i}" for i in range(self._n_possible_agents())]
         self.update_metadata()
-        self.define_spaces()
         self.time = self.steps = 0
         self.done = False
+        self._act_type.reset()
         self._reset()
         obs, info = self._ego_obs_info()
         if self.render_mode == "human":
@@ -130,12 +349,12 @@ class IcvAgentsEnv(AbstractEnv):
             raise RuntimeError("call reset() before step()")
         if self._ego_done:
             raise RuntimeError("the ego's episode has ended (terminated or truncated): call reset()")
-        act = self._check_action(action, "the ego")
+        act = self._act_type.check(action, "the ego")
         veh = self._vehicles()
         acts = self.expert_actions().astype(np.float64).copy() if veh.n else np.zeros((0, 2))
         r = self._ego_row()
         if r >= 0:
-            acts[r] = act
+            acts[r] = self._act_type.controls(np.array([r]), [act])[0]
         observations, rewards, terms, truncs, infos = self._ma_advance(acts)
         a = f"icv_{self._ego_vid}"
         obs = observations.get(a, np.zeros(self.observation_space.shape, dtype=np.float32))
@@ -175,14 +394,18 @@ class IcvAgentsEnv(AbstractEnv):
                 self.render()
 
 
-class _ObservationStub:
-    """Stands in for highway-env's observation type where its viewer expects one."""
-
-    def __init__(self, env):
-        self.env = env
-
-    def observe(self):  # pragma: no cover - highway-env compatibility
-        return self.env._ego_obs_info()[0]
-
-    def space(self):  # pragma: no cover
-        return self.env.observation_space
+@functools.lru_cache(maxsize=64)
+def _dict_builder(keys: tuple, reward_keys: tuple):
+    """A function ``(agents, columns) -> {agent: {key: value, ...}}`` for
+    these keys, written as one dict display per agent (about twice as fast
+    as ``dict(zip(keys, row))``; CPython builds a literal in one opcode). The
+    keys are the envs' own info names, never user input; ``repr`` quotes
+    them. ``reward_keys`` go into a nested ``"rewards"`` dict."""
+    names = [f"c{i}" for i in range(len(keys) + len(reward_keys))]
+    items = [f"{k!r}: {v}" for k, v in zip(keys, names)]
+    if reward_keys:
+        inner = ", ".join(f"{k!r}: {v}" for k, v in zip(reward_keys, names[len(keys):]))
+        items.append(f"'rewards': {{{inner}}}")
+    src = (f"lambda agents, cols: {{a: {{{', '.join(items)}}} "
+           f"for a, {', '.join(names) + ','} in zip(agents, *cols)}}")
+    return eval(src, {})  # noqa: S307 - the source is built from the repr of the envs' constant key names

@@ -17,7 +17,23 @@ from typing import Any
 
 import numpy as np
 
+from highway_env.envs.common.abstract import AbstractEnv
+
+from icv_envs.envs._config import (
+    MAX_AGENTS,
+    MAX_DURATION,
+    accel_range,
+    check_keys,
+    check_possible_agents,
+    check_render,
+    check_unused,
+    flag,
+    num,
+    section,
+    speed_range,
+)
 from icv_envs.envs.base import IcvAgentsEnv
+from icv_envs.envs.observations import merge_observation_config
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
@@ -80,18 +96,7 @@ def controls_to_action(a, phi, a_min=-6.0, a_max=3.0, steer_max=math.radians(30.
     return np.clip(np.stack([ua, np.asarray(phi) / steer_max], axis=-1), -1.0, 1.0)
 
 
-def _num(config: dict, key: str, lo=None, hi=None, *, lo_open=False, integer=False, allowed: str = "") -> float:
-    v = config[key]
-    ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
-    if ok and integer:
-        ok = float(v) == int(v)
-    if ok and lo is not None:
-        ok = v > lo if lo_open else v >= lo
-    if ok and hi is not None:
-        ok = v <= hi
-    if not ok:
-        raise ValueError(f"config[{key!r}] = {v!r} is invalid; allowed: {allowed}")
-    return int(v) if integer else float(v)
+_num = num  # the shared check (kept under its old name for the subclasses)
 
 
 class HighwayFormationEnv(IcvAgentsEnv):
@@ -143,12 +148,13 @@ class HighwayFormationEnv(IcvAgentsEnv):
                 "policy_frequency": 5,
                 "duration": 60.0,
                 "ego_vehicle": 0,
-                "observation": {"type": "FormationKinematics", "vehicles_count": 8, "perception_distance": 150.0},
-                "action": {"type": "ContinuousAcceleration+Steering"},
+                "observation": {"type": "Kinematics", "vehicles_count": 8, "perception_distance": 150.0},
+                "action": {"type": "ContinuousAction"},
                 "reward": dict(_REWARD_DEFAULTS),
                 "expert_in_info": True,
                 "missing_action": "error",
                 "show_formation": True,
+                "show_overlay": True,
                 "screen_width": 1200,
                 "screen_height": 260,
                 "scaling": 4.0,
@@ -157,11 +163,14 @@ class HighwayFormationEnv(IcvAgentsEnv):
         )
         return config
 
-    def configure(self, config: dict | None) -> None:
+    def _apply_config(self, config: dict | None) -> None:
         """highway-env's ``configure``, plus scenario presets: a ``scenario``
         key applies :data:`~icv_envs.envs.scenarios.SCENARIOS` first, then the
-        rest of ``config`` on top; nested ``formation`` and ``reward`` dicts
-        are merged key by key."""
+        rest of ``config`` on top; nested ``formation``, ``reward`` and
+        ``observation`` dicts are merged key by key. (:meth:`configure`
+        validates and restores the previous config on an error.)"""
+        if config is not None and not isinstance(config, dict):
+            raise ValueError(f"config = {config!r} ({type(config).__name__}); allowed: a dict or None")
         config = dict(config or {})
         scen = config.get("scenario")
         if scen is not None:
@@ -170,52 +179,68 @@ class HighwayFormationEnv(IcvAgentsEnv):
             base = self.default_config()
             base.update(scenario_config(scen))
             self.config = base
-        for key in ("formation", "reward", "observation"):
+        for key in ("formation", "reward"):
             if key in config and isinstance(config[key], dict) and isinstance(self.config.get(key), dict):
                 merged = dict(self.config[key])
                 merged.update(config[key])
                 config[key] = merged
-        super().configure(config)
-        self._validate_config()
+        for key in ("observation", "action"):  # same type: merged; another type: replaced
+            if key in config:
+                config[key] = merge_observation_config(self.config.get(key), config[key])
+        AbstractEnv.configure(self, config)
+
+    #: highway-env keys this env does not use: setting them is an error
+    UNUSED_KEYS = {
+        "other_vehicles_type": "every vehicle is an ICV driven by the env's expert or an agent",
+        "manual_control": "no manual control; drive the Gymnasium ego through step()",
+        "show_trajectories": "not drawn by this env's viewer",
+        "neighbour_vehicles_connected_lanes": "observations use the env's own neighbour search",
+    }
+
+    _AGENTS_FROM = "vehicles_count + len(spawns)"
+
+    def _n_possible_agents(self) -> int:
+        c = self.config
+        return int(c["vehicles_count"]) + len(c["spawns"])
 
     def _validate_config(self) -> None:
         c = self.config
-        unknown_top = set(c) - set(self.default_config())
+        defaults = self.default_config()
+        unknown_top = set(c) - set(defaults)
         if unknown_top:
-            raise ValueError(f"unknown config keys {sorted(unknown_top)}; allowed: {sorted(self.default_config())}")
+            raise ValueError(f"unknown config keys {sorted(map(str, unknown_top))}; allowed: {sorted(defaults)}")
+        check_unused(c, AbstractEnv.default_config(), self.UNUSED_KEYS, type(self).__name__, self.UNUSED_KEYS)
+        for key in ("formation", "reward", "observation", "action", "exits"):
+            section(c, key)
+        for key in ("lane_drop", "obstacle", "on_ramp", "off_ramp"):
+            section(c, key, optional=True)
         n_lanes = _num(c, "lanes_count", 1, 6, integer=True, allowed="an integer in [1, 6]")
         _num(c, "lane_width", 2.5, 6.0, allowed="a number in [2.5, 6] metres")
-        _num(c, "road_length", 100.0, 1e5, allowed="a number in [100, 100000] metres")
+        L = _num(c, "road_length", 100.0, 1e5, allowed="a number in [100, 100000] metres")
         _num(c, "vehicles_count", self.MIN_VEHICLES, 5000, integer=True,
              allowed=f"an integer in [{self.MIN_VEHICLES}, 5000]")
         _num(c, "formation_size", 1, 64, integer=True, allowed="an integer in [1, 64]")
-        _num(c, "formation_gap", 0.0, allowed="a number >= 0 metres")
+        _num(c, "formation_gap", 0.0, L, allowed=f"a number of metres in [0, road_length = {L:g}]")
         _num(c, "initial_jitter", 0.0, 5.0, allowed="a number in [0, 5] metres")
         _num(c, "initial_speed_jitter", 0.0, 5.0, allowed="a number in [0, 5] m/s")
-        _num(c, "simulation_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
-        _num(c, "policy_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
+        _num(c, "simulation_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer in (0, 1000] [Hz]")
+        _num(c, "policy_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer in (0, 1000] [Hz]")
         if c["simulation_frequency"] % c["policy_frequency"]:
             raise ValueError(
                 f"policy_frequency={c['policy_frequency']} must divide simulation_frequency={c['simulation_frequency']}"
             )
-        _num(c, "duration", 0.0, lo_open=True, allowed="a number > 0 seconds")
+        T = _num(c, "duration", 0.0, MAX_DURATION, lo_open=True,
+                 allowed=f"a number of seconds in (0, {MAX_DURATION:g}] (MAX_DURATION, one simulated day)")
         _num(c, "wheelbase", 0.5, 10.0, allowed="a number in [0.5, 10] metres")
         _num(c, "max_steering_deg", 0.0, 60.0, lo_open=True, allowed="a number in (0, 60] degrees")
-        _num(c, "ramp_speed", 0.0, lo_open=True, allowed="a number > 0 m/s")
-        sr = c["speed_range"]
-        if not (isinstance(sr, (list, tuple)) and len(sr) == 2 and all(isinstance(v, (int, float)) for v in sr)
-                and 0 <= sr[0] < sr[1] and math.isfinite(sr[1])):
-            raise ValueError(f"config['speed_range'] = {sr!r} is invalid; allowed: [v_min, v_max] with 0 <= v_min < v_max")
-        ar = c["acceleration_range"]
-        if not (isinstance(ar, (list, tuple)) and len(ar) == 2 and ar[0] < 0 < ar[1]):
-            raise ValueError(f"config['acceleration_range'] = {ar!r} is invalid; allowed: [a_min < 0, a_max > 0]")
+        sr = speed_range(c)
+        _num(c, "ramp_speed", 0.0, sr[1], lo_open=True, allowed=f"a number in (0, v_max = {sr[1]:g}] m/s")
+        accel_range(c)
         f = c["formation"]
-        unknown = set(f) - set(_FORMATION_DEFAULTS)
-        if unknown:
-            raise ValueError(f"unknown formation keys {sorted(unknown)}; allowed: {sorted(_FORMATION_DEFAULTS)}")
+        check_keys(f, "formation", _FORMATION_DEFAULTS)
         if f["geometry"] not in ("interlaced", "parallel"):
             raise ValueError(f"formation geometry {f['geometry']!r} is invalid; allowed: 'interlaced', 'parallel'")
-        _num(f, "spacing", 0.0, lo_open=True, allowed="a number > 0 metres")
+        _num(f, "spacing", 0.0, 1000.0, lo_open=True, allowed="a number > 0 metres (at most 1000)", where="['formation']")
         # two targets in one lane are ``spacing`` apart (one lane, or the
         # parallel geometry): the bodies (5 m) plus the IDM jam distance s0
         # (2 m) must fit, even after the initial jitter moved both towards
@@ -227,69 +252,84 @@ class HighwayFormationEnv(IcvAgentsEnv):
                 f"(vehicle length {VEHICLE_LENGTH:g} m + jam distance s0 {JAM_DISTANCE:g} m + "
                 f"2 x initial_jitter {c['initial_jitter']} m): vehicles one target apart in a lane would overlap"
             )
-        _num(f, "w1", 0.0, allowed="a number >= 0")
-        _num(f, "w2", 0.0, allowed="a number >= 0")
-        _num(f, "speed", sr[0], sr[1], allowed=f"a number within speed_range {list(sr)}")
+        _num(f, "w1", 0.0, 1e6, allowed="a number in [0, 1e6]", where="['formation']")
+        _num(f, "w2", 0.0, 1e6, allowed="a number in [0, 1e6]", where="['formation']")
+        _num(f, "speed", sr[0], sr[1], allowed=f"a number within speed_range {list(sr)}", where="['formation']")
         for k in ("lookahead", "join_distance", "exit_lookahead", "max_anchor_lead"):
-            _num(f, k, 0.0, allowed="a number >= 0 metres")
+            _num(f, k, 0.0, 1e5, allowed="a number in [0, 100000] metres", where="['formation']")
         r = c["reward"]
-        unknown = set(r) - set(_REWARD_DEFAULTS)
-        if unknown:
-            raise ValueError(f"unknown reward keys {sorted(unknown)}; allowed: {sorted(_REWARD_DEFAULTS)}")
+        check_keys(r, "reward", _REWARD_DEFAULTS)
         for k in _REWARD_DEFAULTS:
-            _num(r, k, allowed="a finite number")
-        o = c["observation"]
-        _num(o, "vehicles_count", 1, 64, integer=True, allowed="an integer in [1, 64]")
-        _num(o, "perception_distance", 0.0, lo_open=True, allowed="a number > 0 metres")
+            _num(r, k, -1e6, 1e6, allowed="a finite number in [-1e6, 1e6]", where="['reward']")
+        self._validate_spaces_config()
         if c["missing_action"] not in ("error", "expert"):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
-        L = c["road_length"]
+        flag(c, "expert_in_info")
+        check_render(c, flags=("show_formation", "show_overlay"))
         if c["lane_drop"] is not None:
             d = c["lane_drop"]
-            if not isinstance(d, dict) or set(d) != {"position", "lanes"}:
-                raise ValueError(f"config['lane_drop'] = {d!r}; allowed: None or {{'position': x, 'lanes': n}}")
-            _num(d, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]")
+            check_keys(d, "lane_drop", {"position", "lanes"}, {"position", "lanes"})
+            _num(d, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]", where="['lane_drop']")
             _num(d, "lanes", 1, n_lanes - 1 if n_lanes > 1 else 0, integer=True,
-                 allowed=f"an integer in [1, lanes_count - 1 = {n_lanes - 1}]")
+                 allowed=f"an integer in [1, lanes_count - 1 = {n_lanes - 1}]", where="['lane_drop']")
         if c["obstacle"] is not None:
-            d = dict(c["obstacle"])
-            if not {"lane", "position"} <= set(d) <= {"lane", "position", "length"}:
-                raise ValueError(f"config['obstacle'] = {c['obstacle']!r}; allowed: None or {{'lane', 'position'[, 'length']}}")
-            _num(d, "lane", 0, n_lanes - 1, integer=True, allowed=f"a lane index in [0, {n_lanes - 1}]")
-            _num(d, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]")
-        for key in ("on_ramp", "off_ramp"):
+            d = c["obstacle"]
+            check_keys(d, "obstacle", {"lane", "position", "length"}, {"lane", "position"})
+            _num(d, "lane", 0, n_lanes - 1, integer=True, allowed=f"a lane index in [0, {n_lanes - 1}]",
+                 where="['obstacle']")
+            _num(d, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]", where="['obstacle']")
+            if "length" in d:
+                _num(d, "length", 0.0, L, lo_open=True, allowed=f"a number of metres in (0, road_length={L:g}]",
+                     where="['obstacle']")
+        for key, extra in (("on_ramp", "approach"), ("off_ramp", "ramp_length")):
             if c[key] is not None:
                 d = c[key]
-                need = {"position", "length"}
-                if not isinstance(d, dict) or not need <= set(d):
-                    raise ValueError(f"config[{key!r}] = {d!r}; allowed: None or a dict with 'position' and 'length'")
-                _num(d, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]")
-                _num(d, "length", 0.0, lo_open=True, allowed="a number > 0 metres")
+                check_keys(d, key, {"position", "length", extra}, {"position", "length"})
+                _num(d, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]", where=f"[{key!r}]")
+                _num(d, "length", 0.0, L, lo_open=True, allowed=f"a number of metres in (0, road_length={L:g}]",
+                     where=f"[{key!r}]")
+                if extra in d:
+                    _num(d, extra, 0.0, L, lo_open=True, allowed=f"a number of metres in (0, road_length={L:g}]",
+                         where=f"[{key!r}]")
         n_exits = 1 if c["off_ramp"] is not None else 0
         exits = c["exits"]
-        if not isinstance(exits, dict):
-            raise ValueError(f"config['exits'] = {exits!r}; allowed: a dict {{vehicle_index: exit_index}}")
         for k, e in exits.items():
-            if not (str(k).lstrip("-").isdigit() and 0 <= int(k) < c["vehicles_count"]):
+            if not (isinstance(k, (int, np.integer, str)) and not isinstance(k, bool) and str(k).isdigit()
+                    and int(k) < c["vehicles_count"]):
                 raise ValueError(f"exits key {k!r} is not a vehicle index in [0, {c['vehicles_count'] - 1}]")
-            if not (isinstance(e, (int, np.integer)) and 0 <= e < n_exits):
+            if not (isinstance(e, (int, np.integer)) and not isinstance(e, bool) and 0 <= e < n_exits):
                 raise ValueError(f"exit {e!r} for vehicle {k} does not exist; allowed exit indices: {list(range(n_exits))}")
         if not isinstance(c["spawns"], (list, tuple)):
             raise ValueError(f"config['spawns'] = {c['spawns']!r}; allowed: a list of dicts")
-        for s in c["spawns"]:
-            if not isinstance(s, dict) or not {"time", "position", "lane"} <= set(s):
-                raise ValueError(f"spawn {s!r} is invalid; allowed: a dict with 'time', 'position', 'lane'[, 'speed', 'exit']")
-            _num(s, "time", 0.0, allowed="a number >= 0 seconds")
-            if s["lane"] == "ramp":
+        if len(c["spawns"]) > MAX_AGENTS:
+            raise ValueError(f"config['spawns'] has {len(c['spawns'])} entries; allowed: at most {MAX_AGENTS}")
+        for i, s in enumerate(c["spawns"]):
+            where = f"['spawns'][{i}]"
+            if not isinstance(s, dict):
+                raise ValueError(f"config{where} = {s!r} is invalid; allowed: a dict with 'time', 'position', "
+                                 f"'lane'[, 'speed', 'exit']")
+            check_keys(s, f"spawns[{i}]", {"time", "position", "lane", "speed", "exit"}, {"time", "position", "lane"})
+            _num(s, "time", 0.0, T, allowed=f"a number of seconds in [0, duration = {T:g}]", where=where)
+            _num(s, "position", 0.0, L, allowed=f"a position in [0, road_length={L}]", where=where)
+            if isinstance(s["lane"], str) and s["lane"] == "ramp":
                 if c["on_ramp"] is None:
                     raise ValueError("spawn lane 'ramp' needs an on_ramp in the config")
             else:
-                _num(s, "lane", 0, n_lanes - 1, integer=True, allowed=f"'ramp' or a lane index in [0, {n_lanes - 1}]")
+                _num(s, "lane", 0, n_lanes - 1, integer=True, allowed=f"'ramp' or a lane index in [0, {n_lanes - 1}]",
+                     where=where)
             if "speed" in s:
-                _num(s, "speed", 0.0, sr[1], allowed=f"a number in [0, {sr[1]}] m/s")
+                _num(s, "speed", 0.0, sr[1], allowed=f"a number in [0, {sr[1]}] m/s", where=where)
+            if "exit" in s:
+                _num(s, "exit", -1, n_exits - 1, integer=True,
+                     allowed=f"-1 (no exit) or an exit index in {list(range(n_exits))}", where=where)
+        check_possible_agents(self._n_possible_agents(), self._AGENTS_FROM)
         ego = c["ego_vehicle"]
-        if self.MIN_VEHICLES and not (isinstance(ego, (int, np.integer)) and 0 <= ego < c["vehicles_count"]):
+        if self.MIN_VEHICLES and not (isinstance(ego, (int, np.integer)) and not isinstance(ego, bool)
+                                      and 0 <= ego < c["vehicles_count"]):
             raise ValueError(f"config['ego_vehicle'] = {ego!r}; allowed: an index in [0, vehicles_count - 1 = {c['vehicles_count'] - 1}]")
+        ip = c["initial_position"]
+        if ip is not None:
+            _num(c, "initial_position", 0.0, L, allowed=f"None (automatic) or a position in [0, road_length={L:g}]")
         # vehicles must fit on the road
         self._placement()
 
@@ -480,55 +520,43 @@ class HighwayFormationEnv(IcvAgentsEnv):
         F[:, 12] = np.clip((road.interval_end(lane, cx) - cx) / 200.0, 0.0, 1.0)
         return F
 
-    def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
-        """highway-env ``Kinematics`` convention, vectorised: row 0 is the
-        observer (absolute, normalised), rows 1.. the ``V - 1`` nearest
-        vehicles by longitudinal distance within the perception distance
-        (relative to the observer), padded with zero rows (presence 0)."""
+    def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
+        """Feature scales (the module docstring's table): absolute (row 0) and relative (other rows)."""
         c = self.config
-        V = int(c["observation"]["vehicles_count"])
-        pd = float(c["observation"]["perception_distance"])
         w = self.world
-        tr = w.traffic
-        n = tr.n
-        out = np.zeros((len(rows), V, len(OBS_FEATURES)), dtype=np.float32)
-        if not len(rows):
-            return out
-        if F is None:
-            F = self._features()
         vmax = float(c["speed_range"][1])
         width = w.road.total_lanes * w.road.lane_width
+        pd = float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE
         scale_abs = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
         scale_rel = np.array([1, pd, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
-        out[:, 0, :] = np.clip(F[rows] / scale_abs, -1, 1)
-        if V > 1 and n > 1:
-            cx = F[:, 1]
-            order = np.argsort(cx, kind="stable")
-            rank = np.empty(n, dtype=np.int64)
-            rank[order] = np.arange(n)
-            K = V - 1
-            offs = np.concatenate([np.arange(-K, 0), np.arange(1, K + 1)])
-            cand_rank = rank[rows][:, None] + offs[None, :]
-            if w.road.periodic:  # round the ring: ranks wrap, each vehicle at most once
-                valid = np.abs(offs)[None, :] <= (n - 1) // 2 + (offs[None, :] > 0) * ((n - 1) % 2)
-                cand_rank = np.mod(cand_rank, n)
-            else:
-                valid = (cand_rank >= 0) & (cand_rank < n)
-            cand = order[np.clip(cand_rank, 0, n - 1)]
-            dist = np.abs(w.road.wrap(cx[cand] - cx[rows][:, None]))
-            dist = np.where(valid & (dist < pd), dist, np.inf)
-            # stable selection of the K nearest (ties: rear first, as sorted)
-            pick = np.argsort(dist, axis=1, kind="stable")[:, :K]
-            sel = np.take_along_axis(cand, pick, axis=1)
-            seld = np.take_along_axis(dist, pick, axis=1)
-            present = np.isfinite(seld)
-            rel = F[sel].copy()
-            rel[..., 1:5] -= F[rows][:, None, 1:5]
-            rel[..., 1] = w.road.wrap(rel[..., 1])
-            rel = np.clip(rel / scale_rel, -1, 1)
-            rel[~present] = 0.0
-            out[:, 1:, :] = rel
-        return out
+        return scale_abs, scale_rel
+
+    def _wrap_dx(self, dx):
+        return self.world.road.wrap(dx)
+
+    def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
+        """The ``K`` nearest vehicles by longitudinal distance within ``pd``
+        (round the ring each vehicle at most once), nearest first; ties: rear first."""
+        w = self.world
+        n = len(F)
+        cx = F[:, 1]
+        order = np.argsort(cx, kind="stable")
+        rank = np.empty(n, dtype=np.int64)
+        rank[order] = np.arange(n)
+        offs = np.concatenate([np.arange(-K, 0), np.arange(1, K + 1)])
+        cand_rank = rank[rows][:, None] + offs[None, :]
+        if w.road.periodic:  # round the ring: ranks wrap, each vehicle at most once
+            valid = np.abs(offs)[None, :] <= (n - 1) // 2 + (offs[None, :] > 0) * ((n - 1) % 2)
+            cand_rank = np.mod(cand_rank, n)
+        else:
+            valid = (cand_rank >= 0) & (cand_rank < n)
+        cand = order[np.clip(cand_rank, 0, n - 1)]
+        dist = np.abs(w.road.wrap(cx[cand] - cx[rows][:, None]))
+        dist = np.where(valid & (dist < pd), dist, np.inf)
+        pick = np.argsort(dist, axis=1, kind="stable")[:, :K]
+        sel = np.take_along_axis(cand, pick, axis=1)
+        present = np.isfinite(np.take_along_axis(dist, pick, axis=1))
+        return sel, present
 
     def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
         """Per-agent reward: weighted sum of progress (speed / v_max), safety
@@ -576,13 +604,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         return out
 
     # ------------------------------------------------------------------ expert
-    def expert_actions(self) -> np.ndarray:
-        """The formation expert's normalised actions for every vehicle now
-        (rows in traffic order), computed once per step."""
-        key = (self.world.time, self.world.traffic.n)
-        if self._expert_cache is None or self._expert_cache[0] != key:
-            self._expert_cache = (key, self.expert.compute(self.world).astype(np.float32))
-        return self._expert_cache[1]
+    # expert_actions(): IcvAgentsEnv's, cached on the vehicle state
 
     # -------------------------------------------------------------- stepping
     def _advance(self, actions: np.ndarray) -> StepEvents:
@@ -619,36 +641,24 @@ class HighwayFormationEnv(IcvAgentsEnv):
 
     def _ma_infos(self, agents, rows, parts) -> dict:
         c = self.config
-        infos = {}
         ex = self.expert_actions() if c["expert_in_info"] and len(rows) else None
         tr = self.world.traffic
-        x_ref, lane_ref, v_ref, member = self.world.manager.references(tr)
-        lanes = self.world.road.lane_of(tr.center()[1]).tolist()
-        speeds = tr.speed.tolist()
-        groups = tr.group.tolist()
-        tlanes = lane_ref.tolist()
-        for i, a in enumerate(agents):
-            r = int(rows[i])
-            info = {
-                "speed": speeds[r],
-                "lane": lanes[r],
-                "formation": groups[r],
-                "target_lane": tlanes[r],
-                "crashed": False,
-            }
-            if ex is not None:
-                info["expert_action"] = ex[r].copy()
-            if parts:
-                info["rewards"] = {k: float(v[i]) for k, v in parts.items()}
-            infos[a] = info
-        return infos
+        _, lane_ref, _, _ = self.world.manager.references(tr)
+        rows = np.asarray(rows, dtype=np.int64)
+        cols = {
+            "speed": tr.speed[rows].tolist(),
+            "lane": self.world.road.lane_of(tr.center()[1])[rows].tolist(),
+            "formation": tr.group[rows].tolist(),
+            "target_lane": lane_ref[rows].tolist(),
+            "crashed": [False] * len(rows),
+        }
+        return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
 
     def _ma_advance(self, acts: np.ndarray):
         c = self.config
         w = self.world
         tr = w.traffic
         before = tr.vid.copy()
-        acts_by_vid = {int(v): acts[i] for i, v in enumerate(before)}
         if tr.n:
             # who drives: an action equal to the expert's (float32) is expert-driven
             ex = self.expert_actions()
@@ -659,22 +669,18 @@ class HighwayFormationEnv(IcvAgentsEnv):
         # formations react to what happened, then new vehicles appear
         w.manager.update(tr, w.road, 1.0 / c["policy_frequency"])
         crashed_rows = np.flatnonzero(tr.crashed)
-        self._last_actions = np.array([acts_by_vid.get(int(v), np.zeros(2)) for v in tr.vid]).reshape(-1, 2)
+        self._last_actions = self._realign_rows(before, np.asarray(acts, dtype=np.float64).reshape(-1, 2), tr.vid)
         rows = np.arange(tr.n)
-        agents = [f"icv_{v}" for v in tr.vid]
+        agents = [f"icv_{v}" for v in tr.vid.tolist()]
         crashed_now = tr.crashed.copy()
         F = self._features()  # once per step, for rewards and observations
         rew, parts = self._rewards_rows(rows, crashed_now, F)
         obs = self._observe_rows(rows, F)
         truncated_all = w.time >= float(c["duration"]) - 1e-9
-        observations = {a: obs[i] for i, a in enumerate(agents)}
-        rewards = {a: float(rew[i]) for i, a in enumerate(agents)}
-        terms = {a: bool(crashed_now[i]) for i, a in enumerate(agents)}
-        truncs = {a: bool(truncated_all) for a in agents}
+        observations, rewards, terms, truncs = self._agent_dicts(agents, obs, rew, crashed_now, truncated_all)
         infos = self._ma_infos(agents, rows, parts)
-        for i, a in enumerate(agents):
-            if crashed_now[i]:
-                infos[a]["crashed"] = True
+        for i in np.flatnonzero(crashed_now).tolist():
+            infos[agents[i]]["crashed"] = True
         # vehicles that left the simulation during the step: exits are
         # terminal successes, the end of the road is a truncation
         gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
@@ -717,8 +723,8 @@ class HighwayFormationEnv(IcvAgentsEnv):
 
     # --------------------------------------------------------------- metrics
     def metrics(self, **kwargs) -> dict:
-        """Run metrics so far (see :mod:`icv_envs.experiments.metrics`)."""
-        from icv_envs.experiments.metrics import run_metrics
+        """Run metrics so far (see :mod:`icv_envs.sim.metrics`)."""
+        from icv_envs.sim.metrics import run_metrics
 
         return run_metrics(self.world)
 

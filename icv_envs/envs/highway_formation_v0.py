@@ -4,15 +4,15 @@
 | Import | `from icv_envs import highway_formation_v0` |
 |---|---|
 | Creation | `highway_formation_v0.parallel_env(scenario="lane-drop", render_mode=None, **config)` |
-| Actions | Continuous |
+| Actions | Continuous (`ContinuousAction`, default; `FormationResidual`) or Discrete (`DiscreteMetaAction`), see Action types |
 | Parallel API | Yes (`parallel_env`); AEC through `env()` / `raw_env()` |
 | Manual Control | No |
 | Agents | `agents = ["icv_0", "icv_1", ...]`: every ICV, from its appearance until it crashes, exits or the episode ends |
 | Number of agents | `vehicles_count` + scheduled `spawns` (8 by default) |
-| Action Shape | `(2,)` |
-| Action Values | `Box(-1, 1, (2,), float32)`: `[acceleration, steering]` |
-| Observation Shape | `(V, 13)`, `V = observation["vehicles_count"]` (8) |
-| Observation Values | `Box(-1, 1, (V, 13), float32)` |
+| Action Shape | `(2,)`; `DiscreteMetaAction`: `()` |
+| Action Values | `Box(-1, 1, (2,), float32)` (`[acceleration, steering]`, or the residual); `DiscreteMetaAction`: `Discrete(5)` |
+| Observation Shape | `Kinematics` (default): `(V, 13)`, `V = observation["vehicles_count"]` (8), columns = `features`; `OccupancyGrid`: `(F, nx, ny)`, default `(3, 11, 11)` |
+| Observation Values | `Box(-1, 1, shape, float32)`; unbounded with `normalize=False` or `clip=False` |
 | State Shape | `(len(possible_agents), 13)` |
 | State Values | `Box(-1, 1, (len(possible_agents), 13), float32)` |
 | Gymnasium id | `icv_envs/HighwayFormation-v0` (one learned ego among expert ICVs) |
@@ -22,7 +22,7 @@ Intelligent and connected vehicles (ICVs) drive on a straight multi-lane
 highway (1 to 6 lanes) in the interlaced multi-lane formation of Xu et al.
 (2021), Sec. 3: a formation layer (run by the environment, as V2X
 infrastructure would) generates the formation's targets (Sec. 3.2, the
-corrected target equation of NOTES.md §2) on the lanes that are drivable
+corrected target equation of docs/formation.md#target-equation) on the lanes that are drivable
 ahead and assigns them to the members by minimum total cost with the
 Hungarian method (Sec. 3.3); it re-forms whenever lanes close or open (a lane
 drop, an obstacle blocking a lane) or a vehicle joins (on-ramp) or leaves
@@ -42,7 +42,36 @@ lane-sorted positions and collisions a sweep over x-sorted bodies, so a step
 costs O(N log N) (highway-env's own loops are O(N^2)); highway-env supplies
 road drawing, rendering and the observation conventions.
 
-## Observations
+## Action types
+
+`config["action"] = {"type": ..., <options>}` (highway-env's key and names; an
+unknown type or an option the type does not have raises `ValueError`):
+
+| type | space | the agent's action |
+|---|---|---|
+| `ContinuousAction` (default) | `Box(-1, 1, (2,), float32)` | `[acceleration, steering]` (below) |
+| `DiscreteMetaAction` | `Discrete(5)` (`Discrete(3)` with `longitudinal` or `lateral` False) | `0 LANE_LEFT, 1 IDLE, 2 LANE_RIGHT, 3 FASTER, 4 SLOWER` (highway-env's order), carried out by the paper's low-level layer: Bezier lane change with preview steering, the feedback law around `target_speeds[index]` (default: `speed_range` in 5 m/s steps); impossible lane changes are ignored; no safety layer |
+| `FormationResidual` | `Box(-1, 1, (2,), float32)` | a correction `r`; the vehicle applies `clip(expert + bound * r, -1, 1)` (`bound` 0.25, or `[bound_accel, bound_steer]`); `r = 0` is the expert |
+
+`infos[agent]["expert_action"]` is always the expert's `[u_a, u_s]` (the
+`ContinuousAction` form). Details: `icv_envs.envs.actions`.
+
+## Observation types
+
+`config["observation"] = {"type": ..., <options>}`:
+
+| type | shape (float32) | options |
+|---|---|---|
+| `Kinematics` (default) | `(vehicles_count, len(features))` | `features` (default: every column of the table below, in that order), `vehicles_count` (8), `perception_distance`, `absolute` (False: other rows relative to the observer), `normalize` (True: the scalings below; False: SI units), `clip` (True) |
+| `OccupancyGrid` | `(len(features), nx, ny)`, default `(3, 11, 11)` | `features` (from `presence, vx, vy, cos_h, sin_h`; default the first three), `grid_size` (`[[-27.5, 27.5], [-27.5, 27.5]]` m), `grid_step` (`[5, 5]` m), `absolute` (False), `align_to_vehicle_axes` (False), `clip` (True) |
+
+The space is `Box(-1, 1)` when normalised and clipped, else unbounded; it is
+built once and shared by every agent. Details: `icv_envs.envs.observations`.
+A fixed set of agent slots for MARL libraries (SuperSuit, RLlib, TorchRL):
+`icv_envs.rl.slots`. `parallel_env(max_cycles=N)` truncates every agent after
+N steps (PettingZoo's `max_cycles`).
+
+## Observations (Kinematics)
 
 A `(V, 13)` float32 array in highway-env's `Kinematics` layout. Row 0 is the
 observing vehicle in absolute terms; rows 1..V-1 are the V-1 vehicles nearest
@@ -63,13 +92,14 @@ observer (x, y, vx, vy differences), zero-padded (presence 0). Columns:
 | 11 | exit_dx | metres to the start of the vehicle's exit (diverge segment) / 1000; 1 for a vehicle with no exit |
 | 12 | lane_end_dx | metres to the end of the vehicle's lane (lane drop, obstacle, ramp end) / 200, clipped to [0, 1] |
 
-All values are clipped to [-1, 1].
+With the default options all values are clipped to [-1, 1].
 
-## Actions
+## Actions (ContinuousAction)
 
 `[u_a, u_s]` in [-1, 1]: acceleration `u_a * 3` m/s^2 for `u_a >= 0` and
 `u_a * 6` m/s^2 for `u_a < 0` (so 0 coasts), steering `u_s * 30` deg.
-Out-of-range values are clipped; a wrong shape or a NaN raises `ValueError`
+Out-of-range values are clipped; a wrong shape or a NaN (or, for
+`DiscreteMetaAction`, anything but an integer index) raises `ValueError`
 naming the agent. Every live agent needs an action unless
 `missing_action="expert"`, in which case the expert drives the ones left out.
 
@@ -118,13 +148,21 @@ the road. Use it for centralised critics.
 | `speed_range` | [10, 30] | m/s; the lower bound is a control floor, vehicles may brake below it to avoid a collision |
 | `simulation_frequency` / `policy_frequency` | 25 / 5 | Hz |
 | `duration` | 60 | seconds |
-| `observation` | `{"vehicles_count": 8, "perception_distance": 150}` | |
+| `observation` | `{"type": "Kinematics", "vehicles_count": 8, "perception_distance": 150}` | see Observation types |
+| `action` | `{"type": "ContinuousAction"}` | see Action types |
 | `reward` | see Rewards | |
 | `expert_in_info` | True | put the expert's action in infos (costs one vectorised expert call per step) |
 | `missing_action` | `"error"` | or `"expert"` |
 | `show_formation` | True | draw targets and the assignment when rendering |
+| `show_overlay` | True | draw the title (env, scenario), the time and a legend on every frame (docs/rendering.md) |
 
 Invalid values raise `ValueError` naming the key, the value and what is allowed.
+Bounds that keep a run within memory: `duration` <= 86400 s, at most 200,000
+possible agents, `acceleration_range` within +-20 m/s^2 (see `icv_envs/envs/_config.py`).
+highway-env keys the env does not use (`other_vehicles_type`, `manual_control`,
+`show_trajectories`) must keep their defaults. A config passed to
+`reset(options={"config": ...})` is validated before it is applied: a rejected one
+leaves the env as it was.
 """
 
 from __future__ import annotations

@@ -32,6 +32,7 @@ import math
 
 import numpy as np
 
+from icv_envs.envs._config import MAX_AGENTS, _is_real as _is_number, check_unused, speed_range
 from icv_envs.envs.highway_formation import HighwayFormationEnv, _num
 from icv_envs.policies.formation_expert import FormationExpert
 from icv_envs.policies.reference import IdmMobilPolicy, LaneLpPolicy
@@ -89,26 +90,46 @@ class HighwayRampsEnv(HighwayFormationEnv):
         return config
 
     # ------------------------------------------------------------- validation
+    #: keys of HighwayFormation this env does not use: setting them is an error
+    RAMPS_UNUSED = {
+        "vehicles_count": "vehicles arrive on the on-ramps at the VGR",
+        "initial_position": "vehicles arrive on the on-ramps at the VGR",
+        "formation_gap": "no initial formations: vehicles arrive on the on-ramps",
+        "initial_jitter": "no initial formations: vehicles arrive on the on-ramps",
+        "initial_speed_jitter": "no initial formations: vehicles arrive on the on-ramps",
+        "spawns": "vehicles arrive at the VGR",
+        "exits": "each arrival draws its exit among exit_choices",
+        "lane_drop": "the layout is fixed by 'ramps', 'ramp_spacing', ...",
+        "obstacle": "the layout is fixed by 'ramps', 'ramp_spacing', ...",
+        "on_ramp": "the layout is fixed by 'ramps', 'ramp_spacing', ...",
+        "off_ramp": "the layout is fixed by 'ramps', 'ramp_spacing', ...",
+        "scenario": "HighwayRamps has no scenarios",
+        "ego_vehicle": "the Gymnasium ego is the first arrival, vehicle 0",
+    }
+
+    _AGENTS_FROM = "max_vehicles (default: the mean arrivals over duration x vgr x ramps + 6 sigma + 20)"
+
+    def _n_possible_agents(self) -> int:
+        return self._max_vehicles()
+
     def _validate_config(self) -> None:
         c = self.config
-        for key in ("lane_drop", "obstacle", "on_ramp", "off_ramp"):
-            if c.get(key) is not None:
-                raise ValueError(f"config[{key!r}] is not supported by HighwayRamps (its layout is fixed by "
-                                 f"'ramps', 'ramp_spacing', ...); got {c[key]!r}")
-        if c.get("scenario") not in (None,):
-            raise ValueError(f"config['scenario'] = {c['scenario']!r}; HighwayRamps has no scenarios (use None)")
-        if c["spawns"]:
-            raise ValueError("config['spawns'] is not used by HighwayRamps: vehicles arrive at the VGR")
-        if c["method"] not in METHODS:
+        d = self.default_config()
+        unknown_top = set(c) - set(d)
+        if unknown_top:
+            raise ValueError(f"unknown config keys {sorted(map(str, unknown_top))}; allowed: {sorted(d)}")
+        check_unused(c, d, self.RAMPS_UNUSED, "HighwayRamps", self.RAMPS_UNUSED)
+        if not isinstance(c["method"], str) or c["method"] not in METHODS:
             raise ValueError(f"unknown method {c['method']!r}; allowed: {list(METHODS)}")
         vgr = c["vgr"]
-        if not isinstance(vgr, (int, float)) or isinstance(vgr, bool) or not math.isfinite(vgr) or not 0 < vgr <= MAX_VGR:
+        if not _is_number(vgr) or not math.isfinite(vgr) or not 0 < vgr <= MAX_VGR:
             raise ValueError(f"vgr = {vgr!r} vehicles/s per ramp is invalid; allowed: 0 < vgr <= {MAX_VGR} "
                              f"(one ramp lane carries at most about 0.6 vehicles/s)")
-        if c["arrivals"] not in ("poisson", "fixed"):
+        if not isinstance(c["arrivals"], str) or c["arrivals"] not in ("poisson", "fixed"):
             raise ValueError(f"arrivals = {c['arrivals']!r}; allowed: 'poisson', 'fixed'")
-        _num(c, "ramps", 1, 20, integer=True, allowed="an integer in [1, 20]")
-        n = int(c["ramps"])
+        L = _num(c, "road_length", 100.0, 1e5, allowed="a number in [100, 100000] metres")
+        _num(c, "lanes_count", 1, 6, integer=True, allowed="an integer in [1, 6]")
+        n = _num(c, "ramps", 1, 20, integer=True, allowed="an integer in [1, 20]")
         ex = c["exit_choices"]
         if ex is not None:
             if not isinstance(ex, (list, tuple)) or not ex:
@@ -116,21 +137,34 @@ class HighwayRampsEnv(HighwayFormationEnv):
             bad = [e for e in ex if not (isinstance(e, (int, np.integer)) and not isinstance(e, bool) and 0 <= e < n)]
             if bad:
                 raise ValueError(f"exit_choices {bad} do not exist; allowed exit indices: {list(range(n))}")
-        for key in ("ramp_spacing", "merge_length", "diverge_length", "on_ramp_approach", "off_ramp_length",
-                    "sample_period", "heatmap_bin"):
-            _num(c, key, 0.0, lo_open=True, allowed="a number > 0")
+        for key in ("merge_length", "diverge_length", "on_ramp_approach", "off_ramp_length"):
+            _num(c, key, 0.0, L, lo_open=True, allowed=f"a number of metres in (0, road_length = {L:g}]")
+        _num(c, "ramp_spacing", 0.0, L / n, lo_open=True,
+             allowed=f"a number of metres in (0, road_length / ramps = {L / n:g}] (the ramps repeat around the ring)")
+        for key in ("first_on_ramp", "first_off_ramp", "seam"):
+            _num(c, key, 0.0, L, allowed=f"a position in [0, road_length = {L:g}) metres (paper coordinates)")
+            if c[key] >= L:
+                raise ValueError(f"config[{key!r}] = {c[key]!r} is invalid; allowed: a position in "
+                                 f"[0, road_length = {L:g}) metres (paper coordinates)")
+        _num(c, "sample_period", 0.0, 3600.0, lo_open=True, allowed="a number of seconds in (0, 3600]")
+        _num(c, "heatmap_bin", 1.0, L, allowed=f"a number of metres in [1, road_length = {L:g}]")
+        sr = speed_range(c)
         ls = c["lane_speeds"]
         if not (isinstance(ls, (list, tuple)) and len(ls) == c["lanes_count"] and all(
-                isinstance(v, (int, float)) and 0 < v <= c["speed_range"][1] for v in ls)):
-            raise ValueError(f"lane_speeds = {ls!r}; allowed: one speed in (0, v_max] per main lane "
-                             f"({c['lanes_count']} lanes)")
+                _is_number(v) and 0 < v <= sr[1] for v in ls)):
+            raise ValueError(f"lane_speeds = {ls!r}; allowed: one speed in (0, v_max = {sr[1]:g}] per main lane "
+                             f"({c['lanes_count']!r} lanes)")
         fl = c["formation_lanes"]
-        if not (isinstance(fl, (list, tuple)) and fl and all(isinstance(v, int) and 0 <= v < c["lanes_count"] for v in fl)):
+        if not (isinstance(fl, (list, tuple)) and fl and all(
+                isinstance(v, (int, np.integer)) and not isinstance(v, bool) and 0 <= v < c["lanes_count"]
+                for v in fl)):
             raise ValueError(f"formation_lanes = {fl!r}; allowed: a non-empty list of lane indices in "
                              f"[0, {c['lanes_count'] - 1}]")
         mv = c["max_vehicles"]
-        if mv is not None and not (isinstance(mv, int) and mv >= 1):
-            raise ValueError(f"max_vehicles = {mv!r}; allowed: None (automatic) or an integer >= 1")
+        if mv is not None and not (isinstance(mv, (int, np.integer)) and not isinstance(mv, bool)
+                                   and 1 <= mv <= MAX_AGENTS):
+            raise ValueError(f"max_vehicles = {mv!r}; allowed: None (automatic) or an integer in [1, {MAX_AGENTS}] "
+                             f"(MAX_AGENTS)")
         super()._validate_config()
         self._make_road()  # raises if the layout does not fit the ring
 
@@ -174,6 +208,44 @@ class HighwayRampsEnv(HighwayFormationEnv):
         mean = c["duration"] * c["vgr"] * c["ramps"]
         return int(math.ceil(mean + 6.0 * math.sqrt(mean) + 20))
 
+    ARRIVAL_CHUNK = 256  # arrivals drawn per block from each ramp's streams
+
+    def _ramp_arrivals(self, rng: np.random.Generator) -> list[tuple[float, int, int]]:
+        """Arrivals ``(time, ramp, exit)`` before ``duration``: per ramp,
+        Poisson (exponential gaps) or a fixed interval with a random phase;
+        the first arrival at ramp 0 is at t = 0 (the Gymnasium ego).
+
+        Each ramp draws its gaps and its exits from two streams of its own,
+        seeded by a fixed number of draws from the env's RNG and consumed in
+        blocks of :attr:`ARRIVAL_CHUNK`, so the traffic does not depend on
+        ``duration``: a shorter episode is a prefix of a longer one."""
+        c = self.config
+        T, vgr, n = float(c["duration"]), float(c["vgr"]), int(c["ramps"])
+        choices = np.asarray(list(range(n)) if c["exit_choices"] is None else [int(e) for e in c["exit_choices"]])
+        seeds = rng.integers(0, 2**63 - 1, size=(n, 2))
+        B = self.ARRIVAL_CHUNK
+        arrivals = []
+        for k in range(n):
+            g_t, g_e = np.random.default_rng(int(seeds[k, 0])), np.random.default_rng(int(seeds[k, 1]))
+            blocks = [np.zeros(1)] if k == 0 and c["arrivals"] == "poisson" else []
+            base = 0.0
+            phase = float(g_t.uniform(0.0, 1.0 / vgr)) if k and c["arrivals"] == "fixed" else 0.0
+            j = 0
+            while not blocks or blocks[-1][-1] < T:
+                if c["arrivals"] == "poisson":
+                    times = base + np.cumsum(g_t.exponential(1.0 / vgr, size=B))
+                    base = float(times[-1])
+                else:
+                    times = phase + (j * B + np.arange(B)) / vgr
+                blocks.append(times)
+                j += 1
+            times = np.concatenate(blocks)
+            times = times[times < T]
+            nb = -(-len(times) // B)
+            exits = choices[np.concatenate([g_e.integers(0, len(choices), size=B) for _ in range(max(nb, 1))])]
+            arrivals += [(float(t), k, int(e)) for t, e in zip(times, exits)]
+        return arrivals
+
     def _reset(self) -> None:
         c = self.config
         road = self._make_road()
@@ -189,27 +261,12 @@ class HighwayRampsEnv(HighwayFormationEnv):
                            v_max=float(c["speed_range"][1]))
         params = self._expert_params()
         self.expert = {"formation": FormationExpert, "idm": IdmMobilPolicy, "lane-lp": LaneLpPolicy}[method](params)
-        # arrivals: per ramp, Poisson (exponential gaps) or fixed interval with
-        # a random phase; the first arrival at ramp 0 is at t = 0 (the gym ego)
-        rng = self.np_random
-        T, vgr, n = float(c["duration"]), float(c["vgr"]), int(c["ramps"])
-        choices = list(range(n)) if c["exit_choices"] is None else [int(e) for e in c["exit_choices"]]
-        arrivals = []
-        for k in range(n):
-            if c["arrivals"] == "poisson":
-                gaps = rng.exponential(1.0 / vgr, size=int(T * vgr * 2 + 50))
-                times = np.concatenate([[0.0], np.cumsum(gaps)]) if k == 0 else np.cumsum(gaps)
-            else:
-                phase = 0.0 if k == 0 else rng.uniform(0.0, 1.0 / vgr)
-                times = phase + np.arange(int(T * vgr) + 2) / vgr
-            times = times[times < T]
-            exits = rng.choice(choices, size=len(times))
-            arrivals += [(float(t), k, int(e)) for t, e in zip(times, exits)]
+        arrivals = self._ramp_arrivals(self.np_random)
         arrivals.sort()
         cap = self._max_vehicles()
         self._not_spawned = max(0, len(arrivals) - cap)
         self._arrivals = arrivals[:cap]
-        self._queues: list[list[tuple[float, int]]] = [[] for _ in range(n)]
+        self._queues: list[list[tuple[float, int]]] = [[] for _ in range(int(c["ramps"]))]
         self._spawned = 0
         self.possible_agents = [f"icv_{i}" for i in range(cap)]
         self._series: list[dict] = []
@@ -305,7 +362,7 @@ class HighwayRampsEnv(HighwayFormationEnv):
 
         ``lost`` = spawned - exited - remaining - removed after a crash: a
         bookkeeping check that must be 0 (no vehicle disappears unaccounted)."""
-        from icv_envs.experiments.metrics import run_metrics
+        from icv_envs.sim.metrics import run_metrics
 
         m = run_metrics(self.world)
         st = self.world.stats

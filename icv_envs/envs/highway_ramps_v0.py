@@ -4,15 +4,15 @@
 | Import | `from icv_envs import highway_ramps_v0` |
 |---|---|
 | Creation | `highway_ramps_v0.parallel_env(method="formation", vgr=1/3, render_mode=None, **config)` |
-| Actions | Continuous |
+| Actions | Continuous (`ContinuousAction`, default; `FormationResidual`) or Discrete (`DiscreteMetaAction`), see Action types |
 | Parallel API | Yes (`parallel_env`); AEC through `env()` / `raw_env()` |
 | Manual Control | No |
 | Agents | `agents = ["icv_0", ...]`: every vehicle, from its arrival on an on-ramp until it exits, crashes or the episode ends |
 | Number of agents | up to `max_vehicles` (default: mean arrivals + 6 sigma + 20, about 1,250 for 600 s at VGR 1/3) |
-| Action Shape | `(2,)` |
-| Action Values | `Box(-1, 1, (2,), float32)`: `[acceleration, steering]` |
-| Observation Shape | `(V, 13)`, `V = observation["vehicles_count"]` (8) |
-| Observation Values | `Box(-1, 1, (V, 13), float32)` |
+| Action Shape | `(2,)`; `DiscreteMetaAction`: `()` |
+| Action Values | `Box(-1, 1, (2,), float32)` (`[acceleration, steering]`, or the residual); `DiscreteMetaAction`: `Discrete(5)` |
+| Observation Shape | `Kinematics` (default): `(V, 13)`, `V = observation["vehicles_count"]` (8), columns = `features`; `OccupancyGrid`: `(F, nx, ny)`, default `(3, 11, 11)` |
+| Observation Values | `Box(-1, 1, shape, float32)`; unbounded with `normalize=False` or `clip=False` |
 | State Shape | `(len(possible_agents), 13)` |
 | State Values | `Box(-1, 1, (len(possible_agents), 13), float32)` |
 | Gymnasium id | `icv_envs/HighwayRamps-v0` (the first vehicle, arriving at t = 0 on the first on-ramp, is the learned ego) |
@@ -33,13 +33,49 @@ the fourth lane a transition lane, the formation expert driving), `lane-lp`
 
 ## Observations, actions, rewards, state
 
-As in `highway_formation_v0` (same spaces, features and reward terms); row 0's
-`x` is the position on the ring divided by its length.
+As in `highway_formation_v0` (same action and observation types, features
+and reward terms); row 0's `x` is the position on the ring divided by its
+length, and neighbours and grids are found round the ring.
+
+## Action types
+
+`config["action"] = {"type": ..., <options>}` (highway-env's key and names; an
+unknown type or an option the type does not have raises `ValueError`):
+
+| type | space | the agent's action |
+|---|---|---|
+| `ContinuousAction` (default) | `Box(-1, 1, (2,), float32)` | `[acceleration, steering]` (below) |
+| `DiscreteMetaAction` | `Discrete(5)` (`Discrete(3)` with `longitudinal` or `lateral` False) | `0 LANE_LEFT, 1 IDLE, 2 LANE_RIGHT, 3 FASTER, 4 SLOWER` (highway-env's order), carried out by the paper's low-level layer: Bezier lane change with preview steering, the feedback law around `target_speeds[index]` (default: `speed_range` in 5 m/s steps); impossible lane changes are ignored; no safety layer |
+| `FormationResidual` | `Box(-1, 1, (2,), float32)` | a correction `r`; the vehicle applies `clip(expert + bound * r, -1, 1)` (`bound` 0.25, or `[bound_accel, bound_steer]`); `r = 0` is the expert |
+
+`infos[agent]["expert_action"]` is always the expert's `[u_a, u_s]` (the
+`ContinuousAction` form). Details: `icv_envs.envs.actions`.
+
+## Observation types
+
+`config["observation"] = {"type": ..., <options>}`:
+
+| type | shape (float32) | options |
+|---|---|---|
+| `Kinematics` (default) | `(vehicles_count, len(features))` | `features` (default: every column of the table below, in that order), `vehicles_count` (8), `perception_distance`, `absolute` (False: other rows relative to the observer), `normalize` (True: the scalings below; False: SI units), `clip` (True) |
+| `OccupancyGrid` | `(len(features), nx, ny)`, default `(3, 11, 11)` | `features` (from `presence, vx, vy, cos_h, sin_h`; default the first three), `grid_size` (`[[-27.5, 27.5], [-27.5, 27.5]]` m), `grid_step` (`[5, 5]` m), `absolute` (False), `align_to_vehicle_axes` (False), `clip` (True) |
+
+The space is `Box(-1, 1)` when normalised and clipped, else unbounded; it is
+built once and shared by every agent. Details: `icv_envs.envs.observations`.
+A fixed set of agent slots for MARL libraries (SuperSuit, RLlib, TorchRL):
+`icv_envs.rl.slots`. `parallel_env(max_cycles=N)` truncates every agent after
+N steps (PettingZoo's `max_cycles`).
 
 ## Episode end
 
 An agent terminates when it reaches its exit or collides, and every agent is
-truncated after `duration` (600 s) seconds.
+truncated after `duration` (600 s) seconds. `agents` can be empty for a
+while (between arrivals); `env.episode_over` tells when time is up, and the
+AEC `env()` keeps stepping by itself until then. The arrivals do not depend
+on `duration`: a shorter episode with the same seed is a prefix of a longer
+one. Keys of `highway_formation_v0` that do not apply here (`vehicles_count`,
+`initial_position`, `spawns`, `exits`, the layout sections, `ego_vehicle`:
+the Gymnasium ego is the first arrival) must keep their defaults.
 
 ## Metrics
 

@@ -33,18 +33,38 @@ from typing import Any
 
 import numpy as np
 
+from highway_env.envs.common.abstract import AbstractEnv
+
+from icv_envs.envs._config import (
+    MAX_AGENTS,
+    MAX_DURATION,
+    accel_range,
+    check_keys,
+    check_possible_agents,
+    check_render,
+    check_unused,
+    flag,
+    section,
+    speed_range,
+)
 from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.highway_formation import _num, action_to_controls
+from icv_envs.envs.observations import merge_observation_config
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon.conflicts import required_layer_gap
 from icv_envs.platoon.geometry import LANE_USE_PRESETS, LEGS, movement_name
 from icv_envs.policies.fcfs import FcfsExpert
 from icv_envs.policies.platoon_expert import Corridors, PlatoonExpert, PlatoonParams
-from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents
+from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents, validate_radii
 
 __all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "MAX_THROUGHPUT"]
 
-METHODS = ("multi-vp", "single-vp", "fcfs")
+METHODS = ("multi-vp", "single-vp", "fcfs", "fcfs-tight")
+#: FCFS reservation buffers of the method ``fcfs-tight`` (the buffers of the
+#: first implementation: 5 steps = 0.2 s, 0.5 m; "tight" is its historical
+#: name: by PET it is the MORE cautious variant, see ``_FCFS_DEFAULTS``), kept
+#: so the effect of the margin is visible; ``fcfs`` uses ``_FCFS_DEFAULTS``
+FCFS_TIGHT = {"time_buffer": 5, "space_buffer": 0.5}
 MAX_THROUGHPUT = 20000.0  # veh/h: beyond any lane's capacity; a sanity bound for the config
 
 OBS_FEATURES = (
@@ -66,8 +86,23 @@ OBS_FEATURES = (
 STATE_FEATURES = OBS_FEATURES
 
 _REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "tracking": 0.5}
-_FCFS_DEFAULTS = {"tile": 1.0, "time_buffer": 5, "space_buffer": 0.5, "request_distance": 80.0, "a_plan": 1.5}
-_OBS_DEFAULTS = {"vehicles_count": 8, "perception_distance": 100.0}
+#: Reservation parameters of ``fcfs``.  Buffers chosen so that FCFS's measured
+#: minimum PET is as close as the tile reservation allows to the virtual
+#: platoon's (issue 8, "equal safety"): at 2500 veh/h, seed 0, 300 s,
+#: multi-vp's minimum PET is 0.20 s (single-vp 0.08 s), FCFS's 0.24 s with no
+#: buffer, 0.44 s with 0 s / 0.5 m and 0.60 s (seed 2) with 0.2 s / 0.5 m
+#: (``fcfs-tight``): the virtual platoon's D_t = 21 m is the tighter margin,
+#: so the fair FCFS has no extra buffer (the 1 m tiles, the footprint grown
+#: by the 0.1 m lookup step, remain).
+_FCFS_DEFAULTS = {"tile": 1.0, "time_buffer": 0, "space_buffer": 0.0, "request_distance": 80.0, "a_plan": 1.5}
+_OBS_DEFAULTS = {"type": "Kinematics", "vehicles_count": 8, "perception_distance": 100.0}
+#: highway-env keys this env does not use: setting them is an error
+UNUSED_KEYS = {
+    "other_vehicles_type": "every vehicle is driven by the env's method or an agent",
+    "manual_control": "no manual control; drive the Gymnasium ego through step()",
+    "show_trajectories": "not drawn by this env's viewer",
+    "neighbour_vehicles_connected_lanes": "observations use the env's own neighbour search",
+}
 
 
 class IntersectionEnv(IcvAgentsEnv):
@@ -121,40 +156,54 @@ class IntersectionEnv(IcvAgentsEnv):
                 "warmup": 0.0,
                 "max_vehicles": None,
                 "observation": dict(_OBS_DEFAULTS),
-                "action": {"type": "ContinuousAcceleration+Steering"},
+                "action": {"type": "ContinuousAction"},
                 "reward": dict(_REWARD_DEFAULTS),
                 "expert_in_info": True,
                 "missing_action": "error",
                 "show_zones": True,
                 "show_groups": True,
+                "show_overlay": True,
                 "screen_width": 900,
                 "screen_height": 900,
-                "scaling": 1.4,
+                "scaling": 0.54,  # px/m: 900 px show +-833 m, the scene out to R3 = 800 m
                 "centering_position": [0.5, 0.5],
             }
         )
         return config
 
-    def configure(self, config: dict | None) -> None:
+    _CONFIG_DERIVED = ("layout", "D_t")
+
+    def _apply_config(self, config: dict | None) -> None:
         """highway-env's ``configure``; nested ``fcfs``, ``reward`` and
-        ``observation`` dicts are merged key by key; then validated."""
+        ``observation`` dicts are merged key by key (:meth:`configure` then
+        validates, restoring the previous config on an error)."""
+        if config is not None and not isinstance(config, dict):
+            raise ValueError(f"config = {config!r} ({type(config).__name__}); allowed: a dict or None")
         config = dict(config or {})
-        for key in ("fcfs", "reward", "observation"):
+        for key in ("fcfs", "reward"):
             if key in config and isinstance(config[key], dict) and isinstance(self.config.get(key), dict):
                 merged = dict(self.config[key])
                 merged.update(config[key])
                 config[key] = merged
-        super().configure(config)
-        self._validate_config()
+        for key in ("observation", "action"):  # same type: merged; another type: replaced
+            if key in config:
+                config[key] = merge_observation_config(self.config.get(key), config[key])
+        AbstractEnv.configure(self, config)
 
     def _validate_config(self) -> None:
         c = self.config
         unknown = set(c) - set(self.default_config())
         if unknown:
-            raise ValueError(f"unknown config keys {sorted(unknown)}; allowed: {sorted(self.default_config())}")
-        if c["method"] not in METHODS:
+            raise ValueError(f"unknown config keys {sorted(map(str, unknown))}; allowed: {sorted(self.default_config())}")
+        check_unused(c, AbstractEnv.default_config(), UNUSED_KEYS, "IntersectionEnv", UNUSED_KEYS)
+        for key in ("fcfs", "reward", "observation", "action"):
+            section(c, key)
+        if not isinstance(c["method"], str) or c["method"] not in METHODS:
             raise ValueError(f"unknown method {c['method']!r}; allowed: {list(METHODS)}")
         lu = c["lane_use"]
+        if not isinstance(lu, (str, dict)):
+            raise ValueError(f"config['lane_use'] = {lu!r} is invalid; allowed: one of {list(LANE_USE_PRESETS)} "
+                             f"or a dict movement -> lanes")
         if isinstance(lu, str) and lu not in LANE_USE_PRESETS:
             raise ValueError(f"unknown lane_use {lu!r}; allowed: {list(LANE_USE_PRESETS)} or a dict movement -> lanes")
         tp = c["throughput"]
@@ -167,7 +216,7 @@ class IntersectionEnv(IcvAgentsEnv):
                 and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0 for v in sh)
                 and sum(sh) > 0):
             raise ValueError(f"turn_shares = {sh!r}; allowed: three numbers >= 0 (left, straight, right) with a positive sum")
-        if c["arrivals"] not in ("poisson", "fixed"):
+        if not isinstance(c["arrivals"], str) or c["arrivals"] not in ("poisson", "fixed"):
             raise ValueError(f"arrivals = {c['arrivals']!r}; allowed: 'poisson', 'fixed'")
         _num(c, "formation_size", 1, 30, integer=True, allowed="an integer in [1, 30]")
         for k in ("R1", "R2", "R3"):
@@ -177,17 +226,11 @@ class IntersectionEnv(IcvAgentsEnv):
         _num(c, "departure_length", 5.0, 1000.0, allowed="a number in [5, 1000] metres")
         if not isinstance(c["opposing_left_conflict"], (bool, np.bool_)):
             raise ValueError(f"config['opposing_left_conflict'] = {c['opposing_left_conflict']!r}; allowed: True or False")
-        if c["D_t"] != "auto":
+        if not (isinstance(c["D_t"], str) and c["D_t"] == "auto"):
             _num(c, "D_t", 0.0, 500.0, lo_open=True, allowed="'auto' or a number of metres in (0, 500]")
-        sr = c["speed_range"]
-        if not (isinstance(sr, (list, tuple)) and len(sr) == 2 and all(isinstance(v, (int, float)) for v in sr)
-                and 0 <= sr[0] < sr[1] and math.isfinite(sr[1])):
-            raise ValueError(f"config['speed_range'] = {sr!r} is invalid; allowed: [v_min, v_max] with 0 <= v_min < v_max")
+        sr = speed_range(c)
         _num(c, "desired_speed", 0.0, sr[1], lo_open=True, allowed=f"a number in (0, v_max = {sr[1]}] m/s")
-        ar = c["acceleration_range"]
-        if not (isinstance(ar, (list, tuple)) and len(ar) == 2 and all(isinstance(v, (int, float)) for v in ar)
-                and ar[0] < 0 < ar[1]):
-            raise ValueError(f"config['acceleration_range'] = {ar!r} is invalid; allowed: [a_min < 0, a_max > 0]")
+        ar = accel_range(c)
         _num(c, "max_steering_deg", 0.0, 60.0, lo_open=True, allowed="a number in (0, 60] degrees")
         _num(c, "wheelbase", 0.5, 10.0, allowed="a number in [0.5, 10] metres")
         _num(c, "gap_outside", 0.0, 100.0, lo_open=True, allowed="a number in (0, 100] metres")
@@ -195,44 +238,51 @@ class IntersectionEnv(IcvAgentsEnv):
         _num(c, "merge_range", 0.0, 1000.0, allowed="a number in [0, 1000] metres")
         _num(c, "max_node_size", 1, 100, integer=True, allowed="an integer in [1, 100]")
         fc = c["fcfs"]
-        unknown = set(fc) - set(_FCFS_DEFAULTS)
-        if unknown:
-            raise ValueError(f"unknown fcfs keys {sorted(unknown)}; allowed: {sorted(_FCFS_DEFAULTS)}")
-        _num(fc, "tile", 0.1, 5.0, allowed="a number in [0.1, 5] metres")
-        _num(fc, "time_buffer", 0, 100, integer=True, allowed="an integer number of steps in [0, 100]")
-        _num(fc, "space_buffer", 0.0, 5.0, allowed="a number in [0, 5] metres")
-        _num(fc, "request_distance", 1.0, 1000.0, allowed="a number in [1, 1000] metres")
-        _num(fc, "a_plan", 0.0, ar[1], lo_open=True, allowed=f"a number in (0, a_max = {ar[1]}] m/s^2")
+        check_keys(fc, "fcfs", _FCFS_DEFAULTS)
+        _num(fc, "tile", 0.1, 5.0, allowed="a number in [0.1, 5] metres", where="['fcfs']")
+        _num(fc, "time_buffer", 0, 100, integer=True, allowed="an integer number of steps in [0, 100]", where="['fcfs']")
+        _num(fc, "space_buffer", 0.0, 5.0, allowed="a number in [0, 5] metres", where="['fcfs']")
+        _num(fc, "request_distance", 1.0, 1000.0, allowed="a number in [1, 1000] metres", where="['fcfs']")
+        _num(fc, "a_plan", 0.0, ar[1], lo_open=True, allowed=f"a number in (0, a_max = {ar[1]}] m/s^2", where="['fcfs']")
+        if c["method"] == "fcfs-tight":
+            own = {k: fc[k] for k in FCFS_TIGHT if fc[k] != _FCFS_DEFAULTS[k]}
+            if own:
+                raise ValueError(f"method 'fcfs-tight' fixes the reservation buffers {FCFS_TIGHT}; got fcfs = {own}: "
+                                 f"use method 'fcfs' to set fcfs.time_buffer / fcfs.space_buffer")
         _num(c, "simulation_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
         _num(c, "policy_frequency", 0, 1000, lo_open=True, integer=True, allowed="an integer > 0 [Hz]")
         if c["simulation_frequency"] % c["policy_frequency"]:
             raise ValueError(
                 f"policy_frequency={c['policy_frequency']} must divide simulation_frequency={c['simulation_frequency']}"
             )
-        _num(c, "duration", 0.0, lo_open=True, allowed="a number > 0 seconds")
+        _num(c, "duration", 0.0, MAX_DURATION, lo_open=True,
+             allowed=f"a number of seconds in (0, {MAX_DURATION:g}] (MAX_DURATION, one simulated day)")
         _num(c, "warmup", 0.0, 3600.0, allowed="a number of seconds in [0, 3600]")
         mv = c["max_vehicles"]
-        if mv is not None and not (isinstance(mv, (int, np.integer)) and not isinstance(mv, bool) and mv >= 1):
-            raise ValueError(f"max_vehicles = {mv!r}; allowed: None (all arrivals) or an integer >= 1")
+        if mv is not None and not (isinstance(mv, (int, np.integer)) and not isinstance(mv, bool)
+                                   and 1 <= mv <= MAX_AGENTS):
+            raise ValueError(f"max_vehicles = {mv!r}; allowed: None (all arrivals) or an integer in [1, {MAX_AGENTS}] "
+                             f"(MAX_AGENTS)")
         r = c["reward"]
-        unknown = set(r) - set(_REWARD_DEFAULTS)
-        if unknown:
-            raise ValueError(f"unknown reward keys {sorted(unknown)}; allowed: {sorted(_REWARD_DEFAULTS)}")
+        check_keys(r, "reward", _REWARD_DEFAULTS)
         for k in _REWARD_DEFAULTS:
-            _num(r, k, allowed="a finite number")
-        o = c["observation"]
-        unknown = set(o) - set(_OBS_DEFAULTS) - {"type"}
-        if unknown:
-            raise ValueError(f"unknown observation keys {sorted(unknown)}; allowed: {sorted(_OBS_DEFAULTS)}")
-        _num(o, "vehicles_count", 1, 64, integer=True, allowed="an integer in [1, 64]")
-        _num(o, "perception_distance", 0.0, lo_open=True, allowed="a number > 0 metres")
+            _num(r, k, -1e6, 1e6, allowed="a finite number in [-1e6, 1e6]", where="['reward']")
+        self._validate_spaces_config()
         if c["missing_action"] not in ("error", "expert"):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
+        for key in ("envelope_in_box", "expert_in_info"):
+            flag(c, key)
+        check_render(c, flags=("show_zones", "show_groups", "show_overlay"))
+        check_possible_agents(self._n_possible_agents(), "throughput x (duration + warmup)")
         # geometry, lane use, radii (raise ValueError with their own messages)
-        self.layout = IntersectionLayout(
-            lu, c["lane_width"], c["box_half"], c["R1"], c["R2"], c["R3"], c["departure_length"],
-            bool(c["opposing_left_conflict"]),
-        )
+        validate_radii(c["R1"], c["R2"], c["R3"], c["box_half"])
+        try:
+            self.layout = IntersectionLayout(
+                lu, c["lane_width"], c["box_half"], c["R1"], c["R2"], c["R3"], c["departure_length"],
+                bool(c["opposing_left_conflict"]),
+            )
+        except (ValueError, TypeError) as exc:  # the radii are fine: the lane-use table is not
+            raise ValueError(f"config['lane_use'] = {lu!r} is invalid: {exc}") from None
         need = required_layer_gap(self.layout.model)
         self.layout.model_gap = need
         if c["D_t"] == "auto":
@@ -279,24 +329,33 @@ class IntersectionEnv(IcvAgentsEnv):
         shares = np.asarray(c["turn_shares"], dtype=np.float64)
         shares = shares / shares.sum()
         out = []
+        # each leg draws its formation heads and its movements from two
+        # streams of its own (seeded by a fixed number of draws from the env's
+        # RNG, consumed in blocks): the traffic does not depend on the horizon
+        seeds = rng.integers(0, 2**63 - 1, size=(4, 2))
+        B = 64
+        poisson = c["arrivals"] == "poisson" and mean_h > h_min
         for leg in range(4):
-            if c["arrivals"] == "poisson" and mean_h > h_min:
-                k = int(T / mean_h * 2 + 20)
-                gaps = h_min + rng.exponential(mean_h - h_min, size=k)
-            else:
-                k = int(T / mean_h + 3)
-                gaps = np.full(k, mean_h)
-            phase = 0.0 if leg == 0 else rng.uniform(0.0, mean_h)
-            heads = phase + np.concatenate([[0.0], np.cumsum(gaps[:-1])])
+            g_h, g_m = np.random.default_rng(int(seeds[leg, 0])), np.random.default_rng(int(seeds[leg, 1]))
+            phase = 0.0 if leg == 0 else float(g_h.uniform(0.0, mean_h))
+            heads, base = [np.array([phase])], phase
+            while heads[-1][-1] < T:
+                gaps = h_min + g_h.exponential(mean_h - h_min, size=B) if poisson else np.full(B, mean_h)
+                heads.append(base + np.cumsum(gaps))
+                base = float(heads[-1][-1])
+            heads = np.concatenate(heads)
             heads = heads[heads < T]
             for fi, t0 in enumerate(heads):
-                mvs = 3 * leg + rng.choice(3, size=n, p=shares)
+                mvs = 3 * leg + g_m.choice(3, size=n, p=shares)
                 for j in range(n):
                     due = float(t0 + xg[j] / v0)
                     if due < T:
                         out.append((due, leg, int(lane_id[j] - 1), int(mvs[j]), (leg, fi), float(xg[j])))
         out.sort(key=lambda a: (a[0], a[1], a[2]))
         return out
+
+    def _n_possible_agents(self) -> int:
+        return self._max_vehicles()
 
     def _max_vehicles(self) -> int:
         """Possible agents: ``max_vehicles`` or, independent of the seed, the mean
@@ -316,8 +375,10 @@ class IntersectionEnv(IcvAgentsEnv):
                                   v_max=float(c["speed_range"][1]), v_free=float(c["desired_speed"]))
         self.world = world
         params = self._params()
-        if c["method"] == "fcfs":
-            fc = c["fcfs"]
+        if c["method"] in ("fcfs", "fcfs-tight"):
+            fc = dict(c["fcfs"])
+            if c["method"] == "fcfs-tight":
+                fc.update(FCFS_TIGHT)
             self.expert = FcfsExpert(lay, params, frames=self._frames(), dt=world.dt, tile=fc["tile"],
                                      time_buffer=int(fc["time_buffer"]), space_buffer=fc["space_buffer"],
                                      request_distance=fc["request_distance"], a_plan=fc["a_plan"])
@@ -370,6 +431,7 @@ class IntersectionEnv(IcvAgentsEnv):
             w.stats[k] = math.inf if k == "min_speed_in_box" else (0.0 if isinstance(w.stats[k], float) else 0)
         w.stats["spawned"] = int(f.n)
         w.collision_log.clear()
+        w.reset_metrics()
         for k in self.expert.stats:
             self.expert.stats[k] = 0.0 if isinstance(self.expert.stats[k], float) else 0
         self._ego_vid = int(f.vid[-1]) if f.n else int(f.next_vid)
@@ -441,47 +503,34 @@ class IntersectionEnv(IcvAgentsEnv):
         F[:, 13] = go
         return F
 
+    PERCEPTION_DISTANCE = 100.0
+
     def _scales(self, relative: bool) -> np.ndarray:
         c = self.config
         lay = self.layout
         vmax = float(c["speed_range"][1])
-        pos = float(c["observation"]["perception_distance"]) if relative else lay.R3
+        pos = (float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE) \
+            if relative else lay.R3
         return np.array([1.0, pos, pos, vmax, vmax, 1.0, 1.0, lay.R3, 100.0, vmax, lay.lane_width * 3, 1.0, 1.0, 1.0])
 
-    def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
-        """highway-env ``Kinematics`` convention: row 0 the observer (absolute,
-        normalised), rows 1.. the ``V - 1`` nearest vehicles (Euclidean
-        distance of body centres) within the perception distance, relative
-        x, y, vx, vy; zero rows (presence 0) pad."""
-        c = self.config
-        V = int(c["observation"]["vehicles_count"])
-        pd = float(c["observation"]["perception_distance"])
-        n = self.world.fleet.n
-        out = np.zeros((len(rows), V, len(OBS_FEATURES)), dtype=np.float32)
-        if not len(rows):
-            return out
-        if F is None:
-            F = self._features()
-        out[:, 0, :] = np.clip(F[rows] / self._scales(False), -1, 1)
-        if V > 1 and n > 1:
-            K = min(V - 1, n - 1)
-            dx = F[None, :, 1] - F[rows, 1][:, None]
-            dy = F[None, :, 2] - F[rows, 2][:, None]
-            dist = np.hypot(dx, dy)
-            dist[np.arange(len(rows)), rows] = np.inf
-            dist[dist > pd] = np.inf
-            pick = np.argpartition(dist, K - 1, axis=1)[:, :K] if K < n else np.argsort(dist, axis=1)[:, :K]
-            pd_sel = np.take_along_axis(dist, pick, axis=1)
-            o = np.argsort(pd_sel, axis=1, kind="stable")
-            pick = np.take_along_axis(pick, o, axis=1)
-            pd_sel = np.take_along_axis(pd_sel, o, axis=1)
-            present = np.isfinite(pd_sel)
-            rel = F[pick].copy()
-            rel[..., 1:5] -= F[rows][:, None, 1:5]
-            rel = np.clip(rel / self._scales(True), -1, 1)
-            rel[~present] = 0.0
-            out[:, 1:1 + K, :] = rel
-        return out
+    def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._scales(False), self._scales(True)
+
+    def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
+        """The up-to-``K`` nearest vehicles (Euclidean distance of body centres) within ``pd``, nearest first."""
+        n = len(F)
+        K = min(K, n - 1)
+        dx = F[None, :, 1] - F[rows, 1][:, None]
+        dy = F[None, :, 2] - F[rows, 2][:, None]
+        dist = np.hypot(dx, dy)
+        dist[np.arange(len(rows)), rows] = np.inf
+        dist[dist > pd] = np.inf
+        pick = np.argpartition(dist, K - 1, axis=1)[:, :K] if K < n else np.argsort(dist, axis=1)[:, :K]
+        pd_sel = np.take_along_axis(dist, pick, axis=1)
+        o = np.argsort(pd_sel, axis=1, kind="stable")
+        pick = np.take_along_axis(pick, o, axis=1)
+        present = np.isfinite(np.take_along_axis(pd_sel, o, axis=1))
+        return pick, present
 
     def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
         """Per agent: progress (speed / v_max), safety (-1 on a collision, else
@@ -532,12 +581,7 @@ class IntersectionEnv(IcvAgentsEnv):
         return out
 
     # ------------------------------------------------------------------ expert
-    def expert_actions(self) -> np.ndarray:
-        """The method's controller's normalised actions for every vehicle now (rows in fleet order)."""
-        key = (self.world.step_count, self.world.fleet.n, self.world.fleet.next_vid)
-        if self._expert_cache is None or self._expert_cache[0] != key:
-            self._expert_cache = (key, self.expert.compute(self.world).astype(np.float32))
-        return self._expert_cache[1]
+    # expert_actions(): IcvAgentsEnv's, cached on the vehicle state
 
     # -------------------------------------------------------------- stepping
     def _advance(self, actions: np.ndarray) -> StepEvents:
@@ -573,34 +617,29 @@ class IntersectionEnv(IcvAgentsEnv):
 
     def _ma_infos(self, agents, rows, parts) -> dict:
         c = self.config
-        infos = {}
         if not len(rows):
-            return infos
+            return {}
         ex = self.expert_actions() if c["expert_in_info"] else None
         f = self.world.fleet
         rs = self.world.route()
-        speeds = f.speed.tolist()
-        mvs = f.mv.tolist()
-        nodes = f.node.tolist()
+        rows = np.asarray(rows, dtype=np.int64)
+        nodes = f.node[rows].tolist()
         depth = self.expert.node_depth
-        X = rs.dist.tolist()
-        for i, a in enumerate(agents):
-            r = int(rows[i])
-            info = {"speed": speeds[r], "movement": mvs[r], "distance": X[r], "node": nodes[r],
-                    "tree_layer": depth.get(nodes[r], -1), "crashed": False}
-            if ex is not None:
-                info["expert_action"] = ex[r].copy()
-            if parts:
-                info["rewards"] = {k: float(v[i]) for k, v in parts.items()}
-            infos[a] = info
-        return infos
+        cols = {
+            "speed": f.speed[rows].tolist(),
+            "movement": f.mv[rows].tolist(),
+            "distance": np.asarray(rs.dist)[rows].tolist(),
+            "node": nodes,
+            "tree_layer": [depth.get(nd, -1) for nd in nodes],
+            "crashed": [False] * len(rows),
+        }
+        return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
 
     def _ma_advance(self, acts: np.ndarray):
         c = self.config
         w = self.world
         f = w.fleet
         before = f.vid.copy()
-        acts_by_vid = {int(v): acts[i] for i, v in enumerate(before)}
         events = self._advance(acts)
         self.time += 1.0 / c["policy_frequency"]
         self.steps += 1
@@ -611,23 +650,19 @@ class IntersectionEnv(IcvAgentsEnv):
         self.expert.update(w)
         f = w.fleet
         crashed_now = np.concatenate([crashed_now, np.zeros(f.n - len(crashed_now), dtype=bool)])
-        self._last_actions = np.array([acts_by_vid.get(int(v), np.zeros(2)) for v in f.vid]).reshape(-1, 2)
+        self._last_actions = self._realign_rows(before, np.asarray(acts, dtype=np.float64).reshape(-1, 2), f.vid)
         rows = np.arange(f.n)
-        agents = [f"icv_{v}" for v in f.vid]
+        agents = [f"icv_{v}" for v in f.vid.tolist()]
         F = self._features() if f.n else np.zeros((0, len(OBS_FEATURES)))
         rew, parts = self._rewards_rows(rows, crashed_now, F)
         obs = self._observe_rows(rows, F)
-        observations = {a: obs[i] for i, a in enumerate(agents)}
-        rewards = {a: float(rew[i]) for i, a in enumerate(agents)}
-        terms = {a: bool(crashed_now[i]) for i, a in enumerate(agents)}
-        truncs = {a: bool(truncated_all) and not crashed_now[i] for i, a in enumerate(agents)}
+        observations, rewards, terms, truncs = self._agent_dicts(
+            agents, obs, rew, crashed_now, bool(truncated_all) & ~crashed_now)
         infos = self._ma_infos(agents, rows, parts)
-        newset = set(new)
-        for i, a in enumerate(agents):
-            if crashed_now[i]:
-                infos[a]["crashed"] = True
-            if int(f.vid[i]) in newset:
-                rewards[a] = 0.0
+        for i in np.flatnonzero(crashed_now).tolist():
+            infos[agents[i]]["crashed"] = True
+        for v in new:
+            rewards[f"icv_{v}"] = 0.0
         # vehicles that left during the step: the departure end is a terminal
         # success, driving back out of the approach road a truncation
         gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
@@ -680,8 +715,9 @@ class IntersectionEnv(IcvAgentsEnv):
             "wrong_exits": int(st["wrong_exits"]),
             "lost": int(st["spawned"] - st["removed"] - st["left_road"] - remaining - st["crashed_removed"]),
             "achieved_throughput": st["cleared"] * 3600.0 / sim,
-            "mean_speed": st["speed_sum"] / n,
-            "speed_fluctuation": st["abs_accel_sum"] / n,
+            **w.motion.summary(),
+            **w.pet.summary(),
+            **w.jams.summary(),
             "mean_delay": st["delay_sum"] / st["cleared"] if st["cleared"] else None,
             "mean_travel_time": st["travel_time_sum"] / st["cleared"] if st["cleared"] else None,
             "sim_seconds": float(w.time),
@@ -693,7 +729,7 @@ class IntersectionEnv(IcvAgentsEnv):
             "merges": int(ex.get("merges", 0)),
             "lane_changes": int(ex.get("lane_changes", 0)),
         }
-        if self.config["method"] == "fcfs":
+        if self.config["method"] in ("fcfs", "fcfs-tight"):
             m.update({k: ex[k] for k in ("requests", "granted", "rejected", "cancelled", "max_plan_error")})
         return m
 
@@ -781,36 +817,60 @@ _VIEWER_CLASS = None
 
 def _viewer_class():
     """highway-env's viewer (via :class:`~icv_envs.envs.rendering.FormationViewer`,
-    which keeps drawing off-screen) drawing the intersection: grass, the legs
-    and the box, lane lines (highway-env's lane graphics), stop lines, the
-    zone circles ``R1`` (coordinating), ``R2`` (adjusting) and ``R3``
-    (generation), the vehicles coloured by tree-layer (fcfs: light green
-    with a reservation; light blue: in regrouping or waiting; grey:
-    approaching or past the box; green: the Gymnasium ego; red: crashed),
-    a line through the members of every group (nodes in their layer's
-    colour, sub-formations in white) and a ``T<layer>`` label at every node's
-    first vehicle.  Built lazily so that pygame is only imported to render."""
+    which keeps drawing off-screen) drawing the intersection.
+
+    The main view shows the whole scene out to ``R3`` (default ``scaling``
+    0.54 px/m on 900 px): grass, the legs and the box, lane lines
+    (highway-env's lane graphics), stop lines, the zone circles ``R1``
+    (coordinating), ``R2`` (adjusting) and ``R3`` (generation), and every
+    vehicle as a box at least 7 x 4 px (at 0.54 px/m a car is 3 px long)
+    coloured by its state: by tree-layer in a virtual-platoon node (fcfs:
+    light green with a reservation; light blue: in regrouping or waiting;
+    grey: approaching or past the box; green: the Gymnasium ego; red:
+    crashed); a line through the members of every group (nodes in their
+    layer's colour, sub-formations in white) and a ``T<layer>`` label at
+    every node's first vehicle. An inset (bottom right) shows the box and
+    +-60 m around it at true size (2.5 px/m). With ``show_overlay`` the
+    frame also carries the method, demand and lane use, the simulated time
+    and vehicle count, and a legend. The static background (roads, lane
+    lines, circles) is drawn once per layout and reused. Built lazily so
+    that pygame is only imported to render."""
     global _VIEWER_CLASS
     if _VIEWER_CLASS is not None:
         return _VIEWER_CLASS
     import pygame
-    from highway_env.road.graphics import LaneGraphics, RoadGraphics
+    from highway_env.road.graphics import LaneGraphics, RoadGraphics, WorldSurface
 
-    from icv_envs.envs.rendering import FormationViewer
+    from icv_envs.envs.rendering import FormationViewer, draw_legend, draw_title, draw_vehicle_markers, font
 
     class IntersectionViewer(FormationViewer):
         GRASS = (70, 110, 60)
         ROAD = (100, 100, 100)
+        REGROUPING = (150, 200, 255)
+        RESERVED = (120, 230, 90)
+        APPROACHING = (200, 200, 200)
+        ZONE_COLOURS = ((255, 220, 120), (160, 220, 255), (230, 230, 230))  # R1, R2, R3
+        INSET_HALF = 60.0  # m around the centre shown in the inset
+        INSET_PX = 300
 
         def window_position(self) -> np.ndarray:
             return np.array([0.0, 0.0])
 
-        def display(self) -> None:
-            if not self.enabled:
-                return
+        # ------------------------------------------------------ background
+        def _background(self, surf, key) -> pygame.Surface:
+            cache = self.__dict__.setdefault("_bg_cache", {})
+            full_key = (key, id(self.env.layout), id(self.env.road.network), surf.get_size(), float(surf.scaling),
+                        tuple(surf.origin), bool(self.env.config.get("show_zones", True)))
+            bg = cache.get(key)
+            if bg is not None and bg[0] == full_key:
+                return bg[1]
+            self._draw_static(surf)
+            img = surf.copy()
+            cache[key] = (full_key, img)
+            return img
+
+        def _draw_static(self, surf) -> None:
             env = self.env
-            surf = self.sim_surface
-            surf.move_display_window_to(self.window_position())
             surf.fill(self.GRASS)
             lay = env.layout
             b, far = lay.box_half, lay.R3 + 20.0
@@ -830,27 +890,87 @@ def _viewer_class():
                                  max(1, surf.pix(0.5)))
             if env.config.get("show_zones", True):
                 centre = surf.pos2pix(0.0, 0.0)
-                for R, col in ((lay.R1, (255, 220, 120)), (lay.R2, (160, 220, 255)), (lay.R3, (230, 230, 230))):
+                for R, col in zip((lay.R1, lay.R2, lay.R3), self.ZONE_COLOURS):
                     pygame.draw.circle(surf, col, centre, surf.pix(R), 1)
+
+        # ------------------------------------------------------------ frame
+        def display(self) -> None:
+            if not self.enabled:
+                return
+            env = self.env
+            surf = self.sim_surface
+            surf.move_display_window_to(self.window_position())
+            surf.blit(self._background(surf, "main"), (0, 0))
             if env.config.get("show_groups", True):
-                self._draw_groups()
-            RoadGraphics.display_traffic(env.road, surf, simulation_frequency=env.config["simulation_frequency"],
-                                         offscreen=self.offscreen)
+                self._draw_groups(surf, labels=True)
+            draw_vehicle_markers(surf, env.road.vehicles)
+            if env.config.get("show_overlay", True):
+                self._draw_inset()
+                draw_title(surf, self.title_lines())
+                draw_legend(surf, self.legend_items(), max_width=surf.get_width() - self.INSET_PX - 24)
             if not self.offscreen:
                 self.screen.blit(surf, (0, 0))
                 if env.config["real_time_rendering"]:
                     self.clock.tick(env.config["simulation_frequency"])
                 pygame.display.flip()
 
-        def _draw_groups(self) -> None:
+        def _draw_inset(self) -> None:
+            """The box and +-INSET_HALF m around it at true vehicle size, bottom right."""
+            main = self.sim_surface
+            n = self.INSET_PX
+            if getattr(self, "_inset", None) is None:
+                self._inset = WorldSurface((n, n), 0, pygame.Surface((n, n)))
+                self._inset.scaling = n / (2.0 * self.INSET_HALF)
+                self._inset.centering_position = [0.5, 0.5]
+            ins = self._inset
+            ins.move_display_window_to(np.array([0.0, 0.0]))
+            ins.blit(self._background(ins, "inset"), (0, 0))
+            if self.env.config.get("show_groups", True):
+                self._draw_groups(ins, labels=False)
+            RoadGraphics.display_traffic(self.env.road, ins, simulation_frequency=self.env.config["simulation_frequency"],
+                                         offscreen=True)
+            ins.blit(font(16).render(f"box, +-{self.INSET_HALF:.0f} m, true size", True, (255, 255, 255)), (4, 4))
+            x0, y0 = main.get_width() - n - 6, main.get_height() - n - 6
+            main.blit(ins, (x0, y0))
+            pygame.draw.rect(main, (255, 255, 255), pygame.Rect(x0 - 1, y0 - 1, n + 2, n + 2), 1)
+            # where the inset is on the main view
+            a = main.pos2pix(-self.INSET_HALF, -self.INSET_HALF)
+            side = main.pix(2 * self.INSET_HALF)
+            pygame.draw.rect(main, (255, 255, 255), pygame.Rect(a, (side, side)), 1)
+
+        def title_lines(self) -> list[str]:
+            env, c = self.env, self.env.config
+            lu = c["lane_use"] if isinstance(c["lane_use"], str) else "custom"
+            n = int(env.world.fleet.n)
+            return [f"Intersection-v0 | method {c['method']} | {float(c['throughput']):g} veh/h | lane use {lu}",
+                    f"t = {float(env.world.time):6.1f} s | {n} vehicles | view +-{env.layout.R3 + 33:.0f} m (R3 = "
+                    f"{env.layout.R3:.0f} m)"]
+
+        def legend_items(self) -> list[tuple]:
+            env = self.env
+            items = []
+            if env.config["method"] == "fcfs":
+                items.append(("holds a reservation", self.RESERVED, "box"))
+            else:
+                items.append(("node in tree-layer T1, T2, ...", env.LAYER_COLOURS[:4], "swatches"))
+            items += [("regrouping / waiting", self.REGROUPING, "box"),
+                      ("approaching / past the box", self.APPROACHING, "box")]
+            if not env._ma_mode:
+                items.append(("learned ego", (50, 200, 0), "box"))
+            items.append(("crashed", (255, 60, 60), "box"))
+            if env.config.get("show_groups", True):
+                items.append(("sub-formation", (255, 255, 255), "line"))
+            if env.config.get("show_zones", True):
+                items += [("R1 coordinating", self.ZONE_COLOURS[0], "circle"), ("R2 adjusting", self.ZONE_COLOURS[1], "circle"),
+                          ("R3 arrivals", self.ZONE_COLOURS[2], "circle")]
+            return items
+
+        def _draw_groups(self, surf, labels: bool = True) -> None:
             env = self.env
             w = env.world
             if not w.fleet.n:
                 return
-            surf = self.sim_surface
             rs = w.route()
-            if not hasattr(self, "_font"):
-                self._font = pygame.font.Font(None, 18)
             for kind, gid, rows, depth in env.expert.groups(w):
                 rows = rows[rows >= 0]
                 if not len(rows):
@@ -859,18 +979,16 @@ def _viewer_class():
                 if kind == "node" and depth > 0:
                     col = env.LAYER_COLOURS[(depth - 1) % len(env.LAYER_COLOURS)]
                 elif kind == "reserved":
-                    col = (120, 230, 90)
+                    col = self.RESERVED
                 else:
                     col = (255, 255, 255)
                 pts = [surf.pos2pix(rs.cx[r], -rs.cy[r]) for r in rows]
                 if len(pts) > 1 and kind != "reserved":
                     pygame.draw.lines(surf, col, False, pts, 2)
-                if kind == "node":
-                    label = self._font.render(f"T{depth}", True, col)
+                if labels and kind == "node":
+                    label = font(18).render(f"T{depth}", True, col)
                     x, y = pts[0]
                     surf.blit(label, (x + 6, y - 14))
 
     _VIEWER_CLASS = IntersectionViewer
     return _VIEWER_CLASS
-
-

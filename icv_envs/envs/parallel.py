@@ -4,18 +4,30 @@ from __future__ import annotations
 
 import numpy as np
 from pettingzoo import ParallelEnv
+from pettingzoo.utils.agent_selector import AgentSelector
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
-__all__ = ["CoreParallelEnv"]
+__all__ = ["CoreParallelEnv", "OpenRoadAECWrapper", "module_functions"]
 
 
 class CoreParallelEnv(ParallelEnv):
     """Thin PettingZoo layer: ``core_cls`` is a highway-env ``AbstractEnv``
-    subclass of this package exposing ``ma_reset`` / ``ma_step``."""
+    subclass of this package exposing ``ma_reset`` / ``ma_step``.
+
+    ``max_cycles`` (PettingZoo's meaning): after that many ``step`` calls
+    every agent still live is truncated and the episode is over (the
+    config's ``duration`` still applies; whichever comes first)."""
 
     core_cls = None
     metadata = {"name": "icv_env", "render_modes": ["human", "rgb_array"], "is_parallelizable": True, "render_fps": 10}
 
-    def __init__(self, render_mode: str | None = None, **config) -> None:
+    def __init__(self, render_mode: str | None = None, max_cycles: int | None = None, **config) -> None:
+        if max_cycles is not None and (isinstance(max_cycles, bool) or not isinstance(max_cycles, (int, np.integer))
+                                       or max_cycles < 1):
+            raise ValueError(f"max_cycles = {max_cycles!r}; allowed: None (the config's duration ends the episode) "
+                             f"or an integer >= 1")
+        self.max_cycles = None if max_cycles is None else int(max_cycles)
+        self._cycles = 0
         self.render_mode = render_mode
         self.core = self.core_cls(config, render_mode=render_mode)
         self.core._ma_mode = True
@@ -34,9 +46,22 @@ class CoreParallelEnv(ParallelEnv):
         return self._act_space
 
     def reset(self, seed: int | None = None, options: dict | None = None):
+        if options and "config" in options:
+            # validate first, then apply: a rejected config leaves the env as it was
+            n = self.core.preview_config(options["config"])
+            if n != len(self.possible_agents):
+                raise ValueError(
+                    f"options['config'] gives {n} possible agents, this env has {len(self.possible_agents)}: a "
+                    f"PettingZoo env's possible_agents are fixed at construction (on the open-road envs they follow "
+                    f"duration, vgr/throughput unless max_vehicles is set); create a new env, or set max_vehicles"
+                )
         obs, infos = self.core.ma_reset(seed=seed, options=options)
         if list(self.core.possible_agents) != self.possible_agents:
             raise ValueError("options['config'] may not change the number of possible agents of a PettingZoo env")
+        if self.core.observation_space is not self._obs_space or self.core.action_space is not self._act_space:
+            raise ValueError("options['config'] may not change the observation or action type of a PettingZoo env "
+                             "(its spaces are fixed at construction)")
+        self._cycles = 0
         self.agents = list(obs)
         return obs, infos
 
@@ -44,15 +69,21 @@ class CoreParallelEnv(ParallelEnv):
         if self.core.world is None:
             raise RuntimeError("call reset() before step()")
         obs, rew, term, trunc, infos = self.core.ma_step(actions)
+        self._cycles += 1
+        if self.max_cycles is not None and self._cycles >= self.max_cycles:
+            trunc = {a: not term[a] for a in obs}  # PettingZoo's max_cycles: every agent truncated
         self.agents = [a for a in obs if not (term[a] or trunc[a])]
         return obs, rew, term, trunc, infos
 
     @property
     def episode_over(self) -> bool:
-        """True once the episode's time is up. On an open road (vehicles
-        arriving at a rate) ``agents`` can be empty for a while before that:
-        ``step({})`` then just advances time."""
+        """True once the episode's time is up (``duration`` seconds, or
+        ``max_cycles`` steps). On an open road (vehicles arriving at a rate)
+        ``agents`` can be empty for a while before that: ``step({})`` then
+        just advances time."""
         c = self.core
+        if self.max_cycles is not None and self._cycles >= self.max_cycles:
+            return True
         return c.world is None or c.world.time >= float(c.config["duration"]) - 1e-9
 
     def state(self) -> np.ndarray:
@@ -67,17 +98,55 @@ class CoreParallelEnv(ParallelEnv):
     def expert_actions(self) -> dict:
         """The expert's (the env method's controller's) action for every live agent."""
         ex = self.core.expert_actions()
-        return {f"icv_{v}": ex[i] for i, v in enumerate(self.core.world.traffic.vid)}
+        return dict(zip([f"icv_{v}" for v in self.core.world.traffic.vid.tolist()], ex))
 
     def metrics(self, **kwargs) -> dict:
         return self.core.metrics(**kwargs)
 
 
+class OpenRoadAECWrapper(parallel_to_aec_wrapper):
+    """PettingZoo's parallel-to-AEC conversion for an open road: when every
+    agent has left but the episode's time is not up (``agents`` momentarily
+    empty, vehicles still to arrive), the AEC env keeps stepping the parallel
+    env with no actions until an agent appears or the episode ends, instead
+    of ending the episode (``agent_iter()`` stops only when it is over)."""
+
+    def reset(self, seed=None, options=None):
+        super().reset(seed=seed, options=options)
+        self._skip_empty()
+
+    def step(self, action):
+        super().step(action)
+        self._skip_empty()
+
+    def _skip_empty(self) -> None:
+        par = self.env
+        while not self.agents and not par.episode_over:
+            obss, rews, terms, truncs, infos = par.step({})
+            if not obss:
+                continue
+            self._observations = dict(obss)
+            self.terminations = dict(terms)
+            self.truncations = dict(truncs)
+            self.infos = dict(infos)
+            self.rewards = dict(rews)
+            self._cumulative_rewards = dict(rews)
+            live = set(par.agents)
+            self.agents = par.agents + [a for a in sorted(obss, key=str) if a not in live]
+            self._actions = {}
+            if par.agents:
+                self._agent_selector = AgentSelector(par.agents)
+                self.agent_selection = self._agent_selector.reset()
+            else:
+                self.agent_selection = self.agents[0]
+            self._deads_step_first()
+
+
 def module_functions(parallel_cls):
     """PettingZoo's module layout for ``parallel_cls``: ``(parallel_env,
     raw_env, env)``, the parallel env, the unwrapped AEC env converted from
-    it, and the AEC env with PettingZoo's order-enforcing wrapper."""
-    from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+    it (:class:`OpenRoadAECWrapper`), and the AEC env with PettingZoo's
+    order-enforcing wrapper."""
     from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
     def parallel_env(render_mode: str | None = None, **config):
@@ -86,7 +155,7 @@ def module_functions(parallel_cls):
 
     def raw_env(render_mode: str | None = None, **config):
         """The AEC env without wrappers (converted from the parallel env)."""
-        return parallel_to_aec_wrapper(parallel_env(render_mode=render_mode, **config))
+        return OpenRoadAECWrapper(parallel_env(render_mode=render_mode, **config))
 
     def env(render_mode: str | None = None, **config):
         """The AEC env with PettingZoo's order-enforcing wrapper."""

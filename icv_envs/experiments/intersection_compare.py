@@ -1,29 +1,41 @@
-"""The paper's intersection comparison (Sec. 6.2, Fig. 14): methods x throughputs x seeds.
+"""The paper's intersection comparison (Sec. 6.2, Fig. 14): methods x demands x seeds, to saturation.
 
-``compare_intersection`` runs every (method, throughput, seed) of the grid
-in a local process pool (default: one worker per core) or on a Ray cluster
+``compare_intersection`` runs every (method, demand, seed) of the grid in a
+local process pool (default: one worker per core) or on a Ray cluster
 (``backend="ray"``), shows a progress bar and writes to ``out``:
 
-* ``results.csv``: one row per run (columns :data:`CSV_COLUMNS`: ``method,
-  throughput, seed, collisions, lost, achieved_throughput, mean_speed,
-  speed_fluctuation, mean_delay, ...``);
-* ``runs/<method>_tp<throughput>_seed<seed>.json``: the run's metrics;
-* ``mean_speed_vs_throughput.png`` and ``speed_fluctuation_vs_throughput.png``
-  (the paper's Fig. 14 a and b: seed mean per method, min-max band), plus
-  ``achieved_throughput_vs_throughput.png`` and ``mean_delay_vs_throughput.png``;
-* ``summary.json``: per method and throughput, the seed means and the
-  collision / lost totals.
+* ``results.csv``: one row per run (columns :data:`CSV_COLUMNS`);
+* ``runs/<method>_tp<demand>_seed<seed>.json``: the run's metrics;
+* ``summary.json``: per method and demand the seed mean and 95% confidence
+  interval (Student t over seeds) of every figure, collision and jam totals,
+  and per method the capacity (below);
+* plots against the demand, seed mean with its 95% CI band:
+  ``mean_speed``, ``speed_fluctuation`` (the paper's Fig. 14 a and b),
+  ``achieved_throughput`` (with the demand diagonal), ``mean_delay``,
+  ``pet_min``, ``jammed``.
 
-Definitions (one place each): ``mean_speed`` and ``speed_fluctuation`` (mean
-|a|) over all vehicle-substeps, :mod:`icv_envs.experiments.metrics`;
-``throughput`` is the demand (vehicles/h generated at R3, all legs);
-``achieved_throughput`` the vehicles/h that cleared the box over the run
-(lower than the demand in short runs: nothing clears during the first ~80 s,
-the free-flow travel time from R3); ``mean_delay`` the mean over vehicles
-that cleared the box of their travel time from R3 minus that distance at
-the desired speed (10 m/s), so a vehicle faster than 10 m/s has a negative
-delay; ``lost`` = spawned - removed - left_road - remaining - crashed_removed
-must be 0.
+Definitions (one place each, :mod:`icv_envs.sim.intersection_metrics`):
+``throughput`` is the DEMAND (vehicles/h generated at R3, all legs);
+``mean_speed``, ``speed_fluctuation`` (mean |dv/dt| of the realised speed),
+``speed_std``, ``stopped_share``, ``commanded_abs_accel`` over all
+vehicle-substeps; ``pet_min`` / ``pet_p05`` post-encroachment time at the
+conflict areas; ``jammed`` vehicles stopped > 10 s outside a queue at the
+box; ``achieved_throughput`` the vehicles/h that cleared the box over the
+run (the sweep runs a warm-up of ``warmup`` seconds, default 100 s: the
+free-flow time from R3 to the box is 78 s, so the statistics start with the
+zones filled); ``mean_delay`` the mean over vehicles that cleared the box of
+their travel time from R3 minus that distance at 10 m/s; ``lost`` =
+spawned - removed - left_road - remaining - crashed_removed must be 0.
+
+Capacity (our definition, the paper gives none): the achieved throughput
+follows the demand while the method serves what arrives; once the demand
+exceeds what the method can serve, vehicles queue (in the zones and at the
+spawn points) and the achieved throughput stops growing.  ``capacity`` of a
+method is the largest swept demand whose seed-mean achieved throughput is at
+least :data:`SERVED_SHARE` (95%) of the demand AND for which every smaller
+swept demand passes too; ``saturated_at`` is the next swept demand (the
+first that fails), ``None`` if none fails (capacity not reached in the
+sweep); ``max_achieved`` is the largest seed-mean achieved throughput seen.
 """
 
 from __future__ import annotations
@@ -38,16 +50,25 @@ import numpy as np
 
 from icv_envs.envs.intersection import MAX_THROUGHPUT, METHODS
 from icv_envs.experiments.compare import check_backend, run_jobs
+from icv_envs.experiments.seeds import parse_seeds
 
-__all__ = ["CSV_COLUMNS", "METHODS", "validate_grid", "run_intersection", "compare_intersection",
-           "summarise", "plot_results"]
+__all__ = ["CSV_COLUMNS", "METHODS", "DEFAULT_DEMANDS", "SERVED_SHARE", "validate_grid", "run_intersection",
+           "compare_intersection", "collect_runs", "summarise", "capacity", "mean_ci", "plot_results"]
 
 CSV_COLUMNS = [
-    "method", "throughput", "seed", "seconds", "lane_use", "collisions", "lost", "achieved_throughput",
-    "mean_speed", "speed_fluctuation", "mean_delay", "spawned", "cleared", "remaining", "queued",
-    "envelope_box_binding", "virtual_cap_binding", "wall_seconds", "real_time_factor",
+    "method", "throughput", "seed", "seconds", "warmup", "lane_use", "collisions", "jammed",
+    "jammed_vehicle_seconds", "lost", "achieved_throughput", "mean_speed", "speed_fluctuation", "speed_std",
+    "stopped_share", "commanded_abs_accel", "mean_delay", "pet_min", "pet_p05", "pet_samples", "spawned",
+    "cleared", "remaining", "queued", "not_spawned", "envelope_box_binding", "virtual_cap_binding",
+    "wall_seconds", "real_time_factor",
 ]
-_COLOURS = {"multi-vp": "tab:red", "single-vp": "tab:blue", "fcfs": "tab:grey"}
+#: default demand sweep [veh/h]: 500 to 5000 in steps of 500
+DEFAULT_DEMANDS = [float(v) for v in range(500, 5001, 500)]
+#: share of the demand the achieved throughput must reach for the demand to count as served
+SERVED_SHARE = 0.95
+_FIGURES = ("achieved_throughput", "mean_speed", "speed_fluctuation", "speed_std", "stopped_share",
+            "commanded_abs_accel", "mean_delay", "pet_p05", "remaining", "queued")
+_COLOURS = {"multi-vp": "tab:red", "single-vp": "tab:blue", "fcfs": "tab:grey", "fcfs-tight": "tab:green"}
 
 
 def validate_grid(methods, throughputs, seeds, seconds) -> None:
@@ -63,14 +84,14 @@ def validate_grid(methods, throughputs, seeds, seconds) -> None:
     for v in throughputs:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= MAX_THROUGHPUT:
             raise ValueError(f"throughput {v!r} is invalid; allowed: 0 < throughput <= {MAX_THROUGHPUT:g} vehicles/h")
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"seeds = {seeds!r}; allowed: an integer >= 1 (runs use seeds 0..seeds-1)")
+    parse_seeds(seeds)
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds) or seconds <= 0:
         raise ValueError(f"seconds = {seconds!r}; allowed: a number > 0")
 
 
 def run_intersection(method: str, throughput: float, seed: int, seconds: float, config: dict | None = None) -> dict:
-    """One run of the intersection driven by the method's expert; returns its metrics."""
+    """One run of the intersection driven by the method's expert; returns its metrics (``config`` may set
+    ``warmup``: seconds run before the clock and the statistics start)."""
     from icv_envs.envs.intersection_v0 import parallel_env
 
     cfg = {"expert_in_info": False}
@@ -84,9 +105,11 @@ def run_intersection(method: str, throughput: float, seed: int, seconds: float, 
         env.step({a: ex[a] for a in env.agents})
     wall = time.perf_counter() - t0
     m = env.metrics()
-    m.update({"seed": int(seed), "seconds": float(seconds), "wall_seconds": wall,
+    m.update({"seed": int(seed), "seconds": float(seconds), "warmup": float(cfg.get("warmup", 0.0)),
+              "wall_seconds": wall,
               "real_time_factor": float(seconds) / wall if wall > 0 else None,
-              "collision_log": [list(c) for c in env.core.world.collision_log[:50]]})
+              "collision_log": [list(c) for c in env.core.world.collision_log[:50]],
+              "jam_log": [list(j) for j in env.core.world.jams.log[:50]]})
     env.close()
     return m
 
@@ -99,10 +122,14 @@ def _tag(method, throughput, seed) -> str:
     return f"{method}_tp{throughput:g}_seed{seed}"
 
 
-def compare_intersection(methods, throughputs, seeds: int, seconds: float, out, backend: str = "process",
+def compare_intersection(methods, throughputs, seeds, seconds: float, out, backend: str = "process",
                          workers: int | None = None, progress: bool = True, config: dict | None = None) -> dict:
-    """Run the grid (see the module docstring) and write CSV, JSON and plots to ``out``."""
+    """Run the grid (see the module docstring) and write CSV, JSON and plots to ``out``.
+
+    ``seeds``: a count N (seeds 0..N-1) or a seed list / range string
+    (:func:`icv_envs.experiments.seeds.parse_seeds`)."""
     validate_grid(methods, throughputs, seeds, seconds)
+    seeds = parse_seeds(seeds)
     check_backend(backend)
     if config:
         # fail fast on a bad config, before starting workers
@@ -111,7 +138,7 @@ def compare_intersection(methods, throughputs, seeds: int, seconds: float, out, 
         IntersectionEnv(dict(config, duration=1.0))
     out = Path(out)
     (out / "runs").mkdir(parents=True, exist_ok=True)
-    jobs = [(m, float(v), s, float(seconds), config) for m in methods for v in throughputs for s in range(seeds)]
+    jobs = [(m, float(v), s, float(seconds), config) for m in methods for v in throughputs for s in seeds]
     results = run_jobs(_run_job, jobs, backend, workers, progress, "intersection runs")
     order = list(methods)
     results.sort(key=lambda r: (order.index(r["method"]), r["throughput"], r["seed"]))
@@ -128,28 +155,96 @@ def compare_intersection(methods, throughputs, seeds: int, seconds: float, out, 
     return summary
 
 
+def collect_runs(parts, out) -> dict:
+    """Merge the ``runs/*.json`` of earlier sweeps (directories ``parts``, for
+    example one per demand) into one ``results.csv``, ``summary.json`` and
+    plot set in ``out``: a sweep that is run piecewise ends up as one."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    results = []
+    for d in parts:
+        files = sorted(Path(d, "runs").glob("*.json"))
+        if not files:
+            raise ValueError(f"no runs/*.json in {d!r}")
+        results += [json.loads(fp.read_text()) for fp in files]
+    results.sort(key=lambda r: (METHODS.index(r["method"]), r["throughput"], r["seed"]))
+    with open(out / "results.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
+        w.writeheader()
+        for r in results:
+            w.writerow({k: r.get(k) for k in CSV_COLUMNS})
+    summary = summarise(results)
+    summary["plots"] = plot_results(results, out)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
+
+
+def mean_ci(values) -> tuple[float | None, float | None]:
+    """Seed mean and the half width of its 95% confidence interval (Student t,
+    ``n - 1`` degrees of freedom; ``None`` half width for one value)."""
+    x = np.asarray([v for v in values if v is not None and math.isfinite(v)], dtype=np.float64)
+    if not len(x):
+        return None, None
+    if len(x) == 1:
+        return float(x[0]), None
+    from scipy.stats import t
+
+    return float(x.mean()), float(t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / math.sqrt(len(x)))
+
+
+def capacity(rows) -> dict:
+    """Capacity of one method from its table rows (module docstring): ``{"capacity",
+    "saturated_at", "max_achieved"}``."""
+    rows = sorted(rows, key=lambda r: r["throughput"])
+    cap, sat = None, None
+    for r in rows:
+        if r["achieved_throughput"] is not None and r["achieved_throughput"] >= SERVED_SHARE * r["throughput"]:
+            cap = r["throughput"]
+        else:
+            sat = r["throughput"]
+            break
+    ach = [r["achieved_throughput"] for r in rows if r["achieved_throughput"] is not None]
+    return {"capacity": cap, "saturated_at": sat, "max_achieved": max(ach) if ach else None}
+
+
 def summarise(results) -> dict:
     rows = {}
     for r in results:
         rows.setdefault((r["method"], r["throughput"]), []).append(r)
     table = []
     for (m, v), rs in sorted(rows.items(), key=lambda kv: (kv[0][1], METHODS.index(kv[0][0]))):
-        delays = [x["mean_delay"] for x in rs if x["mean_delay"] is not None]
-        table.append({
-            "method": m, "throughput": v, "seeds": len(rs),
-            **{k: float(np.mean([x[k] for x in rs])) for k in ("achieved_throughput", "mean_speed",
-                                                                 "speed_fluctuation", "remaining", "queued")},
-            "mean_delay": float(np.mean(delays)) if delays else None,
+        row = {"method": m, "throughput": v, "seeds": len(rs), "seed_list": sorted(x["seed"] for x in rs)}
+        for k in _FIGURES:
+            row[k], row[k + "_ci95"] = mean_ci([x.get(k) for x in rs])
+        pm = [x["pet_min"] for x in rs if x.get("pet_min") is not None]
+        row["pet_min"] = float(min(pm)) if pm else None  # the minimum over all runs
+        row["pet_min_mean"], row["pet_min_ci95"] = mean_ci(pm)
+        row.update({
             "collisions": int(sum(x["collisions"] for x in rs)),
+            "jammed": int(sum(x.get("jammed", 0) for x in rs)),
+            "runs_with_jams": int(sum(1 for x in rs if x.get("jammed", 0))),
             "lost": int(sum(x["lost"] for x in rs)),
             "envelope_box_binding": int(sum(x.get("envelope_box_binding", 0) for x in rs)),
         })
-    return {"runs": len(results), "table": table,
+        table.append(row)
+    caps = {m: capacity([r for r in table if r["method"] == m]) for m in dict.fromkeys(r["method"] for r in table)}
+    return {"runs": len(results), "table": table, "capacity": caps, "served_share": SERVED_SHARE,
             "collisions": int(sum(r["collisions"] for r in results)),
+            "jammed": int(sum(r.get("jammed", 0) for r in results)),
             "lost": int(sum(r["lost"] for r in results))}
 
 
+_PLOTS = (("mean_speed", "average speed [m/s]"),
+          ("speed_fluctuation", "speed fluctuation: mean |dv/dt| realised [m/s$^2$]"),
+          ("achieved_throughput", "achieved throughput [veh/h]"),
+          ("mean_delay", "mean delay [s]"),
+          ("pet_min", "minimum PET over the runs [s]"),
+          ("jammed", "jammed vehicles per run"))
+
+
 def plot_results(results, out) -> list[str]:
+    """One PNG per figure of :data:`_PLOTS`: seed mean per method, 95% CI band
+    (for ``pet_min`` the minimum over the seeds, no band)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -158,30 +253,39 @@ def plot_results(results, out) -> list[str]:
     out = Path(out)
     methods = sorted({r["method"] for r in results}, key=lambda m: METHODS.index(m))
     files = []
-    for key, label in (("mean_speed", "average speed [m/s]"),
-                       ("speed_fluctuation", "average speed fluctuation: mean |a| [m/s$^2$]"),
-                       ("achieved_throughput", "achieved throughput [veh/h]"),
-                       ("mean_delay", "mean delay [s]")):
-        fig, ax = plt.subplots(figsize=(6, 4))
+    for key, label in _PLOTS:
+        fig, ax = plt.subplots(figsize=(6.4, 4.2))
         for m in methods:
-            vs = sorted({r["throughput"] for r in results if r["method"] == m})
-            ys = [[r[key] for r in results if r["method"] == m and r["throughput"] == v and r[key] is not None]
-                  for v in vs]
-            keep = [i for i, y in enumerate(ys) if y]
-            vs = [vs[i] for i in keep]
-            ys = [ys[i] for i in keep]
+            vs, ys, lo, hi = [], [], [], []
+            for v in sorted({r["throughput"] for r in results if r["method"] == m}):
+                vals = [r.get(key) for r in results if r["method"] == m and r["throughput"] == v]
+                vals = [x for x in vals if x is not None]
+                if not vals:
+                    continue
+                if key == "pet_min":
+                    mu, h = float(min(vals)), None
+                else:
+                    mu, h = mean_ci(vals)
+                vs.append(v)
+                ys.append(mu)
+                lo.append(mu - (h or 0.0))
+                hi.append(mu + (h or 0.0))
             if not vs:
                 continue
-            ax.plot(vs, [np.mean(y) for y in ys], "o-", color=_COLOURS.get(m), label=m)
-            ax.fill_between(vs, [min(y) for y in ys], [max(y) for y in ys], color=_COLOURS.get(m), alpha=0.15)
+            ax.plot(vs, ys, "o-", color=_COLOURS.get(m), label=m, ms=4)
+            ax.fill_between(vs, lo, hi, color=_COLOURS.get(m), alpha=0.15)
         if key == "achieved_throughput":
             lim = max(r["throughput"] for r in results)
             ax.plot([0, lim], [0, lim], ":", color="k", lw=0.8, label="demand")
-        ax.set_xlabel("throughput demand [vehicles/h entering the intersection]")
+        seeds = sorted({r["seed"] for r in results})
+        ax.set_xlabel("demand [vehicles/h entering the intersection, all legs]")
         ax.set_ylabel(label)
-        ax.set_title(f"Intersection: {key.replace('_', ' ')} vs throughput")
+        band = ", band: 95% CI over seeds" if len(seeds) > 1 and key != "pet_min" else ""
+        ax.set_title(f"Intersection: {key.replace('_', ' ')} ({len(seeds)} seed{'s' if len(seeds) != 1 else ''}{band})",
+                     fontsize=10)
         ax.grid(alpha=0.3)
-        ax.legend()
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
         fig.tight_layout()
         path = out / f"{key}_vs_throughput.png"
         fig.savefig(path, dpi=120)
@@ -206,27 +310,36 @@ def parse_throughputs(text: str) -> list[float]:
 
 def run_cli(args, echo=print) -> dict:
     """``icv-envs compare intersection``: ``args`` has ``methods`` (list or comma
-    string; default all three), ``throughput`` (list or comma string),
-    ``seeds``, ``seconds``, ``out``, ``backend``, ``workers`` and optionally
-    ``lane_use``.  Prints one line per (method, throughput) and returns the
-    summary (the CLI prints it as the last JSON line)."""
-    methods = getattr(args, "methods", None) or list(METHODS)
+    string; default multi-vp, single-vp, fcfs), ``throughput`` (list or comma
+    string; default :data:`DEFAULT_DEMANDS`), ``seeds`` (count, list or range
+    string), ``seconds``, ``out``, ``backend``, ``workers`` and optionally
+    ``lane_use`` and ``warmup`` (default 100 s).  Prints one line per (method,
+    demand) and one per method with its capacity, and returns the summary
+    (the CLI prints it as the last JSON line)."""
+    methods = getattr(args, "methods", None) or ["multi-vp", "single-vp", "fcfs"]
     if isinstance(methods, str):
         methods = [m.strip() for m in methods.split(",") if m.strip()]
-    tps = getattr(args, "throughput", None) or [1000.0, 1500.0, 2000.0, 2500.0, 3000.0]
+    tps = getattr(args, "throughput", None) or list(DEFAULT_DEMANDS)
     if isinstance(tps, str):
         tps = parse_throughputs(tps)
-    config = {}
+    config = {"warmup": float(getattr(args, "warmup", None) if getattr(args, "warmup", None) is not None else 100.0)}
     if getattr(args, "lane_use", None):
         config["lane_use"] = args.lane_use
     summary = compare_intersection(methods, tps, args.seeds, float(args.seconds), args.out,
                                    backend=getattr(args, "backend", "process"),
-                                   workers=getattr(args, "workers", None), progress=True, config=config or None)
+                                   workers=getattr(args, "workers", None), progress=getattr(args, "progress", True),
+                                   config=config or None)
+
+    def f(x, fmt):
+        return "n/a" if x is None else format(x, fmt)
+
     for row in summary["table"]:
-        delay = "n/a" if row["mean_delay"] is None else f"{row['mean_delay']:6.2f}"
-        echo(f"{row['method']:9s} throughput={row['throughput']:<6g} achieved={row['achieved_throughput']:7.1f} "
-             f"mean_speed={row['mean_speed']:6.2f} speed_fluctuation={row['speed_fluctuation']:.3f} "
-             f"mean_delay={delay} collisions={row['collisions']} lost={row['lost']}")
+        echo(f"{row['method']:10s} demand={row['throughput']:<6g} achieved={f(row['achieved_throughput'], '7.1f')} "
+             f"mean_speed={f(row['mean_speed'], '6.2f')} speed_fluctuation={f(row['speed_fluctuation'], '.3f')} "
+             f"mean_delay={f(row['mean_delay'], '6.2f')} pet_min={f(row['pet_min'], '.2f')} "
+             f"collisions={row['collisions']} jammed={row['jammed']} lost={row['lost']}")
+    for m, c in summary["capacity"].items():
+        echo(f"{m:10s} capacity={c['capacity']} saturated_at={c['saturated_at']} max_achieved={f(c['max_achieved'], '.0f')}")
     summary["out"] = str(args.out)
     return summary
 
@@ -237,9 +350,10 @@ if __name__ == "__main__":  # pragma: no cover
 
     p = argparse.ArgumentParser(description="intersection sweep (see the module docstring)")
     p.add_argument("--methods", default="multi-vp,single-vp,fcfs")
-    p.add_argument("--throughput", default="1000,1500,2000,2500,3000")
-    p.add_argument("--seeds", type=int, default=3)
+    p.add_argument("--throughput", default=",".join(f"{v:g}" for v in DEFAULT_DEMANDS))
+    p.add_argument("--seeds", default="3")
     p.add_argument("--seconds", type=float, default=600.0)
+    p.add_argument("--warmup", type=float, default=100.0)
     p.add_argument("--out", default="intersection_out")
     p.add_argument("--backend", default="process")
     p.add_argument("--workers", type=int, default=None)

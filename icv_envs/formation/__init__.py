@@ -1,7 +1,7 @@
 """One-dimensional formation algorithms of Xu et al. (IET ITS 2021), pure numpy.
 
 - :mod:`.targets`: interlaced / parallel target generation (Sec. 3.1-3.2,
-  eq. (xy) corrected per NOTES.md §2).
+  eq. (xy) corrected per docs/formation.md#target-equation).
 - :mod:`.assignment`: minimum-cost vehicle-to-target assignment (Sec. 3.3).
 - :mod:`.bezier`: cubic Bezier lane change and preview steering (Sec. 3.4).
 - :mod:`.control`: longitudinal feedback law (Sec. 2.2, eq. (law)).

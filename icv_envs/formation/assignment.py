@@ -6,7 +6,7 @@ one-to-one assignments (a 0-1 integer programme, eq. (lp), i.e. the linear
 assignment problem).  The paper solves it with the Hungarian algorithm; we use
 ``scipy.optimize.linear_sum_assignment`` (exact, O(N^3), deterministic).
 
-Coordinates are in the formation frame (NOTES.md §2): ``x`` in metres BEHIND
+Coordinates are in the formation frame (docs/formation.md#layers): ``x`` in metres BEHIND
 the front target, ``y`` in lane ids (1 = leftmost).
 """
 
@@ -22,9 +22,9 @@ from scipy.optimize import linear_sum_assignment
 
 __all__ = ["DEFAULT_W1", "DEFAULT_W2", "assignment_cost", "assign_targets", "total_cost"]
 
-#: Weight of the squared longitudinal distance (paper Sec. 3.3 / NOTES.md §2).
+#: Weight of the squared longitudinal distance (paper Sec. 3.3 / docs/formation.md#assignment).
 DEFAULT_W1: float = 1.0
-#: Weight of the squared number of lane changes (paper Sec. 3.3 / NOTES.md §2).
+#: Weight of the squared number of lane changes (paper Sec. 3.3 / docs/formation.md#assignment).
 DEFAULT_W2: float = 10.0
 
 
@@ -66,7 +66,7 @@ def assignment_cost(
         F_w(i, j) = w1 (x_gj - x_vi)^2 + w2 (y_gj - y_vi)^2
 
     with ``x`` in metres behind the formation front and ``y`` in lane ids,
-    both in the formation frame.  ``w1 = 1, w2 = 10`` by default (NOTES.md §2).
+    both in the formation frame.  ``w1 = 1, w2 = 10`` by default (docs/formation.md#assignment).
     Lane ids may be fractional (a vehicle in the middle of a lane change).
 
     Args:

@@ -2,7 +2,7 @@
 
 Paper Sec. 2.2 and Sec. 3.4 (Xu et al., IET ITS 2021): lane keeping and lane
 changes follow a 3rd-order Bezier curve, tracked with a preview steering law
-(NOTES.md §1).  The paper does not give the control points; we use the
+(docs/formation.md#lane-changes).  The paper does not give the control points; we use the
 standard symmetric choice, in road coordinates (``x`` forward, ``y`` lateral)::
 
     P0 = (x0, y0),  P1 = (x0 + D/2, y0),  P2 = (x0 + D/2, y1),  P3 = (x0 + D, y1)
@@ -188,7 +188,7 @@ def pure_pursuit_steering(
     """Preview (pure-pursuit) steering angle for the rear-axle bicycle model.
 
     Paper Sec. 2.2 ("the preview method is chosen to guide vehicle to follow
-    the trajectory"; NOTES.md §1).  With the preview point at angle ``alpha``
+    the trajectory"; docs/formation.md#preview-steering).  With the preview point at angle ``alpha``
     in the vehicle frame and distance ``l_d`` from the rear axle, the circle
     through the rear axle tangent to the heading and through the preview point
     has curvature ``2 sin(alpha) / l_d``; the bicycle model

@@ -9,7 +9,7 @@ Targets are grouped into layers (at most one target per lane); every layer is
 split into two sublayers whose lanes are never adjacent; adjacent sublayers
 are ``L_s`` apart.  The printed equation (xy) of the paper is wrong (it yields
 lanes 0 and -1 for ``N_l = 5``); :func:`interlaced_targets` implements the
-corrected form from NOTES.md §2.
+corrected form from docs/formation.md#target-equation.
 
 All functions are pure numpy, vectorised over the vehicle index.
 """
@@ -91,7 +91,7 @@ def interlaced_targets(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Targets of the interlaced formation (paper Fig. 1a, Fig. 2).
 
-    Paper Sec. 3.2, eq. (xy), corrected per NOTES.md §2.  For target
+    Paper Sec. 3.2, eq. (xy), corrected per docs/formation.md#target-equation.  For target
     ``i = 1..N`` on ``N_l`` lanes with sublayer gap ``L_s``::
 
         k = mod(i - 1, N_l) + 1          # position inside its layer

@@ -1,6 +1,6 @@
 """Improved virtual platoon at a multi-lane unsignalized intersection, pure numpy.
 
-Paper Sec. 4-5 (Xu et al., IET ITS 2021), NOTES.md §4.  Simulator-independent
+Paper Sec. 4-5 (Xu et al., IET ITS 2021), docs/intersection.md.  Simulator-independent
 building blocks for the intersection environment:
 
 - :mod:`.geometry`: legs, the 12 movements (id ``3 * leg + turn``), lane-use

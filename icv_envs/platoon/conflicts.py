@@ -1,6 +1,6 @@
 """Conflict model of the 12 movements, derived from geometry and lane use.
 
-Paper Sec. 4.2 (Fig. "conflict relationships", lost in print), NOTES.md §4.
+Paper Sec. 4.2 (Fig. "conflict relationships", lost in print), docs/intersection.md#conflicts.
 Three kinds of conflict between two movements ``i != j``:
 
 - ``"crossing"``: some lane path of ``i`` and some lane path of ``j`` (over the

@@ -1,4 +1,4 @@
-"""Geometry of the multi-lane unsignalized intersection (paper Sec. 4, NOTES.md §4).
+"""Geometry of the multi-lane unsignalized intersection (paper Sec. 4, docs/intersection.md#geometry).
 
 Pure numpy, simulator-independent: legs, movements, lane-use tables and the
 centreline polylines of every (movement, approach lane) inside the box.

@@ -1,4 +1,4 @@
-"""Tile reservation, first come first served (Dresner & Stone's AIM; NOTES.md §4).
+"""Tile reservation, first come first served (Dresner & Stone's AIM; docs/intersection.md#reference-methods).
 
 The reference method of the paper's comparison (Sec. 6): the box
 ``|x|, |y| <= box_half`` is a grid of square tiles; a vehicle asks for the
@@ -42,7 +42,7 @@ __all__ = [
     "simulate_path_occupancy",
 ]
 
-#: Tile side in metres ("about 1 m", NOTES.md §4).
+#: Tile side in metres ("about 1 m", docs/methods.md#fcfs).
 DEFAULT_TILE: float = 1.0
 #: Simulation step in seconds (paper Table 2).
 DEFAULT_DT: float = 0.04

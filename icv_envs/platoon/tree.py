@@ -1,6 +1,6 @@
 """Improved virtual platoon: tree-layers and reference positions (paper Sec. 4.2).
 
-NOTES.md §4.  In the coordinating zone every sub-formation (vehicles with the
+docs/intersection.md#tree-layers.  In the coordinating zone every sub-formation (vehicles with the
 same movement) is a node.  Real nodes are numbered ``1..m`` in increasing
 distance of their first vehicle to the intersection centre; node 0 is the
 virtual leader, which conflicts with every node.  The "improved depth-first

@@ -1,6 +1,6 @@
 """First-come-first-served tile reservation at the intersection (the paper's reference).
 
-After Dresner & Stone's AIM (NOTES.md §4), with the tile table of
+After Dresner & Stone's AIM (docs/intersection.md#reference-methods), with the tile table of
 :class:`icv_envs.platoon.reservation.ReservationTable`.  The approaching and
 adjusting zones are those of :class:`~icv_envs.policies.platoon_expert.
 PlatoonExpert` (interlaced formations, division, lane changes to the
@@ -11,8 +11,10 @@ There every vehicle drives on its own (IDM, 1 s time gap, towards ``v0``):
 * every policy step, each vehicle without a reservation that is in its
   expected (allowed) lane, within ``request_distance`` (80 m) of the stop
   line and first in its lane among the vehicles without a reservation asks
-  for the tiles its footprint, buffered by ``space_buffer`` (0.5 m) on every
-  side, covers at every simulation step of a proposed crossing: from its
+  for the tiles its footprint, buffered by ``space_buffer`` on every side
+  (0.5 m here and in the env's ``fcfs-tight``; 0 in the env's ``fcfs``,
+  whose buffers match the virtual platoon's minimum PET, see
+  ``icv_envs.envs.intersection._FCFS_DEFAULTS``), covers at every simulation step of a proposed crossing: from its
   current position and speed, accelerate at ``a_plan`` (1.5 m/s^2) to ``v0``
   and hold it until the buffered body has left the box.  The tiles of a
   path at every position are precomputed (0.1 m apart, the buffer grown by
@@ -20,7 +22,7 @@ There every vehicle drives on its own (IDM, 1 s time gap, towards ``v0``):
 * requests are answered in arrival order (the order in which vehicles
   entered the coordinating zone): a request is granted iff none of its tiles
   is held by another vehicle at that step or within ``time_buffer`` steps
-  (0.2 s) of it, and a proposal that would not keep 2 m + 0.5 s of headway
+  (5 = 0.2 s here and in ``fcfs-tight``, 0 in ``fcfs``) of it, and a proposal that would not keep 2 m + 0.5 s of headway
   behind the reserved plan of the vehicle ahead in the same lane is not
   sent, nor one that would not keep that headway to a reserved vehicle
   leaving by the same departure lane (the tiles only cover the box);

@@ -15,10 +15,15 @@ For every ICV it returns an action in the agents' action space
   from its lane changes lanes one lane at a time along a cubic Bezier curve
   (:func:`icv_envs.formation.bezier.lane_change_lateral`), tracked with a
   preview (pure-pursuit) steering law; otherwise it keeps its lane centre.
-* **Longitudinal** (paper Sec. 2.2, eq. (law)): members track their target
-  with ``a = k_p (X - X_ref) + k_v (v - v_ref)``; free ICVs (joining from a
-  ramp before they are assigned, leaving for an exit) drive IDM at the lane's
-  desired speed.
+* **Longitudinal** (paper Sec. 2.2, eq. (law)): members track their
+  reference with ``a = a_ref + k_p (X - X_ref) + k_v (v - v_ref)``, where
+  the formation layer's reference moves smoothly from where the member
+  joined to its slot (:func:`icv_envs.formation.control.join_profile`) and
+  ``a_ref`` is its acceleration fed forward; the gains follow from a damping
+  ratio of 1 and the largest error the feedback handles alone
+  (:mod:`icv_envs.formation.control`). Free ICVs (joining from a ramp before
+  they are assigned, leaving for an exit) drive IDM at the lane's desired
+  speed.
 * **Safety layer** (the "lower-level controller" the paper delegates to,
   Sec. 3.4): the command is capped by IDM's interaction term towards the
   leader in every lane the vehicle occupies or is moving into, and towards the
@@ -41,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from icv_envs.formation.bezier import lane_change_lateral, pure_pursuit_steering
-from icv_envs.formation.control import longitudinal_feedback
+from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, longitudinal_feedback
 from icv_envs.sim.traffic import LAT_ACCEL_MAX, followers, idm_acceleration, leaders
 
 
@@ -69,9 +74,8 @@ class ExpertParams:
     ramp_speed: float = 15.0  # free ICVs on the ramp lane [m/s]
     exit_speed: float = 20.0  # free ICVs heading for their exit (paper Table 1: fourth lane 20 m/s)
     blocked_slowdown: float = 3.0  # [m/s] a vehicle whose lane change is refused slows by this to find a gap
-    kp: float = -0.3
-    kv: float = -1.1
-    ref_error_clip: float = 50.0  # [m] position error fed to the feedback law is clipped to +-this
+    kp: float = DEFAULT_KP  # -0.3 1/s^2 (zeta = 1, omega_n = 0.548 rad/s; icv_envs.formation.control)
+    kv: float = DEFAULT_KV  # -1.095 1/s
     # formation keeping uses comfortable limits; the safety envelope may still
     # brake down to a_min
     comfort_accel: tuple = (-2.0, 1.5)
@@ -336,12 +340,14 @@ class FormationExpert:
             )
         if member.any():
             m = np.flatnonzero(member)
-            # bounded reference: with a_max = 3 the clipped law overshoots for
-            # errors beyond ~100 m; clipping the error to +-ref_error_clip keeps
-            # the closing speed small enough that it never does
-            x_eff = cx[m] + np.clip(road.wrap(x_ref[m] - cx[m]), -p.ref_error_clip, p.ref_error_clip)
+            # the reference starts where the member joined and moves to its
+            # slot smoothly (the formation layer re-plans it when the member
+            # falls more than 5 m off), so the error seen here stays small
+            a_ref = world.manager.reference_accel(tr)[m]
+            x_eff = cx[m] + road.wrap(x_ref[m] - cx[m])
             acc[m] = longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], p.kp, p.kv,
-                                           max(p.a_min, p.comfort_accel[0]), min(p.a_max, p.comfort_accel[1]))
+                                           max(p.a_min, p.comfort_accel[0]), min(p.a_max, p.comfort_accel[1]),
+                                           a_ref=a_ref)
             # control floor: do not command speeds below the configured minimum
             # (braking is faded out as v approaches v_min; the safety cap below still wins)
             acc[m] = np.maximum(acc[m], 1.0 * (p.v_min - v[m]))

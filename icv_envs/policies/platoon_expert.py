@@ -1,6 +1,11 @@
 """Intersection experts: vehicle regrouping and the improved virtual platoon.
 
-Paper Sec. 4-5 (Xu et al., IET ITS 2021), NOTES.md §4.  One class,
+Paper Sec. 4-5 (Xu et al., IET ITS 2021), docs/intersection.md.  The code follows the paper's
+sections: regrouping (Sec. 5: division, lane change, adjusting, merging) in
+:mod:`icv_envs.policies.regrouping`, the virtual platoon (Sec. 4.2: nodes,
+tree, references) in :mod:`icv_envs.policies.virtual_platoon`, shared state
+and the corridor index in :mod:`icv_envs.policies.platoon_common`, and the
+control (references to actions, safety envelope) here.  One class,
 :class:`PlatoonExpert`, is both the coordination layer (run by the
 environment every policy step, as V2X infrastructure would) and the
 per-vehicle controller that turns its references into actions in the agents'
@@ -54,8 +59,21 @@ Adjusting zone (regrouping, Sec. 5), when the formation's front crosses ``R2``
        theirs lies between them.
 Coordinating zone (virtual platoon, Sec. 4.2)
     A sub-formation becomes a node when its first vehicle crosses ``R1``
-    (``single-vp``: every vehicle when it crosses ``R1``).  Every policy step
-    the nodes are sorted by the distance ``X`` of their first vehicle,
+    (``single-vp``: every vehicle when it crosses ``R1``), with only its
+    SETTLED members (in their expected lane, no lane change left, at most
+    ``settle_tolerance`` = 15 m behind their slot): the longest settled
+    prefix in target order becomes the node, the rest stays a sub-formation
+    and becomes a node of its own once settled (issue 8: a member still
+    changing lanes held its node's bound over every later conflicting node,
+    whose stopped vehicles then blocked its lane change, a circular wait).
+    Inside ``R1`` no lane change is required: a vehicle not yet in its
+    expected lane but in a lane its movement may use keeps that lane.  A
+    vehicle of the zone that is not in a node stops before the stop line.
+    The nodes keep the order in which they entered (``vp_order``, see
+    :meth:`PlatoonExpert._insert_node`: the paper's distance order at ``R1``,
+    except that a late node never pre-empts a conflicting node of another
+    leg that can no longer stop comfortably behind it, and never goes
+    before a node it physically follows in its own leg);
     :func:`icv_envs.platoon.tree.tree_depths` gives the tree-layers over the
     derived conflict matrix, and
     :func:`icv_envs.platoon.tree.reference_positions` the paper's references
@@ -79,8 +97,10 @@ Coordinating zone (virtual platoon, Sec. 4.2)
     whatever their speeds (``D_t >= required_layer_gap``, checked by the
     environment).
 Safety envelope
-    The command is capped by IDM's interaction term towards the leader in
-    every corridor the vehicle occupies: the approach lanes it covers (or is
+    The command is capped by IDM's interaction term and by Gipps' (1981)
+    safe speed (stop behind the leader even if it brakes at ``|a_min|`` now,
+    reacting one policy period later) towards the leader in every corridor
+    the vehicle occupies: the approach lanes it covers (or is
     changing into, or waits to change into, which makes the follower there
     yield), its path through the box, its departure lane.  Members of one
     (sub-)formation use a short time gap (0.25 s, ``s0`` 1 m) so the 9 m
@@ -92,6 +112,10 @@ Safety envelope
     ``stats["envelope_box_binding_member"]`` counts the same within one
     node, where the envelope is the formation's own car following; and
     ``envelope_in_box=False`` switches it off in the box (tests run that).
+    A vehicle slower than 1 m/s in the box whose body covers a vehicle's
+    path ahead (whatever path it is on itself) is treated as a leader too
+    (:meth:`PlatoonExpert._path_obstacles`; issue 11: an fcfs vehicle with a
+    reservation drove into a vehicle stopped in the box).
 
 Lateral control: pure pursuit (:func:`icv_envs.formation.bezier.
 pure_pursuit_steering`) on a preview point ``max(preview_min, v *
@@ -110,20 +134,28 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from icv_envs.formation.assignment import assign_targets
 from icv_envs.formation.bezier import lane_change_lateral, pure_pursuit_steering
 from icv_envs.formation.control import longitudinal_feedback
-from icv_envs.formation.targets import formation_length, interlaced_targets
-from icv_envs.platoon.tree import DEFAULT_D_T, reference_positions, tree_depths
+from icv_envs.platoon.tree import DEFAULT_D_T
+from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
+    MODE_FOLLOW,
+    MODE_FREE,
+    MODE_PLAN,
+    MODE_TREE,
+    ST_ADJUSTED,
+    ST_APPROACH,
+    ST_COORD,
+    ST_LC,
+    Corridors,
+)
+from icv_envs.policies.regrouping import Regrouping
+from icv_envs.policies.virtual_platoon import VirtualPlatoon
 from icv_envs.sim.traffic import idm_acceleration
 
 __all__ = ["PlatoonParams", "PlatoonExpert", "VP_METHODS", "Corridors", "MODE_FREE", "MODE_FOLLOW",
            "MODE_TREE", "MODE_PLAN"]
 
 VP_METHODS = ("multi-vp", "single-vp")
-MODE_FREE, MODE_FOLLOW, MODE_TREE, MODE_PLAN = 0, 1, 2, 3
-# vehicle stages
-ST_APPROACH, ST_LC, ST_ADJUSTED, ST_COORD = 0, 1, 2, 3
 
 
 @dataclass
@@ -148,6 +180,7 @@ class PlatoonParams:
     merge_range: float = 60.0  # [m] rear of the front sub-formation to the first of the rear one
     max_node_size: int = 12
     slot_tolerance: float = 4.0  # [m] a vehicle in division starts its lane change this close to its slot
+    settle_tolerance: float = 15.0  # [m] at most this far (one outside slot L_s) behind its slot to join a node
     lc_duration: float = 3.0  # [s] Bezier length = clip(v * lc_duration, lc_min_length, lc_max_length)
     lc_min_length: float = 15.0
     lc_max_length: float = 40.0
@@ -169,117 +202,7 @@ class PlatoonParams:
     extra: dict = field(default_factory=dict)
 
 
-class Corridors:
-    """Per-corridor sorted index of the vehicles (the "per-path neighbour search").
-
-    Corridors: approach lane ``3 leg + lane`` (0..11; a vehicle is listed in
-    every lane its body covers by more than 0.3 m, in the lane it is
-    changing into and in the lane it waits to change into; in-box vehicles
-    stay listed in their approach lane for their first ``diverge`` metres);
-    departure lane ``12 + 3 exit + lane`` (departed vehicles and in-box
-    vehicles within ``diverge`` metres of the exit edge, coordinate ``s - L``);
-    path ``24 + pid`` (in-box vehicles, coordinate ``s``).  One sorted key
-    array, so every leader query is a ``searchsorted``.
-    """
-
-    BIG = 1.0e5
-
-    def __init__(self, world, rs, signal_lane, diverge: float = 10.0) -> None:
-        f = world.fleet
-        lay = world.layout
-        w = lay.lane_width
-        n = f.n
-        rows, corr, coord = [], [], []
-        appr = rs.phase == 0
-        idx = np.arange(n)
-        reach = 0.5 * (w + f.width) - 0.3
-        for dl in (-1, 0, 1):
-            ln = rs.lane + dl
-            ok = appr & (ln >= 0) & (ln < 3) & (np.abs(rs.lat_leg - (ln + 0.5) * w) < reach)
-            rows.append(idx[ok])
-            corr.append((3 * f.leg + ln)[ok])
-            coord.append(rs.s[ok])
-        sig = appr & (signal_lane >= 0)
-        if sig.any():
-            rows.append(idx[sig])
-            corr.append((3 * f.leg + signal_lane)[sig])
-            coord.append(rs.s[sig])
-        box = rs.phase == 1
-        if box.any():
-            rows.append(idx[box])
-            corr.append(24 + rs.pid[box])
-            coord.append(rs.s[box])
-            early = box & (rs.s < diverge)
-            rows.append(idx[early])
-            corr.append((3 * f.leg + np.maximum(f.plane, 0))[early])
-            coord.append(rs.s[early])
-        dep = (rs.phase == 2) | (box & (rs.s > rs.L - diverge))
-        if dep.any():
-            ex = np.where(f.exit_leg >= 0, f.exit_leg, lay.exit_of[f.mv])
-            rows.append(idx[dep])
-            corr.append((12 + 3 * ex + lay.dlane[rs.pid])[dep])
-            coord.append((rs.s - rs.L)[dep])
-        rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
-        corr = np.concatenate(corr) if corr else np.zeros(0, dtype=np.int64)
-        coord = np.concatenate(coord) if coord else np.zeros(0)
-        if len(rows):
-            pair = rows * 64 + corr
-            _, first = np.unique(pair, return_index=True)
-            first = np.sort(first)
-            rows, corr, coord = rows[first], corr[first], coord[first]
-        keys = corr * self.BIG + coord
-        order = np.lexsort((rows, keys))
-        self.rows = rows[order].astype(np.int64)
-        self.corr = corr[order].astype(np.int64)
-        self.coord = coord[order]
-        self.keys = keys[order]
-        m = len(self.rows)
-        lead = np.full(m, -1, dtype=np.int64)
-        if m > 1:
-            same = self.corr[1:] == self.corr[:-1]
-            lead[:-1][same] = np.arange(1, m)[same]
-        self.lead = lead  # entry index of the leader of each entry (-1 none)
-
-    def neighbours(self, q_rows, q_corr, q_coord):
-        """Nearest other vehicle ahead (coordinate >) and behind (<=) in corridor ``q_corr``.
-
-        Returns ``(lead_row, lead_coord, foll_row, foll_coord)`` (-1 / +-inf when none).
-        """
-        q_rows = np.asarray(q_rows, dtype=np.int64)
-        k = len(q_rows)
-        lr = np.full(k, -1, dtype=np.int64)
-        lc = np.full(k, np.inf)
-        fr = np.full(k, -1, dtype=np.int64)
-        fc = np.full(k, -np.inf)
-        m = len(self.keys)
-        if not m or not k:
-            return lr, lc, fr, fc
-        qk = q_corr * self.BIG + q_coord
-        pos = np.searchsorted(self.keys, qk, side="right")
-        todo = np.ones(k, dtype=bool)
-        for j in range(4):
-            p = pos + j
-            valid = todo & (p < m)
-            pc = np.minimum(p, m - 1)
-            valid &= self.corr[pc] == q_corr
-            hit = valid & (self.rows[pc] != q_rows)
-            lr[hit] = self.rows[pc[hit]]
-            lc[hit] = self.coord[pc[hit]]
-            todo &= ~hit & valid
-        todo = np.ones(k, dtype=bool)
-        for j in range(1, 5):
-            p = pos - j
-            valid = todo & (p >= 0)
-            pc = np.maximum(p, 0)
-            valid &= self.corr[pc] == q_corr
-            hit = valid & (self.rows[pc] != q_rows)
-            fr[hit] = self.rows[pc[hit]]
-            fc[hit] = self.coord[pc[hit]]
-            todo &= ~hit & valid
-        return lr, lc, fr, fc
-
-
-class PlatoonExpert:
+class PlatoonExpert(Regrouping, VirtualPlatoon):
     """Coordination layer + controller for all vehicles of an
     :class:`~icv_envs.sim.intersection_world.IntersectionWorld`.
 
@@ -305,13 +228,16 @@ class PlatoonExpert:
         self.nodes: dict[int, dict] = {}  # virtual-platoon nodes
         self.node_depth: dict[int, int] = {}
         self.node_order: list[int] = []
+        self.vp_order: list[int] = []  # node ids in the virtual platoon's order
         self._stamp = None
         self._order_counter = 0
         self._tree = None
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self._vcap = np.zeros(0)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
-                      "nodes": 0, "lane_changes": 0}
+                      "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
+                      "path_obstacle_binding": 0, "node_yielded": 0,
+                      "held_at_line": 0}
 
     # ---------------------------------------------------------------- fields
     def attach(self, world) -> None:
@@ -380,498 +306,7 @@ class PlatoonExpert:
                 store[k]["members"] = [v for v in store[k]["members"] if v in alive]
                 if not store[k]["members"]:
                     del store[k]
-
-    # ------------------------------------------------------------ lane changes
-    def _lane_change_progress(self, world, rs) -> None:
-        f = world.fleet
-        act = np.flatnonzero(f.lc_lane >= 0)
-        if not len(act):
-            return
-        entered = rs.phase[act] > 0
-        u = rs.u[act]
-        lat_plan, _ = lane_change_lateral(u, f.lc_u0[act], f.lc_lat0[act], f.lc_lat1[act], f.lc_len[act])
-        stray = np.abs(lat_plan - rs.lat_leg[act]) > self.p.replan_tolerance
-        done = (u >= f.lc_u0[act] + f.lc_len[act]) & (np.abs(rs.lat_leg[act] - f.lc_lat1[act]) < 0.4)
-        fin = act[done | entered]
-        f.klane[fin] = f.lc_lane[fin]
-        bad = act[stray & ~done & ~entered]
-        f.klane[bad] = rs.lane[bad]
-        f.lc_lane[fin] = -1
-        f.lc_lane[bad] = -1
-
-    def _start_lane_changes(self, world, rs) -> None:
-        p = self.p
-        f = world.fleet
-        lay = world.layout
-        f.want[:] = -1
-        need = (f.klane != f.tlane) & (f.lc_lane < 0) & (rs.phase == 0) & (f.stage >= ST_LC)
-        if not need.any():
-            return
-        rows = np.flatnonzero(need)
-        # vehicles in division start only near their slot
-        ready = np.ones(len(rows), dtype=bool)
-        dv = f.stage[rows] == ST_LC
-        if dv.any():
-            err = self._slot_error(world, rs, rows[dv])
-            ready[dv] = np.abs(err) < p.slot_tolerance
-        nxt = f.klane[rows] + np.sign(f.tlane[rows] - f.klane[rows])
-        # courtesy signal: a ready vehicle in the coordinating zone (or queued)
-        # is listed in the lane it needs, so the vehicle behind there makes room
-        sig = ready & ((rs.dist[rows] <= lay.R1) | (f.speed[rows] < 2.0))
-        f.want[rows[sig]] = nxt[sig]
-        rows, nxt = rows[ready], nxt[ready]
-        if not len(rows):
-            return
-        v = f.speed[rows]
-        length = np.clip(v * p.lc_duration, p.lc_min_length, p.lc_max_length)
-        u = rs.u[rows]
-        room = -u - p.lc_stop_room
-        length = np.minimum(length, room)
-        ok = length >= p.lc_min_length * 0.75
-        cor = Corridors(world, rs, np.where(f.lc_lane >= 0, f.lc_lane, -1))
-        lr, lc_, fr, fc = cor.neighbours(rows, 3 * f.leg[rows] + nxt, u)
-        ln = f.length[rows]
-        gap_f = np.where(lr >= 0, lc_ - u - 0.5 * (f.length[np.maximum(lr, 0)] + ln), np.inf)
-        gap_r = np.where(fr >= 0, u - fc - 0.5 * (f.length[np.maximum(fr, 0)] + ln), np.inf)
-        vl = np.where(lr >= 0, f.speed[np.maximum(lr, 0)], v)
-        vf = np.where(fr >= 0, f.speed[np.maximum(fr, 0)], 0.0)
-        own = idm_acceleration(v, p.v_max, gap_f, v - vl, p.a_max, p.idm_b, p.member_T, p.member_s0, free_term=False)
-        fol = idm_acceleration(vf, p.v_max, gap_r, vf - v, p.a_max, p.idm_b, p.member_T, p.member_s0,
-                               free_term=False)
-        ok &= (gap_f > p.lc_min_gap) & (gap_r > p.lc_min_gap) & (own > -p.b_safe) & (fol > -p.b_safe)
-        # two vehicles must not start into the same lane side by side in one step
-        cand = np.flatnonzero(ok)
-        if len(cand) > 1:
-            key = 3 * f.leg[rows[cand]] + nxt[cand]
-            o = cand[np.lexsort((-u[cand], key))]
-            ko = 3 * f.leg[rows[o]] + nxt[o]
-            close = (ko[1:] == ko[:-1]) & (np.abs(u[o][1:] - u[o][:-1]) < 12.0)
-            drop = np.zeros(len(o), dtype=bool)
-            for k in np.flatnonzero(close):
-                if not drop[k]:
-                    drop[k + 1] = True
-            ok[o[drop]] = False
-        start = rows[ok]
-        if len(start):
-            f.lc_lane[start] = nxt[ok]
-            f.lc_u0[start] = u[ok]
-            f.lc_lat0[start] = rs.lat_leg[start]
-            f.lc_lat1[start] = (nxt[ok] + 0.5) * lay.lane_width
-            f.lc_len[start] = length[ok]
-            self.stats["lane_changes"] += len(start)
-
-    # ----------------------------------------------------- approach, division
-    def _approach_and_division(self, world, rs) -> None:
-        f = world.fleet
-        for fid, F in list(self.formations.items()):
-            if F["divided"]:
-                continue
-            rows = f.rows(F["members"])
-            front = rows[np.argmax(rs.u[rows])]
-            if rs.dist[front] <= world.layout.R2:
-                self._divide(world, rs, F, rows)
-                continue
-            # approaching: members track the front with their spawn slots
-            f.ref[rows] = f.vid[front]
-            f.xg[rows] = f.fslot[rows] - f.fslot[front]
-            f.ref[front] = -1
-            f.xg[front] = 0.0
-
-    def _divide(self, world, rs, F, rows) -> None:
-        """Division (Sec. 5): split by movement, keep every lane's order, one file of slots ``gap_out`` apart."""
-        p = self.p
-        f = world.fleet
-        lay = world.layout
-        F["divided"] = True
-        self.stats["divisions"] += 1
-        order = rows[np.lexsort((f.klane[rows], -rs.u[rows]))]
-        queues = [[r for r in order if f.klane[r] == ln] for ln in range(3)]
-        seq, groups = [], []
-        cur = None
-        while any(queues):
-            heads = [(q[0], ln) for ln, q in enumerate(queues) if q]
-            same = [h for h in heads if f.mv[h[0]] == cur]
-            if same:
-                r, ln = max(same, key=lambda h: rs.u[h[0]])
-            else:
-                r, ln = max(heads, key=lambda h: rs.u[h[0]])
-                cur = int(f.mv[r])
-                groups.append([])
-            queues[ln].pop(0)
-            seq.append(r)
-            groups[-1].append(r)
-        front = seq[0]
-        for rank, r in enumerate(seq):
-            f.ref[r] = f.vid[front] if rank else -1
-            f.xg[r] = rank * p.gap_out
-            f.stage[r] = ST_LC
-        for g in groups:
-            g = np.asarray(g, dtype=np.int64)
-            mv = int(f.mv[g[0]])
-            lanes = lay.lane_use[mv]
-            sid = self._new_id()
-            n = len(g)
-            if len(lanes) == 1:
-                tl = np.full(n, lanes[0])
-                tidx = np.arange(n)
-            else:
-                tx, tlid = interlaced_targets(n, len(lanes), p.gap_out)
-                vx = rs.u[g[0]] - rs.u[g]
-                vl = f.klane[g] - lanes[0] + 1
-                asg = assign_targets(vx, vl, tx, tlid, p.w1, p.w2)
-                tidx = asg
-                tl = np.asarray(lanes)[tlid[asg] - 1]
-            f.tlane[g] = tl
-            f.tidx[g] = tidx
-            f.sub[g] = sid
-            members = [int(f.vid[r]) for r in g[np.argsort(tidx)]]
-            self.subs[sid] = {"id": sid, "leg": int(f.leg[g[0]]), "mv": mv, "members": members,
-                              "lanes": tuple(lanes), "state": "lc", "form": F["id"]}
-            self.stats["subformations"] += 1
-
-    def _slot_error(self, world, rs, rows) -> np.ndarray:
-        f = world.fleet
-        ref = f.rows(f.ref[rows])
-        ok = ref >= 0
-        err = np.zeros(len(rows))
-        err[ok] = rs.u[rows[ok]] - (rs.u[ref[ok]] - f.xg[rows[ok]])
-        return err
-
-    # ------------------------------------------------------ adjusting, merging
-    def _set_sub_targets(self, world, S) -> None:
-        """Interlaced targets with the in-zone gap behind the sub-formation's first vehicle."""
-        f = world.fleet
-        rows = f.rows(S["members"])
-        n = len(rows)
-        tx, _ = interlaced_targets(n, len(S["lanes"]), self.p.gap_in)
-        # within each lane, hand that lane's targets out in the physical order
-        # (a vehicle is never asked to overtake another in its own lane)
-        dist = world.route().dist[rows]
-        tidx = f.tidx[rows].copy()
-        for ln in np.unique(f.tlane[rows]):
-            k = np.flatnonzero(f.tlane[rows] == ln)
-            tidx[k[np.argsort(dist[k], kind="stable")]] = np.sort(tidx[k])
-        f.tidx[rows] = tidx
-        # compact target indices in member order (members are kept sorted by target)
-        rank = np.argsort(np.argsort(tidx, kind="stable"), kind="stable")
-        f.tidx[rows] = rank
-        first = rows[rank == 0][0]
-        f.ref[rows] = f.vid[first]
-        f.xg[rows] = tx[rank]
-        f.ref[first] = -1
-        f.xg[first] = 0.0
-
-    def _adjusting(self, world, rs) -> None:
-        f = world.fleet
-        for sid, S in self.subs.items():
-            if S["state"] != "lc":
-                continue
-            rows = f.rows(S["members"])
-            if np.all((f.klane[rows] == f.tlane[rows]) & (f.lc_lane[rows] < 0)):
-                S["state"] = "adjusted"
-                f.stage[rows] = np.maximum(f.stage[rows], ST_ADJUSTED)
-                self._set_sub_targets(world, S)
-
-    def _merging(self, world, rs) -> None:
-        p = self.p
-        f = world.fleet
-        lay = world.layout
-        if not self.subs:
-            return
-        info = []
-        for sid, S in self.subs.items():
-            rows = f.rows(S["members"])
-            info.append((sid, S["leg"], S["mv"], float(rs.dist[rows].min()), float(rs.dist[rows].max()), S["state"]))
-        info.sort(key=lambda t: (t[1], t[3]))
-        merged = set()
-        for i, (sa, leg, mv, xa0, xa1, st) in enumerate(info):
-            if st != "adjusted" or sa in merged or xa0 <= lay.R1:
-                continue
-            A = self.subs[sa]
-            for sb, legb, mvb, xb0, xb1, stb in info[i + 1:]:
-                if legb != leg:
-                    break
-                if sb in merged:
-                    continue
-                if mvb != mv:
-                    if lay.conflict[mv, mvb]:
-                        break  # something conflicting lies between them
-                    continue
-                B = self.subs[sb]
-                if stb == "adjusted" and xb0 > lay.R1 and xb0 - xa1 <= p.merge_range \
-                        and len(A["members"]) + len(B["members"]) <= p.max_node_size:
-                    self._merge(world, rs, A, B)
-                    merged.add(sb)
-                    xa1 = max(xa1, xb1)
-                else:
-                    break  # the nearest same-movement sub-formation behind decides
-
-    def _merge(self, world, rs, A, B) -> None:
-        p = self.p
-        f = world.fleet
-        ra = f.rows(A["members"])
-        rb = f.rows(B["members"])
-        na, nb = len(ra), len(rb)
-        # A's targets are 0..na-1 (members that left may have left gaps)
-        f.tidx[ra] = np.argsort(np.argsort(f.tidx[ra], kind="stable"), kind="stable")
-        tx, tl = interlaced_targets(na + nb, len(A["lanes"]), p.gap_in)
-        first = ra[np.argmin(f.tidx[ra])]
-        vx = rs.u[first] - rs.u[rb]
-        vl = f.klane[rb] - A["lanes"][0] + 1
-        asg = assign_targets(vx, vl, tx[na:], tl[na:], p.w1, p.w2)
-        f.tidx[rb] = na + asg
-        f.tlane[rb] = np.asarray(A["lanes"])[tl[na + asg] - 1]
-        f.sub[rb] = A["id"]
-        f.form[rb] = f.form[first]
-        A["members"] = A["members"] + [int(f.vid[r]) for r in rb[np.argsort(asg)]]
-        del self.subs[B["id"]]
-        self.stats["merges"] += 1
-        self._set_sub_targets(world, A)
-        need_lc = f.tlane[rb] != f.klane[rb]
-        if need_lc.any():
-            # the sub-formation is re-adjusted once they are in lane; until then
-            # they keep the merged targets
-            A["state"] = "lc"
-            f.stage[rb[need_lc]] = ST_LC
-
-    # ------------------------------------------------------- coordinating zone
-    def _coordinate(self, world, rs) -> None:
-        """Nodes enter the virtual platoon; nodes that cleared the box leave."""
-        f = world.fleet
-        lay = world.layout
-        R1 = lay.R1
-        single = self.method == "single-vp"
-        for sid, S in list(self.subs.items()):
-            rows = f.rows(S["members"])
-            if single:
-                new = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0)]
-                for r in new:
-                    self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
-                if np.all(f.node[rows] >= 0):
-                    del self.subs[sid]
-                continue
-            first = rows[np.argmin(rs.dist[rows])]
-            if rs.dist[first] <= R1:
-                n_l = len(S["lanes"])
-                length = formation_length(len(rows), n_l, self.p.gap_in)
-                self._set_sub_targets(world, S)
-                self._new_node(world, list(S["members"]), S["mv"], n_lanes=n_l, length=length)
-                del self.subs[sid]
-        # vehicles in the zone without a sub-formation (not expected, but safe)
-        orphan = np.flatnonzero((rs.dist <= R1) & (f.node < 0) & (f.sub < 0) & (rs.phase < 2) & ~f.cleared)
-        for r in orphan:
-            self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
-        if not single:
-            self._detach_inverted(world, rs)
-        for nid, N in list(self.nodes.items()):
-            rows = f.rows(N["members"])
-            if np.all(f.cleared[rows]):
-                f.node[rows] = -1
-                f.ref[rows] = -1
-                del self.nodes[nid]
-
-    def _detach_inverted(self, world, rs) -> None:
-        """A node member whose leader in its approach lane is a vehicle of
-        another group (still before the box) would be ordered before it but
-        cannot pass it: that member and every member of its node further
-        from the centre leave the node and form a node of their own (ordered
-        after the foreign vehicle)."""
-        f = world.fleet
-        rows = np.flatnonzero((f.node >= 0) & (rs.phase == 0))
-        if not len(rows):
-            return
-        cor = Corridors(world, rs, np.full(f.n, -1))
-        lr, _, _, _ = cor.neighbours(rows, 3 * f.leg[rows] + rs.lane[rows], rs.s[rows])
-        lr0 = np.maximum(lr, 0)
-        bad = (lr >= 0) & (f.node[lr0] != f.node[rows]) & (rs.phase[lr0] == 0)
-        if not bad.any():
-            return
-        # only a foreign vehicle between the node's first vehicle and this member counts
-        first_d = {nid: float(rs.dist[f.rows(N["members"])].min()) for nid, N in self.nodes.items()}
-        fd = np.array([first_d.get(int(nd), np.inf) for nd in f.node[rows]])
-        bad &= (rs.dist[lr0] > fd + 1e-9) & (rs.dist[rows] > fd + 1e-9)
-        if not bad.any():
-            return
-        for nid in sorted(set(f.node[rows[bad]].tolist())):
-            N = self.nodes.get(nid)
-            if N is None:
-                continue
-            mrows = f.rows(N["members"])
-            cut = float(rs.dist[rows[bad & (f.node[rows] == nid)]].min())
-            first = mrows[np.argmin(rs.dist[mrows])]
-            out = mrows[(rs.dist[mrows] >= cut) & (mrows != first)]
-            if not len(out):
-                continue
-            keep = [int(v) for v in f.vid[mrows] if v not in set(f.vid[out].tolist())]
-            N["members"] = keep
-            N["length"] = formation_length(len(keep), N["n_lanes"], self.p.gap_in)
-            n_out = len(out)
-            out = out[np.argsort(rs.dist[out])]
-            tx, _ = interlaced_targets(n_out, N["n_lanes"], self.p.gap_in)
-            f.ref[out] = f.vid[out[0]]
-            f.xg[out] = tx
-            f.ref[out[0]] = -1
-            self._new_node(world, [int(v) for v in f.vid[out]], N["mv"], N["n_lanes"],
-                           formation_length(n_out, N["n_lanes"], self.p.gap_in))
-            self.stats["detached"] += n_out
-
-    def _new_node(self, world, members, mv, n_lanes, length) -> None:
-        f = world.fleet
-        nid = self._new_id()
-        rows = f.rows(members)
-        self.nodes[nid] = {"id": nid, "mv": int(mv), "members": list(members), "n_lanes": n_lanes,
-                           "length": float(length)}
-        f.node[rows] = nid
-        f.stage[rows] = ST_COORD
-        if len(rows) == 1:
-            f.ref[rows] = -1
-            f.xg[rows] = 0.0
-        self.stats["nodes"] += 1
-
-    def tree(self, world, rs):
-        """Current virtual platoon: ``(node ids in order, depths (with the leader at 0), references)``."""
-        f = world.fleet
-        p = self.p
-        ids = list(self.nodes)
-        if not ids:
-            return [], np.zeros(1, dtype=np.int64), None
-        K = len(ids)
-        xf = np.empty(K)
-        rear = np.empty(K)
-        first = np.empty(K, dtype=np.int64)
-        rear_row = np.empty(K, dtype=np.int64)
-        mvs = np.empty(K, dtype=np.int64)
-        lens = np.empty(K)
-        key = np.empty(K)
-        for k, nid in enumerate(ids):
-            N = self.nodes[nid]
-            rows = f.rows(N["members"])
-            X = rs.X[rows]
-            i0 = int(np.argmin(rs.dist[rows]))
-            i1 = int(np.argmax(X))
-            first[k] = rows[i0]
-            rear_row[k] = rows[i1]
-            key[k] = rs.dist[rows[i0]]
-            xf[k] = X[i0]
-            rear[k] = X[i1]
-            mvs[k] = N["mv"]
-            lens[k] = N["length"]
-        # nodes in the order of their first vehicle's distance to the centre
-        o = np.lexsort((ids, key))
-        xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
-        ids = [ids[i] for i in o]
-        C = world.layout.conflict[np.ix_(mvs, mvs)]
-        depths = tree_depths(C)
-        refs = reference_positions(np.maximum.accumulate(xf), lens, depths, p.D_t)
-        U = np.triu(C, 1)
-        cand = np.where(U, rear[:, None] + p.D_t, -np.inf)
-        lb = cand.max(axis=0) if K else np.zeros(0)
-        pred = cand.argmax(axis=0) if K else np.zeros(0, dtype=np.int64)
-        return ids, depths, {"xf": xf, "rear": rear, "first": first, "rear_row": rear_row, "refs": refs,
-                             "lb": lb, "pred": pred, "mvs": mvs, "U": U}
-
-    # -------------------------------------------------------------- references
-    def _references(self, world, rs) -> None:
-        """Per-vehicle longitudinal mode and references for :meth:`compute`."""
-        p = self.p
-        f = world.fleet
-        lay = world.layout
-        n = f.n
-        mode = np.full(n, MODE_FREE, dtype=np.int64)
-        xref = np.zeros(n)  # MODE_FOLLOW: u reference; MODE_TREE: X reference
-        vref = np.full(n, p.v0)
-        tight = np.zeros(n, dtype=bool)  # the safety bound binds: full braking allowed
-        # formation following (approach / adjusting zones, and followers of nodes before R1)
-        fol = (f.ref >= 0) & (f.node < 0)
-        if fol.any():
-            k = np.flatnonzero(fol)
-            rr = f.rows(f.ref[k])
-            # safety net: two vehicles referring to each other (must not happen)
-            cyc = (rr >= 0) & (f.ref[np.maximum(rr, 0)] == f.vid[k]) & (rs.dist[k] < rs.dist[np.maximum(rr, 0)])
-            if cyc.any():
-                self.stats["ref_cycles_broken"] += int(cyc.sum())
-                f.ref[k[cyc]] = -1
-                rr[cyc] = -1
-            ok = rr >= 0
-            k, rr = k[ok], rr[ok]
-            mode[k] = MODE_FOLLOW
-            xref[k] = rs.u[rr] - f.xg[k]
-            vref[k] = f.speed[rr]
-        self.node_depth = {}
-        self.node_order = []
-        self._tree = None
-        self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-        if self.nodes:
-            ids, depths, T = self.tree(world, rs)
-            self.node_order = ids
-            for k, nid in enumerate(ids):
-                self.node_depth[nid] = int(depths[k + 1])
-            pos = {nid: k for k, nid in enumerate(ids)}
-            rows_all, kk = [], []
-            for nid in ids:
-                rows = f.rows(self.nodes[nid]["members"])
-                rows_all.append(rows)
-                kk.append(np.full(len(rows), pos[nid]))
-            rows_all = np.concatenate(rows_all)
-            kk = np.concatenate(kk)
-            live = ~f.cleared[rows_all]
-            rows_all, kk = rows_all[live], kk[live]
-            self._tree, self._tree_rows = T, (rows_all, kk)
-            first = T["first"][kk]
-            is_first = rows_all == first
-            # a node's first vehicle never chases a reference ahead of it: it
-            # then drives at v0 (the virtual platoon only holds vehicles back)
-            paper = np.where(is_first, np.maximum(T["refs"][kk + 1], rs.X[rows_all]),
-                             rs.X[first] + f.xg[rows_all])
-            vpaper = np.where(is_first, p.v0, f.speed[first])
-            lb = T["lb"][kk]
-            bind = lb > paper
-            pred_rear = T["rear_row"][T["pred"][kk]]
-            mode[rows_all] = MODE_TREE
-            xref[rows_all] = np.where(bind, lb, paper)
-            vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
-            tight[rows_all] = bind
-        self._mode, self._xref, self._vref, self._tight = mode, xref, vref, tight
-        self._vcap = self._virtual_cap(world, rs)
-        # may a vehicle enter the box? only from an allowed lane, lane change finished
-        allowed = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
-        self._stop = (rs.phase == 0) & (~allowed | (f.lc_lane >= 0) | (f.klane != f.tlane))
-        self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
-
-    def _virtual_cap(self, world, rs) -> np.ndarray:
-        """Safe-speed cap in the virtual lane (Gipps): every not yet cleared
-        vehicle of node ``k`` keeps ``X_v - X_rear,i >= D_safe`` to the rearmost
-        vehicle of every earlier node ``i`` it conflicts with, even if that
-        vehicle brakes at ``|a_min|`` from now on and this one reacts
-        ``cap_tau`` later::
-
-            v_safe = -b tau + sqrt((b tau)^2 + v_i^2 + 2 b (X_v - X_rear,i - D_safe))
-            a_cap = (v_safe - v) / tau
-
-        In steady state at ``v0`` it keeps ``D_safe + v0 tau`` (21 m with the
-        defaults, = the default ``D_t``).  ``inf`` for vehicles outside the
-        virtual platoon."""
-        p = self.p
-        f = world.fleet
-        cap = np.full(f.n, np.inf)
-        T = self._tree
-        if T is None:
-            return cap
-        rows_all, kk = self._tree_rows
-        if not len(rows_all):
-            return cap
-        U = T["U"]
-        mask = U[:, kk].T  # (members, K): earlier conflicting nodes
-        if not mask.any():
-            return cap
-        b = abs(p.a_min)
-        tau = p.cap_tau
-        vr = f.speed[T["rear_row"]]
-        G = rs.X[rows_all][:, None] - T["rear"][None, :] - p.D_safe
-        vs = -b * tau + np.sqrt((b * tau) ** 2 + vr[None, :] ** 2 + 2.0 * b * np.maximum(G, 0.0))
-        vs = np.where(mask, vs, np.inf).min(axis=1)
-        cap[rows_all] = (vs - f.speed[rows_all]) / tau
-        return cap
+        self.vp_order = [k for k in self.vp_order if k in self.nodes]
 
     # ------------------------------------------------------------------ actions
     def _check_stamp(self, world) -> None:
@@ -960,6 +395,11 @@ class PlatoonExpert:
             v = f.speed[me]
             dv = v - f.speed[ld]
             safe = idm_acceleration(v, p.v_max, gap, dv, p.a_max, p.idm_b, T, s0, free_term=False)
+            # Gipps (1981) safe speed: stop behind the leader even if it brakes
+            # at |a_min| from now on and this vehicle reacts one policy period
+            # (cap_tau) later; IDM's interaction term alone does not guarantee
+            # it when a member closes in fast on a leader that brakes hard
+            safe = np.minimum(safe, self._gipps(v, f.speed[ld], gap - p.member_s0))
             if not p.envelope_in_box:
                 safe = np.where(rs.phase[me] == 1, np.inf, safe)
             np.minimum.at(cap, me, safe)
@@ -967,6 +407,16 @@ class PlatoonExpert:
             # what the coordination must make unnecessary)
             same = (grp[me] == grp[ld]) & (grp[me] >= 0)
             np.minimum.at(cap_other, me[~same], safe[~same])
+        # a (nearly) stopped vehicle in the box on this vehicle's path, whatever its own path
+        qi, oj, og = self._path_obstacles(world, rs)
+        if len(qi):
+            v = f.speed[qi]
+            vo = f.speed[oj]
+            safe = idm_acceleration(v, p.v_max, og, v - vo, p.a_max, p.idm_b, p.idm_T, p.idm_s0, free_term=False)
+            safe = np.minimum(safe, self._gipps(v, vo, og - p.member_s0))
+            np.minimum.at(cap, qi, safe)
+            np.minimum.at(cap_other, qi, safe)
+            self.stats["path_obstacle_binding"] += int((safe < 0).sum())
         # stop line for vehicles that may not enter
         st = np.flatnonzero(self._stop)
         if len(st):
@@ -979,6 +429,55 @@ class PlatoonExpert:
         self.stats["envelope_box_binding"] += int(other.sum())
         self.stats["envelope_box_binding_member"] += int((box & ~other).sum())
         return cap
+
+    def _path_obstacles(self, world, rs, v_stopped: float = 1.0, look: float = 60.0):
+        """Pairs ``(vehicle, obstacle, bumper gap)``: a vehicle slower than
+        ``v_stopped`` in the box (or within 10 m past it) whose body covers the
+        path of a vehicle approaching (within 40 m of the stop line) or in the
+        box, ahead of it by at most ``look`` metres.  The corridors only know
+        leaders on one's own lane or path; a vehicle stopped across it (after
+        a crash, or stopped by its own controller) must be seen too.  Lateral
+        test: the obstacle's rectangle, turned by its heading relative to the
+        path, overlaps the vehicle's width plus 0.2 m; gap: along the path,
+        bumper to the obstacle's nearest extent."""
+        f = world.fleet
+        lay = world.layout
+        e = np.zeros(0, dtype=np.int64)
+        obs = np.flatnonzero(((rs.phase == 1) | ((rs.phase == 2) & (rs.s - rs.L < 10.0))) & (f.speed < v_stopped))
+        if not len(obs):
+            return e, e, np.zeros(0)
+        q = np.flatnonzero((((rs.phase == 0) & (rs.u > -40.0)) | (rs.phase == 1)) & ~f.crashed)
+        if not len(q):
+            return e, e, np.zeros(0)
+        qi = np.repeat(q, len(obs))
+        oj = np.tile(obs, len(q))
+        k = qi != oj
+        qi, oj = qi[k], oj[k]
+        pid = rs.pid[qi]
+        s_o, lat_o = lay.project(pid, rs.cx[oj], rs.cy[oj], np.ones(len(qi), dtype=np.int64))
+        past = s_o > lay.L[pid]
+        if past.any():
+            s2, l2 = lay.project(pid[past], rs.cx[oj[past]], rs.cy[oj[past]], np.full(int(past.sum()), 2))
+            s_o[past], lat_o[past] = s2, l2
+        _, _, hp = lay.route_points(pid, s_o)
+        dh = f.heading[oj] - hp
+        c, sn = np.abs(np.cos(dh)), np.abs(np.sin(dh))
+        across = 0.5 * (f.length[oj] * sn + f.width[oj] * c)
+        along = 0.5 * (f.length[oj] * c + f.width[oj] * sn)
+        gap = s_o - along - rs.s[qi] - 0.5 * f.length[qi]
+        hit = (np.abs(lat_o) < 0.5 * f.width[qi] + across + 0.2) & (s_o > rs.s[qi]) & (gap < look)
+        return qi[hit], oj[hit], gap[hit]
+
+    def _gipps(self, v, v_lead, room) -> np.ndarray:
+        """Acceleration cap ``(v_safe - v) / tau`` with Gipps' safe speed
+        ``v_safe = -b tau + sqrt((b tau)^2 + v_lead^2 + 2 b room)``, ``b =
+        |a_min|``, ``tau = cap_tau`` (the policy period), ``room`` the bumper
+        gap minus the standstill margin."""
+        p = self.p
+        b = abs(p.a_min)
+        tau = p.cap_tau
+        vs = -b * tau + np.sqrt((b * tau) ** 2 + v_lead ** 2 + 2.0 * b * np.maximum(room, 0.0))
+        return (vs - v) / tau
 
     def _coordinated(self, f) -> np.ndarray:
         return f.node >= 0

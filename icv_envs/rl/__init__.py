@@ -3,6 +3,12 @@
 * :class:`icv_envs.rl.vec_env.ParallelVecEnv`: a PettingZoo parallel env whose
   agents join and leave, as a Stable-Baselines3 ``VecEnv`` for one shared
   policy (one slot per possible agent, absent agents masked).
+* :class:`icv_envs.rl.slots.SlotParallelEnv`: any env as a fixed set of ``K``
+  agent slots (reused as vehicles come and go, empty ones masked) for
+  SuperSuit's vector envs, RLlib's stock ``ParallelPettingZooEnv`` and
+  TorchRL's ``PettingZooWrapper``.
+* :func:`icv_envs.rl.dataset.record_expert_dataset`: the expert as a Minari
+  dataset (``icv-envs dataset``).
 * :mod:`icv_envs.rl.envs`: resolve env ids / module names, build envs.
 * :mod:`icv_envs.rl.models`: the model format of the ``baselines/`` scripts
   (SB3 ``model.zip`` + ``run.json``) and its loader.

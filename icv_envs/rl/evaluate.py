@@ -296,7 +296,7 @@ def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--policy", default="expert",
                    help="expert, zero, random, a reference method (idm, lane-lp on the highway-ramps env; "
                         "single-vp, fcfs on the intersection env), or a model directory / model.zip from baselines/")
-    p.add_argument("--episodes", type=int, default=5)
+    p.add_argument("--episodes", type=int, default=5, help="number of episodes (default 5)")
     p.add_argument("--seed", type=int, default=0, help="episode k is reset with seed + k")
     p.add_argument("--config", default=None,
                    help="JSON object (or .json file) of env config; default: the model's training config")

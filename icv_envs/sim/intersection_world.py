@@ -1,6 +1,6 @@
 """Vectorised 2-D simulation core of the multi-lane unsignalized intersection.
 
-Paper Sec. 4-5 and Table 2 (Xu et al., IET ITS 2021), NOTES.md §4.  Knows
+Paper Sec. 4-5 and Table 2 (Xu et al., IET ITS 2021), docs/intersection.md.  Knows
 nothing about Gymnasium, PettingZoo or the coordination methods: the
 environment :mod:`icv_envs.envs.intersection` and the policies in
 :mod:`icv_envs.policies.platoon_expert` / :mod:`icv_envs.policies.fcfs` are
@@ -69,6 +69,7 @@ import numpy as np
 
 from icv_envs.platoon.conflicts import conflict_model
 from icv_envs.platoon.geometry import LEGS, N_LANES, lane_use_table
+from icv_envs.sim.intersection_metrics import QUEUE_GAP, ConflictAreas, JamWatch, MotionStats, PetStats
 from icv_envs.sim.traffic import bicycle_step, find_collisions
 
 __all__ = [
@@ -456,6 +457,18 @@ class IntersectionWorld:
             "min_speed_in_box": math.inf,
         }
         self.collision_log: list[tuple[float, int, int]] = []
+        # run metrics (icv_envs.sim.intersection_metrics)
+        self.motion = MotionStats()
+        if not hasattr(layout, "_conflict_areas"):
+            layout._conflict_areas = ConflictAreas(layout)
+        self.pet = PetStats(layout._conflict_areas)
+        self.jams = JamWatch()
+
+    def reset_metrics(self) -> None:
+        """Restart the motion, PET and jam accumulators (after a warm-up)."""
+        self.motion.reset()
+        self.pet.reset()
+        self.jams.reset()
 
     # the highway env's code calls the fleet "traffic"
     @property
@@ -516,6 +529,7 @@ class IntersectionWorld:
         the module docstring."""
         f = self.fleet
         lay = self.layout
+        v_before = f.speed.copy()
         if f.n:
             a = np.where(f.crashed, -6.0, accel)
             st = np.where(f.crashed, 0.0, steer)
@@ -532,6 +546,7 @@ class IntersectionWorld:
         stt["vehicle_steps"] += f.n
         stt["speed_sum"] += float(f.speed.sum())
         stt["abs_accel_sum"] += float(np.abs(f.accel).sum())
+        self.motion.record(f.vid, v_before, f.speed, f.accel, self.dt)
         cx, cy = self.centers()
         b, w = lay.box_half, lay.lane_width
         leg = f.leg
@@ -590,6 +605,8 @@ class IntersectionWorld:
         if in_box.any():
             stt["min_speed_in_box"] = min(stt["min_speed_in_box"], float(f.speed[in_box].min()))
         left = appr & (u < -(lay.R3 - b + 50.0))
+        self._record_pet(cx, cy, u)
+        self.jams.record(self.time, self.dt, f.vid, f.speed, lambda rows: self._in_queue(rows, u, lat_leg))
         # collisions
         i, j = self.collision_pairs(cx, cy)
         if len(i):
@@ -610,6 +627,52 @@ class IntersectionWorld:
             stt["removed"] += int((removed & gone).sum())
             stt["left_road"] += int((left & gone).sum())
             f.remove(gone)
+
+    def _record_pet(self, cx, cy, u) -> None:
+        """Conflict-area occupancy of the vehicles near the box (PET, :mod:`icv_envs.sim.intersection_metrics`)."""
+        f = self.fleet
+        lay = self.layout
+        near = (u >= -20.0) & ~f.departed
+        if f.departed.any():
+            k = np.flatnonzero(f.departed)
+            e = f.exit_leg[k]
+            past = cx[k] * _OUT[e, 0] + cy[k] * _OUT[e, 1] - lay.box_half
+            near[k] = past < 20.0
+        k = np.flatnonzero(near & ~f.crashed)
+        plane = np.where(f.plane[k] >= 0, f.plane[k], f.tlane[k])
+        pid = 3 * f.mv[k] + plane
+        phase = np.where(f.departed[k], 2, np.where(f.entered[k], 1, 0))
+        s, _ = lay.project(pid, cx[k], cy[k], phase)
+        self.pet.record(self.time, f.vid[k], pid, s, f.length[k])
+
+    def _in_queue(self, rows, u, lat_leg) -> np.ndarray:
+        """Is each of ``rows`` in a queue at the box (the :class:`~icv_envs.sim.intersection_metrics.JamWatch` rule)?"""
+        f = self.fleet
+        w = self.layout.lane_width
+        appr = np.flatnonzero(~f.entered)
+        out = np.zeros(len(rows), dtype=bool)
+        if not len(appr):
+            return out
+        lane = np.clip(np.floor(lat_leg[appr] / w), 0, N_LANES - 1).astype(np.int64)
+        key = 3 * f.leg[appr] + lane
+        ua = u[appr]
+        o = np.lexsort((-ua, key))
+        a, key, ua = appr[o], key[o], ua[o]
+        ln = f.length[a]
+        first = np.ones(len(a), dtype=bool)
+        first[1:] = key[1:] != key[:-1]
+        gap = np.empty(len(a))
+        gap[first] = -ua[first] - 0.5 * ln[first]
+        nf = np.flatnonzero(~first)
+        gap[nf] = ua[nf - 1] - ua[nf] - 0.5 * (ln[nf - 1] + ln[nf])
+        brk = (gap >= QUEUE_GAP).astype(np.int64)
+        c = np.cumsum(brk)
+        start = np.maximum.accumulate(np.where(first, np.arange(len(a)), 0))
+        before = c[start] - brk[start]
+        queued = (c - before) == 0
+        inq = np.zeros(f.n, dtype=bool)
+        inq[a] = queued
+        return inq[np.asarray(rows, dtype=np.int64)]
 
     def collision_pairs(self, cx=None, cy=None) -> tuple[np.ndarray, np.ndarray]:
         """Colliding row pairs: sweep and prune along ``x`` over the east-west

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from icv_envs.sim._kernels import sweep_candidates
+
 __all__ = [
     "Traffic",
     "LaneIndex",
@@ -381,21 +383,11 @@ def find_collisions(cx, cy, heading, length, width, period: float | None = None)
     order = np.argsort(cx, kind="stable")
     xs, ys, hxs, hys = cx[order], cy[order], hx[order], hy[order]
     reach = 2.0 * hxs.max()
-    out_i, out_j = [], []
-    for k in range(1, n):
-        dx = xs[k:] - xs[:-k]
-        near = dx < reach
-        if not near.any():
-            break
-        cand = near & (dx < hxs[k:] + hxs[:-k]) & (np.abs(ys[k:] - ys[:-k]) < hys[k:] + hys[:-k])
-        if cand.any():
-            a = np.flatnonzero(cand)
-            out_i.append(order[a])
-            out_j.append(order[a + k])
-    if not out_i:
+    a, k = sweep_candidates(xs, ys, hxs, hys, reach)  # compiled sweep (icv_envs.sim._kernels)
+    if not len(a):
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    i = np.concatenate(out_i)
-    j = np.concatenate(out_j)
+    i = order[a]
+    j = order[a + k]
     hit = rect_overlap(cx[i], cy[i], heading[i], length[i], width[i], cx[j], cy[j], heading[j], length[j], width[j])
     return i[hit], j[hit]
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from icv_envs.sim.formations import FormationManager
+from icv_envs.sim.metrics import HeadwayStats, MotionStats
 from icv_envs.sim.road import RoadLayout
 from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, leaders, rect_overlap
 
@@ -60,20 +61,20 @@ class World:
         self.traffic = Traffic(wheelbase, period=road.length if road.periodic else None)
         self.time = 0.0
         self._index = None
-        # run metrics, accumulated every substep (see icv_envs.experiments.metrics)
+        # run metrics (definitions in icv_envs.sim.metrics): event counts here,
+        # speed/acceleration every substep in ``motion``, gaps and time
+        # headways every policy step in ``headways``
         self.stats = {
-            "vehicle_steps": 0,
-            "speed_sum": 0.0,
-            "abs_accel_sum": 0.0,
             "collisions": 0,
             "exited": 0,
             "left_road": 0,
-            "min_gap": np.inf,
             "missed_exits": 0,
             "crashed_removed": 0,
             "jammed": 0,
             "collisions_by_fault": {k: {"expert": 0, "policy": 0} for k in COLLISION_KINDS},
         }
+        self.motion = MotionStats()
+        self.headways = HeadwayStats()
         # ids of vehicles driven by the expert this step (set by the env,
         # :meth:`set_expert_driven`); None: all expert-driven
         self._expert_vids: set[int] | None = None
@@ -122,16 +123,15 @@ class World:
         if tr.n:
             accel = np.where(tr.crashed, -6.0, accel)
             steer = np.where(tr.crashed, 0.0, steer)
+            v_before = tr.speed
             tr.step(accel, steer, self.dt, self.v_max)
+            self.motion.record(tr.vid, v_before, tr.speed, tr.accel, self.dt)
             tr.stopped_for = np.where(tr.speed < 0.1, tr.stopped_for + self.dt, 0.0)
         self.time += self.dt
         self._index = None
         if not tr.n:
             return
         st = self.stats
-        st["vehicle_steps"] += tr.n
-        st["speed_sum"] += float(tr.speed.sum())
-        st["abs_accel_sum"] += float(np.abs(tr.accel).sum())
         cx, cy = tr.center()
         i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width,
                                period=self.road.length if self.road.periodic else None)
@@ -258,11 +258,12 @@ class World:
         """Per policy step: the smallest own-lane gap, and jam detection:
         ``stats["jammed"]`` counts the vehicles that have at some time stood
         longer than :data:`JAM_STOP_TIME` with at least :data:`JAM_FREE_GAP`
-        of free lane ahead (no leader, no lane end), each vehicle once."""
+        of free lane ahead (no leader, no lane end), each vehicle once.
+        The gaps and time headways feed :class:`icv_envs.sim.metrics.HeadwayStats`."""
         tr = self.traffic
         if tr.n > 1:
             gap, _ = self.own_lane_gaps()
-            self.stats["min_gap"] = min(self.stats["min_gap"], float(gap.min()))
+            self.headways.record(gap, self.traffic.speed)
         if tr.n:
             long_stop = tr.stopped_for > JAM_STOP_TIME
             if long_stop.any():

@@ -1,0 +1,150 @@
+"""Config validation shared by the environments.
+
+Every check raises ``ValueError`` (or ``TypeError`` for a value of the wrong
+kind where the key is still named) with a message naming the key, the value
+given and what is allowed; nothing is accepted and then ignored.
+
+The bounds below keep a run within memory and within the validity of the
+vehicle model; they are deliberately generous:
+
+* :data:`MAX_DURATION` (one day of simulated time): the arrival schedules of
+  the open-road envs and the per-step statistics grow linearly with it;
+* :data:`MAX_AGENTS` (possible agents of one env): PettingZoo's
+  ``possible_agents``, the space dicts and ``state()`` hold one entry per
+  possible agent;
+* :data:`MAX_ACCEL` (|a| <= 20 m/s^2, about 2 g): above any tyre-road friction
+  limit (dry asphalt mu ~ 1, so ~ 10 m/s^2), so no physical vehicle is excluded;
+* render sizes within :data:`MAX_SCREEN` pixels a side.
+"""
+
+from __future__ import annotations
+
+import math
+from numbers import Integral, Real
+
+import numpy as np
+
+__all__ = [
+    "MAX_DURATION", "MAX_AGENTS", "MAX_ACCEL", "MAX_SCREEN", "num", "section", "check_keys", "flag",
+    "accel_range", "speed_range", "check_render", "check_unused", "check_possible_agents",
+]
+
+MAX_DURATION = 86400.0  # s
+MAX_AGENTS = 200_000
+MAX_ACCEL = 20.0  # m/s^2
+MAX_SCREEN = 8192  # px
+
+
+def _is_real(v) -> bool:
+    return isinstance(v, (Real, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
+def num(config: dict, key: str, lo=None, hi=None, *, lo_open=False, integer=False, allowed: str = "",
+        where: str = "") -> float:
+    """``config[key]`` as a finite number within ``[lo, hi]`` (``(lo, hi]`` with
+    ``lo_open``); ``integer`` also requires an integral value."""
+    v = config[key]
+    ok = _is_real(v)
+    if ok:
+        try:
+            ok = math.isfinite(v)
+        except OverflowError:  # an int too large for a float
+            ok = False
+    if ok and integer:
+        ok = float(v) == int(v)
+    if ok and lo is not None:
+        ok = v > lo if lo_open else v >= lo
+    if ok and hi is not None:
+        ok = v <= hi
+    if not ok:
+        raise ValueError(f"config{where}[{key!r}] = {v!r} is invalid; allowed: {allowed}")
+    return int(v) if integer else float(v)
+
+
+def section(config: dict, name: str, *, optional: bool = False, where: str = "") -> dict | None:
+    """``config[name]`` must be a dict (or None when ``optional``)."""
+    v = config[name]
+    if v is None and optional:
+        return None
+    if not isinstance(v, dict):
+        allowed = "None or a dict" if optional else "a dict"
+        raise ValueError(f"config{where}[{name!r}] = {v!r} ({type(v).__name__}) is invalid; allowed: {allowed}")
+    return v
+
+
+def check_keys(d: dict, name: str, allowed, required=()) -> None:
+    """No keys beyond ``allowed`` and every key of ``required`` in section ``name``."""
+    unknown = sorted(map(str, set(d) - set(allowed)))
+    if unknown:
+        raise ValueError(f"unknown {name} keys {unknown}; allowed: {sorted(allowed)}")
+    missing = sorted(set(required) - set(d))
+    if missing:
+        raise ValueError(f"{name} needs the keys {missing}; got {d!r}")
+
+
+def flag(config: dict, key: str, optional: bool = False) -> None:
+    v = config[key]
+    if optional and v is None:
+        return
+    if not isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"config[{key!r}] = {v!r} is invalid; allowed: True or False" + (" or None" if optional else ""))
+
+
+def speed_range(config: dict) -> tuple[float, float]:
+    sr = config["speed_range"]
+    ok = isinstance(sr, (list, tuple)) and len(sr) == 2 and all(_is_real(v) for v in sr)
+    ok = ok and all(math.isfinite(v) for v in sr) and 0 <= sr[0] < sr[1] <= 100.0
+    if not ok:
+        raise ValueError(f"config['speed_range'] = {sr!r} is invalid; allowed: [v_min, v_max] with "
+                         f"0 <= v_min < v_max <= 100 m/s")
+    return float(sr[0]), float(sr[1])
+
+
+def accel_range(config: dict) -> tuple[float, float]:
+    ar = config["acceleration_range"]
+    ok = isinstance(ar, (list, tuple)) and len(ar) == 2 and all(_is_real(v) for v in ar)
+    ok = ok and all(math.isfinite(v) for v in ar) and -MAX_ACCEL <= ar[0] < 0 < ar[1] <= MAX_ACCEL
+    if not ok:
+        raise ValueError(f"config['acceleration_range'] = {ar!r} is invalid; allowed: [a_min, a_max] finite with "
+                         f"-{MAX_ACCEL:g} <= a_min < 0 < a_max <= {MAX_ACCEL:g} m/s^2")
+    return float(ar[0]), float(ar[1])
+
+
+def check_render(config: dict, flags=()) -> None:
+    """Render settings (highway-env's keys) checked before pygame sees them."""
+    for key in ("screen_width", "screen_height"):
+        num(config, key, 16, MAX_SCREEN, integer=True, allowed=f"an integer number of pixels in [16, {MAX_SCREEN}]")
+    num(config, "scaling", 0.0, 1e4, lo_open=True, allowed="a number of pixels per metre in (0, 10000]")
+    cp = config["centering_position"]
+    if not (isinstance(cp, (list, tuple)) and len(cp) == 2 and all(_is_real(v) and 0.0 <= v <= 1.0 for v in cp)):
+        raise ValueError(f"config['centering_position'] = {cp!r} is invalid; allowed: [x, y], fractions of the "
+                         f"screen in [0, 1]")
+    for key in ("real_time_rendering", "render_agent", *flags):
+        flag(config, key)
+    flag(config, "offscreen_rendering", optional=True)
+
+
+def check_unused(config: dict, defaults: dict, keys, env_name: str, why: dict | None = None) -> None:
+    """Keys this env inherits but does not use must keep their default:
+    an option accepted and then ignored is an error."""
+    why = why or {}
+    for key in keys:
+        if key in config and not _same(config[key], defaults[key]):
+            hint = why.get(key, "")
+            raise ValueError(f"config[{key!r}] = {config[key]!r} is not used by {env_name}"
+                             + (f" ({hint})" if hint else "") + f"; leave it at its default {defaults[key]!r}")
+
+
+def _same(a, b) -> bool:
+    try:
+        return bool(a == b) and type(a) is type(b) or (a is None and b is None) or (
+            _is_real(a) and _is_real(b) and a == b)
+    except Exception:  # noqa: BLE001 - arrays and other odd objects are simply "not the default"
+        return False
+
+
+def check_possible_agents(n: int, what: str) -> int:
+    if n > MAX_AGENTS:
+        raise ValueError(f"{what} gives {n} possible agents; allowed: at most {MAX_AGENTS} (MAX_AGENTS of "
+                         f"icv_envs.envs._config: every possible agent holds a slot in the spaces and in state())")
+    return n

@@ -1,0 +1,240 @@
+"""Observation types of the environments, highway-env style (``config["observation"]["type"]``).
+
+``Kinematics`` (the default)
+    A ``(vehicles_count, len(features))`` float32 array, highway-env's
+    ``KinematicObservation`` layout: row 0 is the observer, rows 1.. the
+    ``vehicles_count - 1`` nearest vehicles within ``perception_distance``
+    (the highway envs: by longitudinal distance, round the ring on
+    HighwayRamps; the intersection: by Euclidean distance of body centres),
+    nearest first, zero rows (presence 0) pad. Options, with highway-env's
+    names and meanings:
+
+    * ``features``: a list of the env's feature names (default: all of them,
+      the table of the module docstring, formation-target features included),
+      in the order given;
+    * ``vehicles_count`` (8), ``perception_distance`` (150 m highway, 100 m
+      intersection);
+    * ``absolute`` (False): False gives the other vehicles' ``x, y, vx, vy``
+      relative to the observer (row 0 is always absolute); True gives them
+      absolute;
+    * ``normalize`` (True): divide by the scales of the module docstring;
+      False gives SI units (metres, m/s) and a space unbounded in both
+      directions;
+    * ``clip`` (True): clip normalised values to [-1, 1] (the space is then
+      ``Box(-1, 1)``, else unbounded).
+
+``OccupancyGrid``
+    A ``(len(features), nx, ny)`` float32 grid around the observer
+    (highway-env's ``OccupancyGridObservation``): cell ``(i, j)`` covers
+    ``grid_size[0][0] + i * grid_step[0] <= dx < ... + grid_step[0]`` (and the
+    same for ``dy``), with ``dx, dy`` the offset of a vehicle's body centre
+    from the observer's (world axes, or the observer's own axes with
+    ``align_to_vehicle_axes``; round the ring on HighwayRamps). A cell holds
+    the features of the nearest vehicle in it (the observer itself is in its
+    own cell). Options: ``features`` (subset of ``presence, vx, vy, cos_h,
+    sin_h``; default ``presence, vx, vy``), ``grid_size``
+    (``[[-27.5, 27.5], [-27.5, 27.5]]`` m), ``grid_step`` (``[5, 5]`` m),
+    ``absolute`` (False: velocities relative to the observer's),
+    ``align_to_vehicle_axes`` (False), ``clip`` (True). ``vx, vy`` are divided
+    by ``2 v_max`` (highway-env's default range ``[-2 v_max, 2 v_max]``);
+    headings are unscaled (relative to the observer's with
+    ``align_to_vehicle_axes``). highway-env's ``on_road`` feature is not
+    available.
+
+An unknown type, option or feature raises ``ValueError`` naming it. The
+observation space is built once per configuration and is the one object every
+agent shares.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium import spaces
+
+__all__ = ["OBSERVATION_TYPES", "Kinematics", "OccupancyGrid", "observation_factory", "merge_observation_config"]
+
+
+def _bool(o: dict, k: str) -> bool:
+    if not isinstance(o[k], (bool, np.bool_)):
+        raise ValueError(f"observation {k} = {o[k]!r}; allowed: True or False")
+    return bool(o[k])
+
+
+class ObservationType:
+    name = ""
+    OPTIONS: dict = {}
+
+    def __init__(self, env, config: dict) -> None:
+        self.env = env
+        unknown = set(config) - set(self.OPTIONS) - {"type"}
+        if unknown:
+            raise ValueError(f"observation option(s) {sorted(unknown)} do not apply to type {self.name!r}; "
+                             f"allowed: {sorted(self.OPTIONS)}")
+        self.options = {**self.OPTIONS, **{k: v for k, v in config.items() if k != "type"}}
+
+    def _features(self, allowed, default) -> np.ndarray:
+        feats = self.options["features"]
+        if feats is None:
+            feats = list(default)
+        if isinstance(feats, str) or not isinstance(feats, (list, tuple)) or not feats:
+            raise ValueError(f"observation features = {feats!r}; allowed: a non-empty list of {list(allowed)}")
+        bad = [f for f in feats if f not in allowed]
+        if bad:
+            raise ValueError(f"unknown observation feature(s) {bad} for {self.name!r}; allowed: {list(allowed)}")
+        if len(set(feats)) != len(feats):
+            raise ValueError(f"observation features = {list(feats)} repeat a feature; allowed: each at most once")
+        self.features = tuple(feats)
+        return np.array([list(allowed).index(f) for f in feats], dtype=np.int64)
+
+    # highway-env's ObservationType interface (used by its viewer / wrappers)
+    def observe(self):
+        return self.env._ego_obs_info()[0]
+
+    def space(self):
+        return self.space_
+
+
+class Kinematics(ObservationType):
+    name = "Kinematics"
+    OPTIONS = {"features": None, "vehicles_count": 8, "perception_distance": None, "absolute": False,
+               "normalize": True, "clip": True}
+
+    def __init__(self, env, config: dict) -> None:
+        super().__init__(env, config)
+        from icv_envs.envs.highway_formation import _num
+
+        o = self.options
+        if o["perception_distance"] is None:
+            o["perception_distance"] = env.PERCEPTION_DISTANCE
+        self.V = _num(o, "vehicles_count", 1, 64, integer=True, allowed="an integer in [1, 64]")
+        o["vehicles_count"] = self.V
+        self.pd = _num(o, "perception_distance", 0.0, lo_open=True, allowed="a number > 0 metres")
+        self.idx = self._features(env.OBS_FEATURES, env.OBS_FEATURES)
+        self.absolute, self.normalize, self.clip = _bool(o, "absolute"), _bool(o, "normalize"), _bool(o, "clip")
+        bound = 1.0 if self.normalize and self.clip else np.inf
+        self.space_ = spaces.Box(-bound, bound, (self.V, len(self.idx)), dtype=np.float32)
+
+    def observe_rows(self, rows: np.ndarray, F: np.ndarray) -> np.ndarray:
+        env = self.env
+        V = self.V
+        out = np.zeros((len(rows), V, len(self.idx)), dtype=np.float32)
+        if not len(rows):
+            return out
+        s_abs, s_rel = env._obs_scales()
+        own = F[rows]
+        if self.normalize:
+            own = own / s_abs
+            if self.clip:
+                own = np.clip(own, -1, 1)
+        out[:, 0, :] = own[:, self.idx]
+        n = len(F)
+        if V > 1 and n > 1:
+            sel, present = env._neighbours(rows, F, V - 1, self.pd)
+            K = sel.shape[1]
+            other = F[sel].copy()
+            if not self.absolute:
+                other[..., 1:5] -= F[rows][:, None, 1:5]
+                other[..., 1] = env._wrap_dx(other[..., 1])
+            if self.normalize:
+                other = other / (s_abs if self.absolute else s_rel)
+                if self.clip:
+                    other = np.clip(other, -1, 1)
+            other[~present] = 0.0
+            out[:, 1:1 + K, :] = other[..., self.idx]
+        return out
+
+
+class OccupancyGrid(ObservationType):
+    name = "OccupancyGrid"
+    FEATURES = ("presence", "vx", "vy", "cos_h", "sin_h")
+    OPTIONS = {"features": None, "grid_size": [[-27.5, 27.5], [-27.5, 27.5]], "grid_step": [5.0, 5.0],
+               "absolute": False, "align_to_vehicle_axes": False, "clip": True}
+
+    def __init__(self, env, config: dict) -> None:
+        super().__init__(env, config)
+        o = self.options
+        self.idx = self._features(self.FEATURES, ("presence", "vx", "vy"))
+        try:
+            gs = np.asarray(o["grid_size"], dtype=np.float64)
+            st = np.asarray(o["grid_step"], dtype=np.float64)
+        except (TypeError, ValueError):
+            gs, st = np.zeros(0), np.zeros(0)
+        if gs.shape != (2, 2) or not np.all(np.isfinite(gs)) or np.any(gs[:, 1] <= gs[:, 0]):
+            raise ValueError(f"observation grid_size = {o['grid_size']!r}; allowed: [[x_min, x_max], [y_min, y_max]] "
+                             f"metres with min < max")
+        if st.shape != (2,) or not np.all(np.isfinite(st)) or np.any(st <= 0):
+            raise ValueError(f"observation grid_step = {o['grid_step']!r}; allowed: [step_x, step_y] metres > 0")
+        self.shape = tuple(int(v) for v in np.floor((gs[:, 1] - gs[:, 0]) / st + 1e-9))
+        if min(self.shape) < 1 or self.shape[0] * self.shape[1] > 10000:
+            raise ValueError(f"observation grid of {self.shape} cells; allowed: 1 to 10000 cells")
+        self.gs, self.st = gs, st
+        self.absolute, self.align, self.clip = (_bool(o, "absolute"), _bool(o, "align_to_vehicle_axes"),
+                                                _bool(o, "clip"))
+        bound = 1.0 if self.clip else np.inf
+        self.space_ = spaces.Box(-bound, bound, (len(self.idx), *self.shape), dtype=np.float32)
+
+    def observe_rows(self, rows: np.ndarray, F: np.ndarray) -> np.ndarray:
+        env = self.env
+        nx, ny = self.shape
+        m = len(rows)
+        out = np.zeros((m, len(self.FEATURES), nx, ny), dtype=np.float32)
+        if not m:
+            return out[:, self.idx]
+        vmax2 = 2.0 * float(env.config["speed_range"][1])
+        dx = env._wrap_dx(F[None, :, 1] - F[rows][:, None, 1])
+        dy = F[None, :, 2] - F[rows][:, None, 2]
+        vx = F[None, :, 3] - (0.0 if self.absolute else F[rows][:, None, 3])
+        vy = F[None, :, 4] - (0.0 if self.absolute else F[rows][:, None, 4])
+        ch = np.broadcast_to(F[None, :, 5], dx.shape)
+        sh = np.broadcast_to(F[None, :, 6], dx.shape)
+        if self.align:
+            c, s = F[rows][:, None, 5], F[rows][:, None, 6]
+            dx, dy = c * dx + s * dy, -s * dx + c * dy
+            vx, vy = c * vx + s * vy, -s * vx + c * vy
+            ch, sh = c * ch + s * sh, c * sh - s * ch
+        ix = np.floor((dx - self.gs[0, 0]) / self.st[0]).astype(np.int64)
+        iy = np.floor((dy - self.gs[1, 0]) / self.st[1]).astype(np.int64)
+        ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+        o, j = np.nonzero(ok)
+        if len(o):
+            d2 = dx[o, j] ** 2 + dy[o, j] ** 2
+            cell = (o * nx + ix[o, j]) * ny + iy[o, j]
+            order = np.lexsort((j, d2, cell))  # per cell: nearest first (ties: lower row)
+            cell_sorted = cell[order]
+            first = order[np.r_[True, cell_sorted[1:] != cell_sorted[:-1]]]
+            o, j = o[first], j[first]
+            cx, cy = ix[o, j], iy[o, j]
+            vals = np.stack([np.ones(len(o)), vx[o, j] / vmax2, vy[o, j] / vmax2, ch[o, j], sh[o, j]], axis=1)
+            if self.clip:
+                vals = np.clip(vals, -1, 1)
+            out[o[:, None], np.arange(len(self.FEATURES))[None, :], cx[:, None], cy[:, None]] = vals
+        return out[:, self.idx]
+
+
+OBSERVATION_TYPES = {c.name: c for c in (Kinematics, OccupancyGrid)}
+
+
+def observation_factory(env, config: dict) -> ObservationType:
+    if not isinstance(config, dict):
+        raise ValueError(f"config['observation'] = {config!r}; allowed: a dict {{'type': one of "
+                         f"{list(OBSERVATION_TYPES)}, ...}}")
+    t = config.get("type", "Kinematics")
+    if t not in OBSERVATION_TYPES:
+        raise ValueError(f"unknown observation type {t!r}; allowed: {list(OBSERVATION_TYPES)}")
+    return OBSERVATION_TYPES[t](env, config)
+
+
+def merge_observation_config(old: dict | None, new: dict) -> dict:
+    """``configure``'s rule for the ``observation`` (and ``action``) dict: a dict
+    of the same type (or without a type) updates the current one key by key;
+    a dict of another type replaces it (its options start from that type's
+    defaults)."""
+    if not isinstance(new, dict) or not isinstance(old, dict):
+        return new
+    t_old = old.get("type", None)
+    t_new = new.get("type", t_old)
+    if t_new != t_old:
+        return dict(new)
+    merged = dict(old)
+    merged.update(new)
+    return merged

@@ -1,0 +1,279 @@
+"""Vehicle regrouping in the adjusting zone (paper Sec. 5): division, lane change, formation adjusting, merging.
+
+A mixin of :class:`icv_envs.policies.platoon_expert.PlatoonExpert`; the
+behaviour is documented in that module's docstring ("Adjusting zone").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from icv_envs.formation.assignment import assign_targets
+from icv_envs.formation.bezier import lane_change_lateral
+from icv_envs.formation.targets import interlaced_targets
+from icv_envs.policies.platoon_common import ST_ADJUSTED, ST_LC, Corridors
+from icv_envs.sim.traffic import idm_acceleration
+
+__all__ = ["Regrouping"]
+
+
+class Regrouping:
+    """Division, lane changes, adjusting and merging of sub-formations (Sec. 5)."""
+
+    # ------------------------------------------------------------ lane changes
+    def _lane_change_progress(self, world, rs) -> None:
+        f = world.fleet
+        act = np.flatnonzero(f.lc_lane >= 0)
+        if not len(act):
+            return
+        entered = rs.phase[act] > 0
+        u = rs.u[act]
+        lat_plan, _ = lane_change_lateral(u, f.lc_u0[act], f.lc_lat0[act], f.lc_lat1[act], f.lc_len[act])
+        stray = np.abs(lat_plan - rs.lat_leg[act]) > self.p.replan_tolerance
+        done = (u >= f.lc_u0[act] + f.lc_len[act]) & (np.abs(rs.lat_leg[act] - f.lc_lat1[act]) < 0.4)
+        fin = act[done | entered]
+        f.klane[fin] = f.lc_lane[fin]
+        bad = act[stray & ~done & ~entered]
+        f.klane[bad] = rs.lane[bad]
+        f.lc_lane[fin] = -1
+        f.lc_lane[bad] = -1
+
+    def _start_lane_changes(self, world, rs) -> None:
+        p = self.p
+        f = world.fleet
+        lay = world.layout
+        f.want[:] = -1
+        need = (f.klane != f.tlane) & (f.lc_lane < 0) & (rs.phase == 0) & (f.stage >= ST_LC)
+        if not need.any():
+            return
+        rows = np.flatnonzero(need)
+        # vehicles in division start only near their slot
+        ready = np.ones(len(rows), dtype=bool)
+        dv = f.stage[rows] == ST_LC
+        if dv.any():
+            err = self._slot_error(world, rs, rows[dv])
+            ready[dv] = np.abs(err) < p.slot_tolerance
+        nxt = f.klane[rows] + np.sign(f.tlane[rows] - f.klane[rows])
+        # courtesy signal: a ready vehicle in the coordinating zone (or queued)
+        # is listed in the lane it needs, so the vehicle behind there makes room
+        sig = ready & ((rs.dist[rows] <= lay.R1) | (f.speed[rows] < 2.0))
+        f.want[rows[sig]] = nxt[sig]
+        rows, nxt = rows[ready], nxt[ready]
+        if not len(rows):
+            return
+        v = f.speed[rows]
+        length = np.clip(v * p.lc_duration, p.lc_min_length, p.lc_max_length)
+        u = rs.u[rows]
+        room = -u - p.lc_stop_room
+        length = np.minimum(length, room)
+        ok = length >= p.lc_min_length * 0.75
+        cor = Corridors(world, rs, np.where(f.lc_lane >= 0, f.lc_lane, -1))
+        lr, lc_, fr, fc = cor.neighbours(rows, 3 * f.leg[rows] + nxt, u)
+        ln = f.length[rows]
+        gap_f = np.where(lr >= 0, lc_ - u - 0.5 * (f.length[np.maximum(lr, 0)] + ln), np.inf)
+        gap_r = np.where(fr >= 0, u - fc - 0.5 * (f.length[np.maximum(fr, 0)] + ln), np.inf)
+        vl = np.where(lr >= 0, f.speed[np.maximum(lr, 0)], v)
+        vf = np.where(fr >= 0, f.speed[np.maximum(fr, 0)], 0.0)
+        own = idm_acceleration(v, p.v_max, gap_f, v - vl, p.a_max, p.idm_b, p.member_T, p.member_s0, free_term=False)
+        fol = idm_acceleration(vf, p.v_max, gap_r, vf - v, p.a_max, p.idm_b, p.member_T, p.member_s0,
+                               free_term=False)
+        ok &= (gap_f > p.lc_min_gap) & (gap_r > p.lc_min_gap) & (own > -p.b_safe) & (fol > -p.b_safe)
+        # two vehicles must not start into the same lane side by side in one step
+        cand = np.flatnonzero(ok)
+        if len(cand) > 1:
+            key = 3 * f.leg[rows[cand]] + nxt[cand]
+            o = cand[np.lexsort((-u[cand], key))]
+            ko = 3 * f.leg[rows[o]] + nxt[o]
+            close = (ko[1:] == ko[:-1]) & (np.abs(u[o][1:] - u[o][:-1]) < 12.0)
+            drop = np.zeros(len(o), dtype=bool)
+            for k in np.flatnonzero(close):
+                if not drop[k]:
+                    drop[k + 1] = True
+            ok[o[drop]] = False
+        start = rows[ok]
+        if len(start):
+            f.lc_lane[start] = nxt[ok]
+            f.lc_u0[start] = u[ok]
+            f.lc_lat0[start] = rs.lat_leg[start]
+            f.lc_lat1[start] = (nxt[ok] + 0.5) * lay.lane_width
+            f.lc_len[start] = length[ok]
+            self.stats["lane_changes"] += len(start)
+
+    # ----------------------------------------------------- approach, division
+    def _approach_and_division(self, world, rs) -> None:
+        f = world.fleet
+        for fid, F in list(self.formations.items()):
+            if F["divided"]:
+                continue
+            rows = f.rows(F["members"])
+            front = rows[np.argmax(rs.u[rows])]
+            if rs.dist[front] <= world.layout.R2:
+                self._divide(world, rs, F, rows)
+                continue
+            # approaching: members track the front with their spawn slots
+            f.ref[rows] = f.vid[front]
+            f.xg[rows] = f.fslot[rows] - f.fslot[front]
+            f.ref[front] = -1
+            f.xg[front] = 0.0
+
+    def _divide(self, world, rs, F, rows) -> None:
+        """Division (Sec. 5): split by movement, keep every lane's order, one file of slots ``gap_out`` apart."""
+        p = self.p
+        f = world.fleet
+        lay = world.layout
+        F["divided"] = True
+        self.stats["divisions"] += 1
+        order = rows[np.lexsort((f.klane[rows], -rs.u[rows]))]
+        queues = [[r for r in order if f.klane[r] == ln] for ln in range(3)]
+        seq, groups = [], []
+        cur = None
+        while any(queues):
+            heads = [(q[0], ln) for ln, q in enumerate(queues) if q]
+            same = [h for h in heads if f.mv[h[0]] == cur]
+            if same:
+                r, ln = max(same, key=lambda h: rs.u[h[0]])
+            else:
+                r, ln = max(heads, key=lambda h: rs.u[h[0]])
+                cur = int(f.mv[r])
+                groups.append([])
+            queues[ln].pop(0)
+            seq.append(r)
+            groups[-1].append(r)
+        front = seq[0]
+        for rank, r in enumerate(seq):
+            f.ref[r] = f.vid[front] if rank else -1
+            f.xg[r] = rank * p.gap_out
+            f.stage[r] = ST_LC
+        for g in groups:
+            g = np.asarray(g, dtype=np.int64)
+            mv = int(f.mv[g[0]])
+            lanes = lay.lane_use[mv]
+            sid = self._new_id()
+            n = len(g)
+            if len(lanes) == 1:
+                tl = np.full(n, lanes[0])
+                tidx = np.arange(n)
+            else:
+                tx, tlid = interlaced_targets(n, len(lanes), p.gap_out)
+                vx = rs.u[g[0]] - rs.u[g]
+                vl = f.klane[g] - lanes[0] + 1
+                asg = assign_targets(vx, vl, tx, tlid, p.w1, p.w2)
+                tidx = asg
+                tl = np.asarray(lanes)[tlid[asg] - 1]
+            f.tlane[g] = tl
+            f.tidx[g] = tidx
+            f.sub[g] = sid
+            members = [int(f.vid[r]) for r in g[np.argsort(tidx)]]
+            self.subs[sid] = {"id": sid, "leg": int(f.leg[g[0]]), "mv": mv, "members": members,
+                              "lanes": tuple(lanes), "state": "lc", "form": F["id"]}
+            self.stats["subformations"] += 1
+
+    def _slot_error(self, world, rs, rows) -> np.ndarray:
+        f = world.fleet
+        ref = f.rows(f.ref[rows])
+        ok = ref >= 0
+        err = np.zeros(len(rows))
+        err[ok] = rs.u[rows[ok]] - (rs.u[ref[ok]] - f.xg[rows[ok]])
+        return err
+
+    # ------------------------------------------------------ adjusting, merging
+    def _set_sub_targets(self, world, S) -> None:
+        """Interlaced targets with the in-zone gap behind the sub-formation's first vehicle."""
+        f = world.fleet
+        rows = f.rows(S["members"])
+        n = len(rows)
+        tx, _ = interlaced_targets(n, len(S["lanes"]), self.p.gap_in)
+        # within each lane, hand that lane's targets out in the physical order
+        # (a vehicle is never asked to overtake another in its own lane)
+        dist = world.route().dist[rows]
+        tidx = f.tidx[rows].copy()
+        for ln in np.unique(f.tlane[rows]):
+            k = np.flatnonzero(f.tlane[rows] == ln)
+            tidx[k[np.argsort(dist[k], kind="stable")]] = np.sort(tidx[k])
+        f.tidx[rows] = tidx
+        # ranks in physical order (distance to the centre; ties: target order):
+        # the first vehicle is the sub-formation's physical front and every
+        # member's slot is behind every member ahead of it, whatever lane it
+        # is in, so no member has to pass another one (a member ranked ahead
+        # of one in front of it in its current lane waits for it, and it for
+        # the member: a circular wait)
+        rank = np.argsort(np.lexsort((tidx, dist)), kind="stable")
+        f.tidx[rows] = rank
+        first = rows[rank == 0][0]
+        f.ref[rows] = f.vid[first]
+        f.xg[rows] = tx[rank]
+        f.ref[first] = -1
+        f.xg[first] = 0.0
+
+    def _adjusting(self, world, rs) -> None:
+        f = world.fleet
+        for sid, S in self.subs.items():
+            if S["state"] != "lc":
+                continue
+            rows = f.rows(S["members"])
+            if np.all((f.klane[rows] == f.tlane[rows]) & (f.lc_lane[rows] < 0)):
+                S["state"] = "adjusted"
+                f.stage[rows] = np.maximum(f.stage[rows], ST_ADJUSTED)
+                self._set_sub_targets(world, S)
+
+    def _merging(self, world, rs) -> None:
+        p = self.p
+        f = world.fleet
+        lay = world.layout
+        if not self.subs:
+            return
+        info = []
+        for sid, S in self.subs.items():
+            rows = f.rows(S["members"])
+            info.append((sid, S["leg"], S["mv"], float(rs.dist[rows].min()), float(rs.dist[rows].max()), S["state"]))
+        info.sort(key=lambda t: (t[1], t[3]))
+        merged = set()
+        for i, (sa, leg, mv, xa0, xa1, st) in enumerate(info):
+            if st != "adjusted" or sa in merged or xa0 <= lay.R1:
+                continue
+            A = self.subs[sa]
+            for sb, legb, mvb, xb0, xb1, stb in info[i + 1:]:
+                if legb != leg:
+                    break
+                if sb in merged:
+                    continue
+                if mvb != mv:
+                    if lay.conflict[mv, mvb]:
+                        break  # something conflicting lies between them
+                    continue
+                B = self.subs[sb]
+                if stb == "adjusted" and xb0 > lay.R1 and xb0 - xa1 <= p.merge_range \
+                        and len(A["members"]) + len(B["members"]) <= p.max_node_size:
+                    self._merge(world, rs, A, B)
+                    merged.add(sb)
+                    xa1 = max(xa1, xb1)
+                else:
+                    break  # the nearest same-movement sub-formation behind decides
+
+    def _merge(self, world, rs, A, B) -> None:
+        p = self.p
+        f = world.fleet
+        ra = f.rows(A["members"])
+        rb = f.rows(B["members"])
+        na, nb = len(ra), len(rb)
+        # A's targets are 0..na-1 (members that left may have left gaps)
+        f.tidx[ra] = np.argsort(np.argsort(f.tidx[ra], kind="stable"), kind="stable")
+        tx, tl = interlaced_targets(na + nb, len(A["lanes"]), p.gap_in)
+        first = ra[np.argmin(f.tidx[ra])]
+        vx = rs.u[first] - rs.u[rb]
+        vl = f.klane[rb] - A["lanes"][0] + 1
+        asg = assign_targets(vx, vl, tx[na:], tl[na:], p.w1, p.w2)
+        f.tidx[rb] = na + asg
+        f.tlane[rb] = np.asarray(A["lanes"])[tl[na + asg] - 1]
+        f.sub[rb] = A["id"]
+        f.form[rb] = f.form[first]
+        A["members"] = A["members"] + [int(f.vid[r]) for r in rb[np.argsort(asg)]]
+        del self.subs[B["id"]]
+        self.stats["merges"] += 1
+        self._set_sub_targets(world, A)
+        need_lc = f.tlane[rb] != f.klane[rb]
+        if need_lc.any():
+            # the sub-formation is re-adjusted once they are in lane; until then
+            # they keep the merged targets
+            A["state"] = "lc"
+            f.stage[rb[need_lc]] = ST_LC

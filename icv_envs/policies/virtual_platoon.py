@@ -1,0 +1,379 @@
+"""The virtual platoon in the coordinating zone (paper Sec. 4.2): nodes, tree, references.
+
+A mixin of :class:`icv_envs.policies.platoon_expert.PlatoonExpert`; the
+behaviour is documented in that module's docstring ("Coordinating zone").
+The pure algorithms (tree depths, reference positions) are in
+:mod:`icv_envs.platoon.tree`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from icv_envs.formation.targets import formation_length, interlaced_targets
+from icv_envs.platoon.tree import reference_positions, tree_depths
+from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
+
+__all__ = ["VirtualPlatoon"]
+
+
+class VirtualPlatoon:
+    """Nodes enter and leave, the tree and its references, the virtual-lane cap (Sec. 4.2)."""
+
+    # ------------------------------------------------------- coordinating zone
+    def _settled(self, world, rs, rows) -> np.ndarray:
+        """May these vehicles join the virtual platoon now?  In their expected
+        lane, no lane change in progress, and at most ``settle_tolerance``
+        behind the slot they track (their formation reference, when they have
+        one).  Only settled vehicles hold a node's bound over later nodes: a
+        member still changing lanes, or a slot behind, cannot be relied on to
+        move up, and the later nodes it would hold could block its way (the
+        circular wait of issue 8)."""
+        f = world.fleet
+        ok = (f.klane[rows] == f.tlane[rows]) & (f.lc_lane[rows] < 0) & (rs.phase[rows] == 0)
+        ok |= rs.phase[rows] > 0
+        err = self._slot_error(world, rs, rows)
+        return ok & (-err <= self.p.settle_tolerance)
+
+    def _keep_lane_inside(self, world, rs, rows) -> None:
+        """No lane change is required inside the coordinating zone: a vehicle
+        there that is not yet in its expected lane but in a lane the lane-use
+        table allows for its movement keeps that lane (and has a finished
+        lane change count as done)."""
+        f = world.fleet
+        lay = world.layout
+        k = rows[(rs.dist[rows] <= lay.R1) & (rs.phase[rows] == 0) & (f.lc_lane[rows] < 0)
+                 & (f.klane[rows] != f.tlane[rows])]
+        if len(k):
+            ok = lay.allowed[f.mv[k], np.clip(f.klane[k], 0, 2)]
+            f.tlane[k[ok]] = f.klane[k[ok]]
+            self.stats["kept_lane_in_R1"] += int(ok.sum())
+
+    def _coordinate(self, world, rs) -> None:
+        """Nodes enter the virtual platoon; nodes that cleared the box leave.
+
+        ``multi-vp``: when a sub-formation's first vehicle crosses ``R1`` its
+        members get the in-zone targets, and the longest prefix of them (in
+        target order) that is settled (:meth:`_settled`) becomes a node; the
+        rest stays a sub-formation, with the next member as its first, and is
+        handled the same way at every later step until all are in nodes.
+        ``single-vp``: a vehicle becomes a node once inside ``R1`` and settled.
+        """
+        f = world.fleet
+        lay = world.layout
+        R1 = lay.R1
+        single = self.method == "single-vp"
+        for sid, S in list(self.subs.items()):
+            rows = f.rows(S["members"])
+            self._keep_lane_inside(world, rs, rows)
+            if single:
+                cand = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0)]
+                # one vehicle per node: no slot to keep, only the lane
+                new = cand[((f.klane[cand] == f.tlane[cand]) & (f.lc_lane[cand] < 0)) | (rs.phase[cand] > 0)]
+                for r in new:
+                    self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
+                if np.all(f.node[rows] >= 0):
+                    del self.subs[sid]
+                continue
+            first = rows[np.argmin(rs.dist[rows])]
+            if rs.dist[first] <= R1:
+                n_l = len(S["lanes"])
+                self._set_sub_targets(world, S)
+                rows = f.rows(S["members"])  # target order
+                rows = rows[np.argsort(f.tidx[rows], kind="stable")]
+                ok = self._settled(world, rs, rows)
+                k = int(np.argmin(ok)) if not ok.all() else len(rows)
+                if k == 0:
+                    continue
+                members = [int(v) for v in f.vid[rows[:k]]]
+                rest = [int(v) for v in f.vid[rows[k:]]]
+                self._new_node(world, members, S["mv"], n_lanes=n_l,
+                               length=formation_length(k, n_l, self.p.gap_in))
+                f.sub[rows[:k]] = -1
+                if rest:
+                    S["members"] = rest
+                    self._set_sub_targets(world, S)
+                    self.stats["held_out_of_node"] += len(rest)
+                else:
+                    del self.subs[sid]
+        # vehicles in the zone without a sub-formation (not expected, but safe)
+        orphan = np.flatnonzero((rs.dist <= R1) & (f.node < 0) & (f.sub < 0) & (rs.phase < 2) & ~f.cleared)
+        if len(orphan):
+            orphan = orphan[(f.klane[orphan] == f.tlane[orphan]) & (f.lc_lane[orphan] < 0) | (rs.phase[orphan] > 0)]
+        for r in orphan:
+            self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
+        if not single:
+            self._detach_inverted(world, rs)
+        for nid, N in list(self.nodes.items()):
+            rows = f.rows(N["members"])
+            if np.all(f.cleared[rows]):
+                f.node[rows] = -1
+                f.ref[rows] = -1
+                del self.nodes[nid]
+
+    def _detach_inverted(self, world, rs) -> None:
+        """A node member whose leader in its approach lane is a vehicle of
+        another group (still before the box) would be ordered before it but
+        cannot pass it: that member and every member of its node further
+        from the centre leave the node and form a node of their own (ordered
+        after the foreign vehicle)."""
+        f = world.fleet
+        rows = np.flatnonzero((f.node >= 0) & (rs.phase == 0))
+        if not len(rows):
+            return
+        cor = Corridors(world, rs, np.full(f.n, -1))
+        lr, _, _, _ = cor.neighbours(rows, 3 * f.leg[rows] + rs.lane[rows], rs.s[rows])
+        lr0 = np.maximum(lr, 0)
+        bad = (lr >= 0) & (f.node[lr0] != f.node[rows]) & (rs.phase[lr0] == 0)
+        if not bad.any():
+            return
+        # only a foreign vehicle between the node's first vehicle and this member counts
+        first_d = {nid: float(rs.dist[f.rows(N["members"])].min()) for nid, N in self.nodes.items()}
+        fd = np.array([first_d.get(int(nd), np.inf) for nd in f.node[rows]])
+        bad &= (rs.dist[lr0] > fd + 1e-9) & (rs.dist[rows] > fd + 1e-9)
+        if not bad.any():
+            return
+        for nid in sorted(set(f.node[rows[bad]].tolist())):
+            N = self.nodes.get(nid)
+            if N is None:
+                continue
+            mrows = f.rows(N["members"])
+            cut = float(rs.dist[rows[bad & (f.node[rows] == nid)]].min())
+            first = mrows[np.argmin(rs.dist[mrows])]
+            out = mrows[(rs.dist[mrows] >= cut) & (mrows != first)]
+            if not len(out):
+                continue
+            keep = [int(v) for v in f.vid[mrows] if v not in set(f.vid[out].tolist())]
+            N["members"] = keep
+            N["length"] = formation_length(len(keep), N["n_lanes"], self.p.gap_in)
+            n_out = len(out)
+            out = out[np.argsort(rs.dist[out])]
+            tx, _ = interlaced_targets(n_out, N["n_lanes"], self.p.gap_in)
+            f.ref[out] = f.vid[out[0]]
+            f.xg[out] = tx
+            f.ref[out[0]] = -1
+            self._new_node(world, [int(v) for v in f.vid[out]], N["mv"], N["n_lanes"],
+                           formation_length(n_out, N["n_lanes"], self.p.gap_in))
+            self.stats["detached"] += n_out
+
+    def _new_node(self, world, members, mv, n_lanes, length) -> None:
+        f = world.fleet
+        nid = self._new_id()
+        rows = f.rows(members)
+        self.nodes[nid] = {"id": nid, "mv": int(mv), "members": list(members), "n_lanes": n_lanes,
+                           "length": float(length)}
+        self._insert_node(world, nid, rows)
+        f.node[rows] = nid
+        f.stage[rows] = ST_COORD
+        if len(rows) == 1:
+            f.ref[rows] = -1
+            f.xg[rows] = 0.0
+        self.stats["nodes"] += 1
+
+    def _insert_node(self, world, nid, rows) -> None:
+        """Place a new node in the virtual platoon's order (``self.vp_order``).
+
+        The paper orders nodes by the distance of their first vehicle to the
+        centre when they enter at ``R1``; with every node entering there,
+        that is the entry order.  A node that enters later (members held out
+        until they settled, detached members) would, placed by distance,
+        impose its bound ``rear + D_t`` on conflicting nodes that are already
+        closer to the box than that bound and cannot stop behind it at the
+        comfortable deceleration (they may be in the box).  So (our rule):
+        the node goes to its distance rank, then behind every later
+        conflicting node of ANOTHER leg whose first vehicle cannot stop
+        comfortably (``comfort[0]``) before ``X_rear + D_t``; nodes of its
+        own leg that it passes this way and that are physically behind it
+        (further from the centre) move along right behind it, so no node is
+        ever ordered before a node it physically follows in its own leg."""
+        f = world.fleet
+        rs = world.route()
+        lay = world.layout
+        N = self.nodes[nid]
+        order = [k for k in self.vp_order if k in self.nodes and k != nid]
+        d_new = float(rs.dist[rows].min())
+        xr_new = float(rs.X[rows].max())
+        leg = int(lay.leg_of[N["mv"]])
+        info = {}
+        for k in order:
+            r = f.rows(self.nodes[k]["members"])
+            r = r[r >= 0]
+            i0 = r[np.argmin(rs.dist[r])]
+            info[k] = (float(rs.dist[i0]), float(rs.X[i0]), float(f.speed[i0]), float(rs.dist[r].max()))
+        pos = next((i for i, k in enumerate(order) if info[k][0] > d_new), len(order))
+        b = abs(self.p.comfort[0])
+        j = pos
+        while j < len(order):
+            k = order[j]
+            K = self.nodes[k]
+            if lay.conflict[N["mv"], K["mv"]] and int(lay.leg_of[K["mv"]]) != leg:
+                d_k, x_k, v_k, _ = info[k]
+                if x_k - v_k * v_k / (2.0 * b) < xr_new + self.p.D_t:
+                    # N goes behind k; same-leg nodes physically behind N that it passes come along
+                    mid = order[pos:j]
+                    follow = [m for m in mid if int(lay.leg_of[self.nodes[m]["mv"]]) == leg and info[m][0] > d_new]
+                    rest = [m for m in mid if m not in follow]
+                    order = order[:pos] + rest + [k] + follow + order[j + 1:]
+                    pos = pos + len(rest) + 1
+                    j = pos + len(follow)
+                    self.stats["node_yielded"] += 1
+                    continue
+            j += 1
+        order.insert(pos, nid)
+        self.vp_order = order
+
+    def tree(self, world, rs):
+        """Current virtual platoon: ``(node ids in order, depths (with the leader at 0), references)``."""
+        f = world.fleet
+        p = self.p
+        ids = list(self.nodes)
+        if not ids:
+            return [], np.zeros(1, dtype=np.int64), None
+        K = len(ids)
+        xf = np.empty(K)
+        rear = np.empty(K)
+        first = np.empty(K, dtype=np.int64)
+        rear_row = np.empty(K, dtype=np.int64)
+        mvs = np.empty(K, dtype=np.int64)
+        lens = np.empty(K)
+        key = np.empty(K)
+        for k, nid in enumerate(ids):
+            N = self.nodes[nid]
+            rows = f.rows(N["members"])
+            X = rs.X[rows]
+            i0 = int(np.argmin(rs.dist[rows]))
+            i1 = int(np.argmax(X))
+            first[k] = rows[i0]
+            rear_row[k] = rows[i1]
+            key[k] = rs.dist[rows[i0]]
+            xf[k] = X[i0]
+            rear[k] = X[i1]
+            mvs[k] = N["mv"]
+            lens[k] = N["length"]
+        # nodes in the virtual platoon's order (_insert_node)
+        rank = {k: i for i, k in enumerate(self.vp_order)}
+        o = np.argsort([rank.get(k, len(rank) + k) for k in ids], kind="stable")
+        xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
+        ids = [ids[i] for i in o]
+        C = world.layout.conflict[np.ix_(mvs, mvs)]
+        depths = tree_depths(C)
+        refs = reference_positions(np.maximum.accumulate(xf), lens, depths, p.D_t)
+        U = np.triu(C, 1)
+        cand = np.where(U, rear[:, None] + p.D_t, -np.inf)
+        lb = cand.max(axis=0) if K else np.zeros(0)
+        pred = cand.argmax(axis=0) if K else np.zeros(0, dtype=np.int64)
+        return ids, depths, {"xf": xf, "rear": rear, "first": first, "rear_row": rear_row, "refs": refs,
+                             "lb": lb, "pred": pred, "mvs": mvs, "U": U}
+
+    # -------------------------------------------------------------- references
+    def _references(self, world, rs) -> None:
+        """Per-vehicle longitudinal mode and references for :meth:`compute`."""
+        p = self.p
+        f = world.fleet
+        lay = world.layout
+        n = f.n
+        mode = np.full(n, MODE_FREE, dtype=np.int64)
+        xref = np.zeros(n)  # MODE_FOLLOW: u reference; MODE_TREE: X reference
+        vref = np.full(n, p.v0)
+        tight = np.zeros(n, dtype=bool)  # the safety bound binds: full braking allowed
+        hold = np.zeros(n, dtype=bool)  # the bound is violated: stop before the box
+        # formation following (approach / adjusting zones, and followers of nodes before R1)
+        fol = (f.ref >= 0) & (f.node < 0)
+        if fol.any():
+            k = np.flatnonzero(fol)
+            rr = f.rows(f.ref[k])
+            # safety net: two vehicles referring to each other (must not happen)
+            cyc = (rr >= 0) & (f.ref[np.maximum(rr, 0)] == f.vid[k]) & (rs.dist[k] < rs.dist[np.maximum(rr, 0)])
+            if cyc.any():
+                self.stats["ref_cycles_broken"] += int(cyc.sum())
+                f.ref[k[cyc]] = -1
+                rr[cyc] = -1
+            ok = rr >= 0
+            k, rr = k[ok], rr[ok]
+            mode[k] = MODE_FOLLOW
+            xref[k] = rs.u[rr] - f.xg[k]
+            vref[k] = f.speed[rr]
+        self.node_depth = {}
+        self.node_order = []
+        self._tree = None
+        self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+        if self.nodes:
+            ids, depths, T = self.tree(world, rs)
+            self.node_order = ids
+            for k, nid in enumerate(ids):
+                self.node_depth[nid] = int(depths[k + 1])
+            pos = {nid: k for k, nid in enumerate(ids)}
+            rows_all, kk = [], []
+            for nid in ids:
+                rows = f.rows(self.nodes[nid]["members"])
+                rows_all.append(rows)
+                kk.append(np.full(len(rows), pos[nid]))
+            rows_all = np.concatenate(rows_all)
+            kk = np.concatenate(kk)
+            live = ~f.cleared[rows_all]
+            rows_all, kk = rows_all[live], kk[live]
+            self._tree, self._tree_rows = T, (rows_all, kk)
+            first = T["first"][kk]
+            is_first = rows_all == first
+            # a node's first vehicle never chases a reference ahead of it: it
+            # then drives at v0 (the virtual platoon only holds vehicles back)
+            paper = np.where(is_first, np.maximum(T["refs"][kk + 1], rs.X[rows_all]),
+                             rs.X[first] + f.xg[rows_all])
+            vpaper = np.where(is_first, p.v0, f.speed[first])
+            lb = T["lb"][kk]
+            bind = lb > paper
+            pred_rear = T["rear_row"][T["pred"][kk]]
+            mode[rows_all] = MODE_TREE
+            # the hard spacing to an earlier conflicting node is already lost
+            # (a node that entered late, close to the box): the virtual lane
+            # cannot restore it, so the vehicle stops before the box until
+            # that node's rear has moved D_safe ahead of it
+            hold[rows_all] = rs.X[rows_all] < lb - (p.D_t - p.D_safe) - 1e-9
+            xref[rows_all] = np.where(bind, lb, paper)
+            vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
+            tight[rows_all] = bind
+        self._mode, self._xref, self._vref, self._tight = mode, xref, vref, tight
+        self._vcap = self._virtual_cap(world, rs)
+        # may a vehicle enter the box? only from an allowed lane, lane change finished
+        allowed = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
+        self._stop = (rs.phase == 0) & (~allowed | (f.lc_lane >= 0) | (f.klane != f.tlane))
+        # in the coordinating zone only coordinated vehicles (a node / a reservation) may enter
+        self._stop |= (rs.phase == 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
+        self._stop |= (rs.phase == 0) & hold
+        self.stats["held_at_line"] += int(((rs.phase == 0) & hold).sum())
+        self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
+
+    def _virtual_cap(self, world, rs) -> np.ndarray:
+        """Safe-speed cap in the virtual lane (Gipps): every not yet cleared
+        vehicle of node ``k`` keeps ``X_v - X_rear,i >= D_safe`` to the rearmost
+        vehicle of every earlier node ``i`` it conflicts with, even if that
+        vehicle brakes at ``|a_min|`` from now on and this one reacts
+        ``cap_tau`` later::
+
+            v_safe = -b tau + sqrt((b tau)^2 + v_i^2 + 2 b (X_v - X_rear,i - D_safe))
+            a_cap = (v_safe - v) / tau
+
+        In steady state at ``v0`` it keeps ``D_safe + v0 tau`` (21 m with the
+        defaults, = the default ``D_t``).  ``inf`` for vehicles outside the
+        virtual platoon."""
+        p = self.p
+        f = world.fleet
+        cap = np.full(f.n, np.inf)
+        T = self._tree
+        if T is None:
+            return cap
+        rows_all, kk = self._tree_rows
+        if not len(rows_all):
+            return cap
+        U = T["U"]
+        mask = U[:, kk].T  # (members, K): earlier conflicting nodes
+        if not mask.any():
+            return cap
+        b = abs(p.a_min)
+        tau = p.cap_tau
+        vr = f.speed[T["rear_row"]]
+        G = rs.X[rows_all][:, None] - T["rear"][None, :] - p.D_safe
+        vs = -b * tau + np.sqrt((b * tau) ** 2 + vr[None, :] ** 2 + 2.0 * b * np.maximum(G, 0.0))
+        vs = np.where(mask, vs, np.inf).min(axis=1)
+        cap[rows_all] = (vs - f.speed[rows_all]) / tau
+        return cap

@@ -1,0 +1,315 @@
+"""Run metrics of the intersection: what vehicles do, surrogate safety, jams.
+
+Accumulated by :class:`icv_envs.sim.intersection_world.IntersectionWorld`
+every integration step (``dt`` = 0.04 s); the environment's ``metrics()``
+reports the summaries.  The motion keys are the same as the highway's
+(``mean_speed, speed_fluctuation, speed_std, stopped_share,
+commanded_abs_accel``) and are defined the same way.
+
+Motion (:class:`MotionStats`, every vehicle present, every substep)
+    * ``speed_fluctuation``: mean ``|dv/dt|`` of the REALISED speed,
+      ``dv = v(t + dt) - v(t)`` after the model's limits ``0 <= v <= v_max``:
+      what the vehicles do (the paper's Fig. 14 b caption: "average
+      acceleration").  A vehicle held at 0 m/s while braking is commanded
+      contributes 0.
+    * ``commanded_abs_accel``: mean ``|a|`` of the commanded acceleration (the
+      figure reported as ``speed_fluctuation`` before); a diagnostic.
+    * ``speed_std``: per-vehicle standard deviation of speed over its time in
+      the simulation, averaged over vehicles with >= 2 samples.
+    * ``stopped_share``: share of vehicle-substeps with ``v <``
+      :data:`STOPPED_SPEED`.
+
+Post-encroachment time (:class:`PetStats`)
+    Conflict areas are derived from the layout, one per pair of lane paths
+    (movement, approach lane) of two CONFLICTING movements that meet:
+
+    * a crossing point strictly inside the box (from
+      :attr:`icv_envs.platoon.conflicts.ConflictModel.crossings`), crossing
+      angle ``theta``: the area is the part of path A on which A's body can
+      overlap a vehicle of width ``W`` centred on path B,
+      ``|s_A - s_A^c| < L_A / 2 + h_A`` with ``h_A = W / 2 (1 + |cos theta|) /
+      |sin theta|`` (exact for straight paths and bodies on their paths; 3.5 m
+      for a 5 x 2 m car at a right angle);
+    * a merge point (two paths ending in the same departure lane): the exit
+      point, ``h = 0`` (the body passing over the point).
+
+    Diverging pairs (same approach lane) and vehicles on the same path are
+    car following, not encroachment, and are left out.  A vehicle occupies an
+    area while its route coordinate satisfies the inequality above; PET is
+    sampled every time a vehicle ENTERS an area: ``t_enter - t_exit`` of the
+    last vehicle of the other path to leave it (so a crossing pair gives one
+    sample, whichever goes first).  If a vehicle of the other path is still
+    inside when it enters, the sample is taken when that one leaves and is
+    negative (the two occupied the area together: a near miss or a
+    collision).  Reported: ``pet_min``, ``pet_p05`` (5th percentile of all
+    samples of the run), ``pet_samples``; ``None`` without samples.  Times
+    are substep times (0.04 s resolution).
+
+Jams (:class:`JamWatch`)
+    A vehicle is *jammed* when it has been stopped (``v <``
+    :data:`STOPPED_SPEED`) for more than :data:`JAM_SECONDS` (10 s)
+    continuously while NOT in a queue at the box: before the stop line a
+    vehicle is in the queue if the first vehicle of its approach lane is
+    within :data:`QUEUE_GAP` (10 m, bumper) of the stop line and every gap
+    from there back to this vehicle is below :data:`QUEUE_GAP`; a vehicle
+    stopped inside the box or after it is never in a queue.  ``jammed`` is
+    the number of distinct vehicles that were ever jammed in the run,
+    ``jammed_vehicle_seconds`` the time they spent jammed; both must be 0
+    for a working controller (stopping at the line to wait for one's turn is
+    allowed for as long as it takes).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["STOPPED_SPEED", "JAM_SECONDS", "QUEUE_GAP", "MotionStats", "ConflictAreas", "PetStats", "JamWatch",
+           "pet_summary", "MOTION_KEYS"]
+
+#: [m/s] below this a vehicle counts as stopped (the highway uses the same value)
+STOPPED_SPEED: float = 0.1
+#: [s] stopped longer than this outside a queue at the box = jammed
+JAM_SECONDS: float = 10.0
+#: [m] bumper gap that still counts as "in the queue" (a stopped IDM queue keeps 1-2 m)
+QUEUE_GAP: float = 10.0
+#: the motion keys (shared with the highway's metrics)
+MOTION_KEYS = ("mean_speed", "speed_fluctuation", "speed_std", "stopped_share", "commanded_abs_accel")
+
+
+class MotionStats:
+    """Speed and realised / commanded acceleration over vehicle-substeps."""
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self.vehicle_steps = 0
+        self.speed_sum = 0.0
+        self.realised_abs_accel_sum = 0.0
+        self.commanded_abs_accel_sum = 0.0
+        self.stopped_steps = 0
+        self._n = np.zeros(0, dtype=np.int64)
+        self._s1 = np.zeros(0)
+        self._s2 = np.zeros(0)
+
+    def _grow(self, size: int) -> None:
+        if size > len(self._n):
+            pad = max(size, 2 * len(self._n), 64) - len(self._n)
+            self._n = np.concatenate([self._n, np.zeros(pad, dtype=np.int64)])
+            self._s1 = np.concatenate([self._s1, np.zeros(pad)])
+            self._s2 = np.concatenate([self._s2, np.zeros(pad)])
+
+    def record(self, vid, v_before, v_after, commanded, dt: float) -> None:
+        """One substep: ids, speeds before and after it, commanded accelerations, ``dt``."""
+        vid = np.asarray(vid, dtype=np.int64)
+        if not len(vid):
+            return
+        if not dt > 0:
+            raise ValueError(f"dt must be > 0, got {dt!r}")
+        v0 = np.asarray(v_before, dtype=np.float64)
+        v1 = np.asarray(v_after, dtype=np.float64)
+        self.vehicle_steps += len(vid)
+        self.speed_sum += float(v1.sum())
+        self.realised_abs_accel_sum += float(np.abs(v1 - v0).sum()) / float(dt)
+        self.commanded_abs_accel_sum += float(np.abs(np.asarray(commanded, dtype=np.float64)).sum())
+        self.stopped_steps += int((v1 < STOPPED_SPEED).sum())
+        self._grow(int(vid.max()) + 1)
+        np.add.at(self._n, vid, 1)
+        np.add.at(self._s1, vid, v1)
+        np.add.at(self._s2, vid, v1 * v1)
+
+    def per_vehicle_std(self) -> np.ndarray:
+        ok = self._n >= 2
+        n = self._n[ok].astype(np.float64)
+        mean = self._s1[ok] / n
+        return np.sqrt(np.maximum(self._s2[ok] / n - mean * mean, 0.0))
+
+    def summary(self) -> dict:
+        n = max(self.vehicle_steps, 1)
+        std = self.per_vehicle_std()
+        return {
+            "mean_speed": self.speed_sum / n,
+            "speed_fluctuation": self.realised_abs_accel_sum / n,
+            "speed_std": float(std.mean()) if len(std) else 0.0,
+            "stopped_share": self.stopped_steps / n,
+            "commanded_abs_accel": self.commanded_abs_accel_sum / n,
+        }
+
+
+class ConflictAreas:
+    """Conflict areas of the lane paths of a layout (module docstring).
+
+    Attributes:
+        n: number of areas.
+        by_path: ``{pid: (area ids (k,), side (k,) 0/1, s_lo (k,), s_hi (k,))}``:
+            the route-coordinate interval of each area along path ``pid``
+            WITHOUT the vehicle's half length (added at run time).
+    """
+
+    def __init__(self, layout, vehicle_width: float = 2.0) -> None:
+        model = layout.model
+        W = float(vehicle_width)
+        entries: dict[int, list] = {}
+        n = 0
+
+        def add(pid, area, side, lo, hi):
+            entries.setdefault(int(pid), []).append((area, side, lo, hi))
+
+        for (i, j), pts in sorted(model.crossings.items()):
+            if not layout.conflict[i, j]:
+                continue
+            for x, y, si, sj, a, b in pts:
+                pa, pb = 3 * i + int(a), 3 * j + int(b)
+                _, _, ha = layout.route_points(np.array([pa]), np.array([si]))
+                _, _, hb = layout.route_points(np.array([pb]), np.array([sj]))
+                th = float(ha[0] - hb[0])
+                sin, cos = abs(math.sin(th)), abs(math.cos(th))
+                if sin < 1e-3:
+                    continue
+                h = 0.5 * W * (1.0 + cos) / sin
+                add(pa, n, 0, si - h, si + h)
+                add(pb, n, 1, sj - h, sj + h)
+                n += 1
+        # merges: two paths of conflicting movements ending in the same departure lane
+        pids = sorted(3 * m + a for m, lanes in layout.lane_use.items() for a in lanes)
+        for x, pa in enumerate(pids):
+            for pb in pids[x + 1:]:
+                i, j = pa // 3, pb // 3
+                if i == j or not layout.conflict[i, j]:
+                    continue
+                if layout.exit_of[i] != layout.exit_of[j] or layout.dlane[pa] != layout.dlane[pb]:
+                    continue
+                add(pa, n, 0, layout.L[pa], layout.L[pa])
+                add(pb, n, 1, layout.L[pb], layout.L[pb])
+                n += 1
+        self.n = n
+        self.by_path = {}
+        for pid, rows in entries.items():
+            arr = np.array(rows, dtype=np.float64)
+            self.by_path[pid] = (arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2], arr[:, 3])
+
+
+class PetStats:
+    """Post-encroachment times at the conflict areas (module docstring)."""
+
+    def __init__(self, areas: ConflictAreas) -> None:
+        self.areas = areas
+        P = max(areas.by_path) + 1 if areas.by_path else 1
+        K = max((len(e[0]) for e in areas.by_path.values()), default=1)
+        self._ids = np.zeros((P, K), dtype=np.int64)
+        self._side = np.zeros((P, K), dtype=np.int64)
+        self._lo = np.full((P, K), np.inf)
+        self._hi = np.full((P, K), -np.inf)
+        for pid, (ids, side, lo, hi) in areas.by_path.items():
+            k = len(ids)
+            self._ids[pid, :k], self._side[pid, :k], self._lo[pid, :k], self._hi[pid, :k] = ids, side, lo, hi
+        self._K = K
+        self.reset()
+
+    def reset(self) -> None:
+        A = self.areas.n
+        self.last_exit = np.full((A, 2), np.nan)  # time the last vehicle of each side left
+        self.inside = np.zeros((A, 2), dtype=np.int64)  # vehicles of each side inside now
+        self.pending: dict[tuple[int, int], list[float]] = {}  # (area, side) -> entry times waiting for the other side
+        self._occ = np.zeros((0, self._K), dtype=bool)  # per vehicle id: occupied slots of its path's areas
+        self._pid = np.zeros(0, dtype=np.int64)  # per vehicle id: the path those slots belong to
+        self.samples: list[float] = []
+
+    def record(self, t: float, vid, pid, s, length) -> None:
+        """Occupancy update at time ``t`` for vehicles ``vid`` on paths ``pid``
+        at route coordinate ``s`` (listing the vehicles near the box is
+        enough: a vehicle not listed has left every area)."""
+        vid = np.asarray(vid, dtype=np.int64)
+        pid = np.asarray(pid, dtype=np.int64)
+        top = int(vid.max()) + 1 if len(vid) else 0
+        if top > len(self._occ):
+            grow = max(top, 2 * len(self._occ), 64) - len(self._occ)
+            self._occ = np.concatenate([self._occ, np.zeros((grow, self._K), dtype=bool)])
+            self._pid = np.concatenate([self._pid, np.zeros(grow, dtype=np.int64)])
+        ok = pid < len(self._lo)
+        vid, pid = vid[ok], pid[ok]
+        x = np.asarray(s, dtype=np.float64)[ok][:, None]
+        h = 0.5 * np.asarray(length, dtype=np.float64)[ok][:, None]
+        occ = (x - h < self._hi[pid]) & (x + h > self._lo[pid])
+        new = np.zeros_like(self._occ)
+        new[vid] = occ
+        prev_pid = self._pid.copy()
+        self._pid[vid] = pid
+        old = self._occ
+        for v, k in zip(*np.nonzero(old & ~new)):
+            q = prev_pid[v]
+            self._leave(t, int(self._ids[q, k]), int(self._side[q, k]))
+        for v, k in zip(*np.nonzero(new & ~old)):
+            q = self._pid[v]
+            self._enter(t, int(self._ids[q, k]), int(self._side[q, k]))
+        self._occ = new
+
+    def _enter(self, t, a, k) -> None:
+        o = 1 - k
+        if self.inside[a, o] > 0:
+            self.pending.setdefault((a, k), []).append(t)
+        elif not math.isnan(self.last_exit[a, o]):
+            self.samples.append(t - self.last_exit[a, o])
+        self.inside[a, k] += 1
+
+    def _leave(self, t, a, k) -> None:
+        self.inside[a, k] -= 1
+        self.last_exit[a, k] = t
+        waiting = self.pending.pop((a, 1 - k), None)
+        if waiting:
+            self.samples.extend(te - t for te in waiting)
+
+    def summary(self) -> dict:
+        return pet_summary(self.samples)
+
+
+def pet_summary(samples) -> dict:
+    """``pet_min``, ``pet_p05`` (numpy's linear percentile), ``pet_samples``."""
+    x = np.asarray(samples, dtype=np.float64)
+    if not len(x):
+        return {"pet_min": None, "pet_p05": None, "pet_samples": 0}
+    return {"pet_min": float(x.min()), "pet_p05": float(np.percentile(x, 5.0)), "pet_samples": int(len(x))}
+
+
+class JamWatch:
+    """Vehicles stopped more than :data:`JAM_SECONDS` outside a queue at the box.
+
+    Stopped time is kept per vehicle id; the queue rule is evaluated only
+    for vehicles already stopped longer than :data:`JAM_SECONDS`."""
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self._stopped_for = np.zeros(0)
+        self.ever: set[int] = set()
+        self.jammed_seconds = 0.0
+        self.log: list[tuple[float, int]] = []  # (time, vid) when a vehicle is first counted as jammed
+
+    def record(self, t: float, dt: float, vid, speed, in_queue_fn) -> None:
+        """``in_queue_fn(rows)`` -> bool per row: is the stopped vehicle in a queue at the box."""
+        vid = np.asarray(vid, dtype=np.int64)
+        if not len(vid):
+            return
+        top = int(vid.max()) + 1
+        if top > len(self._stopped_for):
+            self._stopped_for = np.concatenate([self._stopped_for,
+                                                np.zeros(max(top, 2 * len(self._stopped_for), 64)
+                                                         - len(self._stopped_for))])
+        stopped = np.asarray(speed) < STOPPED_SPEED
+        sf = self._stopped_for
+        sf[vid] = np.where(stopped, sf[vid] + dt, 0.0)
+        rows = np.flatnonzero(stopped & (sf[vid] > JAM_SECONDS))
+        if not len(rows):
+            return
+        jam = rows[~np.asarray(in_queue_fn(rows), dtype=bool)]
+        self.jammed_seconds += dt * len(jam)
+        for v in vid[jam].tolist():
+            if v not in self.ever:
+                self.ever.add(v)
+                self.log.append((round(t, 3), v))
+
+    def summary(self) -> dict:
+        return {"jammed": len(self.ever), "jammed_vehicle_seconds": float(self.jammed_seconds)}

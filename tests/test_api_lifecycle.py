@@ -1,0 +1,275 @@
+"""API lifecycle (issue 11, items 2 and 8-12 and the packaging items): each
+test reproduces one reported defect."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import icv_envs  # noqa: F401
+from icv_envs.cli import main
+from icv_envs.envs import highway_formation_v0, highway_ramps_v0, intersection_v0
+from icv_envs.envs.highway_formation import HighwayFormationEnv
+
+ROOT = Path(__file__).resolve().parents[1]
+RENDER_ENV = {"SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy"}
+
+
+# ----------------------------------------------------------- item 2: experts
+def _fresh(core):
+    return core.expert.compute(core.world).astype(np.float32)
+
+
+def test_expert_actions_not_stale_after_crash_and_spawn_in_one_step():
+    """A crashed vehicle removed and a new one spawned in the same step keep
+    the vehicle count: the cache must still recompute (labels of the new
+    agent and the expert driving missing agents use the current state)."""
+    spawns = [{"time": round(0.2 * k, 1), "position": 1200.0 + 40 * (k % 20), "lane": k % 4} for k in range(1, 80)]
+    env = highway_formation_v0.parallel_env(vehicles_count=24, duration=16.0, spawns=spawns, missing_action="expert")
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    both = stale = 0
+    for _ in range(75):
+        before = set(env.agents)
+        acts = {a: rng.uniform(-1, 1, 2) for a in env.agents if rng.random() < 0.3}  # random agents crash
+        obs, _, _, _, infos = env.step(acts)
+        core = env.core
+        vid = core.world.traffic.vid
+        fresh = _fresh(core)
+        new = [a for a in obs if a not in before]
+        if new and any(infos[a].get("crashed") for a in infos):
+            both += 1
+        ex = env.expert_actions()
+        stale += any(not np.array_equal(ex[f"icv_{v}"], fresh[i]) for i, v in enumerate(vid))
+        stale += any(not np.array_equal(infos[a]["expert_action"], fresh[int(np.searchsorted(vid, int(a[4:])))])
+                     for a in new)
+    assert both >= 5  # the situation of the report happened
+    assert stale == 0
+
+
+@pytest.mark.parametrize("name", ["ramps", "intersection"])
+def test_expert_cache_follows_the_vehicle_set(name):
+    """Remove one vehicle and add one (same count, same time): the cached
+    actions are recomputed on the open-road envs too."""
+    if name == "ramps":
+        env = highway_ramps_v0.parallel_env(duration=60.0, vgr=1.0)
+    else:
+        env = intersection_v0.parallel_env(duration=60.0, throughput=3000.0)
+    env.reset(seed=0)
+    core = env.core
+    for _ in range(25):
+        env.step({a: core.expert_actions()[i] for i, a in enumerate(env.agents)})
+    core.expert_actions()
+    w = core.world
+    n = w.traffic.n
+    assert n >= 3
+    if name == "ramps":
+        tr = w.traffic
+        tr.crashed[0] = True
+        w.remove_crashed_vehicles()
+        road = w.road
+        tr.add(road.on_ramps[2].start - road.on_ramps[2].approach + 5.0, road.ramp_lane * road.lane_width, 3.0,
+               exit=0, time=w.time)  # slow: the expert accelerates it (the others coast at 15 m/s)
+        w.invalidate()
+    else:
+        f = w.fleet
+        leg, lane, mv = int(f.leg[0]), 0, int(f.mv[0])
+        f.crashed[0] = True
+        w.remove_crashed_vehicles()
+        vid = w.spawn(leg, lane, mv, 10.0, -(core.layout.R3 - core.layout.box_half), tlane=lane)
+        core.expert.on_spawn(w, vid, None, 0.0, lane)
+        core.expert.update(w)
+    assert w.traffic.n == n
+    fresh = _fresh(core)
+    assert np.abs(fresh[-1]).max() > 0
+    np.testing.assert_array_equal(core.expert_actions(), fresh)
+
+
+# --------------------------------------------------- item 8: failed reconfig
+@pytest.mark.parametrize("make", [
+    lambda: highway_ramps_v0.parallel_env(duration=30.0, vgr=0.2),
+    lambda: intersection_v0.parallel_env(duration=30.0),
+])
+def test_rejected_reset_config_leaves_the_env_usable(make):
+    env = make()
+    env.reset(seed=0)
+    before = dict(env.core.config)
+    with pytest.raises(ValueError, match="possible agents"):
+        env.reset(seed=0, options={"config": {"duration": 60.0}})
+    assert env.core.config == before
+    obs, _ = env.reset(seed=1)  # later resets keep working
+    assert obs
+    env.step({a: np.zeros(2) for a in env.agents})
+
+
+def test_rejected_gym_reset_config_keeps_the_old_one():
+    env = gym.make("icv_envs/Intersection-v0").unwrapped
+    env.reset(seed=0)
+    before = dict(env.config)
+    layout = env.layout
+    with pytest.raises(ValueError, match="D_t"):
+        env.reset(seed=0, options={"config": {"D_t": 5.0, "lane_use": "exclusive"}})
+    assert env.config == before and env.layout is layout
+    env.reset(seed=0)
+    env.step(np.zeros(2, dtype=np.float32))
+
+
+# --------------------------------------------- item 9: AEC on an open road
+def test_aec_env_runs_to_the_end_of_an_open_road_episode():
+    """At 100 veh/h the intersection is empty now and then; the AEC env must
+    not stop there but run to ``duration``."""
+    T = 300.0
+    par = intersection_v0.parallel_env(throughput=100.0, duration=T)
+    par.reset(seed=0)
+    empty_before_end = 0
+    while not par.episode_over:
+        par.step({a: par.core.expert_actions()[i] for i, a in enumerate(par.agents)})
+        empty_before_end += not par.agents and not par.episode_over
+    assert empty_before_end > 0  # the situation of the report
+    spawned = par.metrics()["spawned"]
+
+    env = intersection_v0.env(throughput=100.0, duration=T)
+    env.reset(seed=0)
+    for agent in env.agent_iter():
+        _, _, term, trunc, info = env.last()
+        env.step(None if term or trunc else info["expert_action"])
+    core = env.unwrapped.core
+    assert core.world.time == pytest.approx(T)
+    assert core.metrics()["spawned"] == spawned
+
+
+# ------------------------------------------------- item 10: spaces once
+def test_gym_reset_keeps_the_space_objects():
+    env = gym.make("icv_envs/HighwayFormation-v0")
+    base = env.unwrapped
+    a_space, o_space = base.action_space, base.observation_space
+    env.action_space.seed(7)
+    env.reset(seed=0)
+    first = [env.action_space.sample() for _ in range(3)]
+    assert base.action_space is a_space and base.observation_space is o_space
+    env.reset(seed=1, options={"config": {"duration": 30.0}})
+    assert base.action_space is a_space and base.observation_space is o_space
+    ref = gym.spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
+    ref.seed(7)
+    assert all(np.array_equal(x, ref.sample()) for x in first)
+
+
+# ------------------------------------------- item 11: duration and traffic
+def test_ramps_traffic_does_not_depend_on_duration():
+    short = highway_ramps_v0.parallel_env(duration=60.0, vgr=0.5, max_vehicles=400)
+    long = highway_ramps_v0.parallel_env(duration=300.0, vgr=0.5, max_vehicles=400)
+    short.reset(seed=3)
+    long.reset(seed=3)
+    a_s = [a for a in short.core._arrivals]
+    a_l = [a for a in long.core._arrivals if a[0] < 60.0]
+    assert a_s == a_l and len(a_s) > 50
+    for _ in range(20):
+        o1 = short.step({a: short.core.expert_actions()[i] for i, a in enumerate(short.agents)})[0]
+        o2 = long.step({a: long.core.expert_actions()[i] for i, a in enumerate(long.agents)})[0]
+        assert o1.keys() == o2.keys() and all(np.array_equal(o1[a], o2[a]) for a in o1)
+
+
+def test_intersection_traffic_does_not_depend_on_duration():
+    short = intersection_v0.parallel_env(duration=60.0, max_vehicles=500)
+    long = intersection_v0.parallel_env(duration=240.0, max_vehicles=500)
+    short.reset(seed=5)
+    long.reset(seed=5)
+    a_s = list(short.core._pending)
+    a_l = [a for a in long.core._pending if a[0] < 60.0]
+    assert a_s == a_l and len(a_s) > 10
+
+
+# ----------------------------------- item 12: signals, reset before step
+def test_sigterm_still_ends_the_process_after_render(tmp_path):
+    script = tmp_path / "s.py"
+    script.write_text(textwrap.dedent("""
+        import os, signal, time
+        from icv_envs import intersection_v0
+        env = intersection_v0.parallel_env(render_mode="rgb_array")
+        env.reset(seed=0)
+        assert env.render().ndim == 3
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5)
+        print("survived SIGTERM")
+    """))
+    env = {**os.environ, **RENDER_ENV, "PYTHONPATH": str(ROOT)}
+    res = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=120)
+    assert "survived" not in res.stdout
+    assert res.returncode == -signal.SIGTERM, res.stderr[-2000:]
+
+
+@pytest.mark.parametrize("env_id", ["icv_envs/HighwayFormation-v0", "icv_envs/HighwayRamps-v0",
+                                    "icv_envs/Intersection-v0"])
+def test_step_before_reset_raises(env_id):
+    env = gym.make(env_id).unwrapped  # without Gymnasium's order enforcing
+    assert env.world is None  # the constructor does not reset
+    with pytest.raises(RuntimeError, match=r"call reset\(\) before step\(\)"):
+        env.step(np.zeros(2, dtype=np.float32))
+    with pytest.raises(RuntimeError, match=r"call reset\(\) before step\(\)"):
+        env.ma_step({})
+
+
+def test_parallel_step_before_reset_raises():
+    env = highway_formation_v0.parallel_env()
+    assert env.possible_agents == [f"icv_{i}" for i in range(8)]
+    with pytest.raises(RuntimeError, match=r"call reset\(\) before step\(\)"):
+        env.step({})
+
+
+# ------------------------------------------------------------ packaging
+def test_submodule_import():
+    code = ("import icv_envs.highway_formation_v0 as a, icv_envs.highway_ramps_v0 as b, "
+            "icv_envs.intersection_v0 as c; from icv_envs.intersection_v0 import parallel_env; "
+            "import icv_envs.envs.highway_formation_v0 as d; assert a is d; print(parallel_env().metadata['name'])")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120,
+                         cwd="/")
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip() == "intersection_v0"
+
+
+@pytest.mark.parametrize("make", [
+    lambda: highway_formation_v0.parallel_env(render_mode="rgb_array", scenario="on-ramp"),
+    lambda: intersection_v0.parallel_env(render_mode="rgb_array"),
+    lambda: gym.make("icv_envs/HighwayRamps-v0", render_mode="rgb_array").unwrapped,
+])
+def test_pickle_after_render(make, monkeypatch):
+    for k, v in RENDER_ENV.items():
+        monkeypatch.setenv(k, v)
+    env = make()
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.ndim == 3
+    clone = pickle.loads(pickle.dumps(env))
+    if isinstance(env, HighwayFormationEnv):
+        a = env.step(np.zeros(2, dtype=np.float32))[0]
+        b = clone.step(np.zeros(2, dtype=np.float32))[0]
+        np.testing.assert_array_equal(a, b)
+    else:
+        acts = {a: np.zeros(2) for a in env.agents}
+        o1, o2 = env.step(acts)[0], clone.step(acts)[0]
+        assert all(np.array_equal(o1[a], o2[a]) for a in o1)
+    assert clone.render().shape == frame.shape
+
+
+# ------------------------------------------------ item 14: the command line
+@pytest.mark.parametrize("argv, match", [
+    (["run", "highway-formation", "--method", "idm", "--vgr", "0.9"], r"--method 'idm' does not apply to run "
+                                                                       r"highway-formation.*highway-ramps"),
+    (["run", "highway-formation", "--vgr", "0.9"], r"--vgr 0.9 does not apply"),
+    (["run", "highway-ramps", "--scenario", "on-ramp"], r"--scenario 'on-ramp' does not apply to run highway-ramps"),
+    (["run", "highway-ramps", "--policy", "random"], r"--policy 'random' does not apply to run highway-ramps"),
+    (["run", "highway-ramps", "--video", "--out", "x"], r"--video True does not apply to run highway-ramps"),
+])
+def test_cli_options_of_another_env_are_errors(argv, match, capsys):
+    assert main(argv + ["--seconds", "1"]) == 2
+    assert pytest.importorskip("re").search(match, capsys.readouterr().err)
