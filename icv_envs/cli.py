@@ -11,6 +11,7 @@
     icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
+    icv-envs leaderboard [--out DIR] [--models DIR] [--tasks T,...] [--episodes N] [--reuse]
     icv-envs evaluate --env ID --policy expert|idm|lane-lp|single-vp|fcfs|zero|random|PATH --episodes N --seed S [--out DIR]
     icv-envs list [--json]
     icv-envs --version
@@ -214,6 +215,9 @@ def build_parser() -> argparse.ArgumentParser:
     from icv_envs.rl.evaluate import add_arguments as _eval_args
 
     _eval_args(sub.add_parser("evaluate", help="evaluate expert/zero/random or a model saved by baselines/"))
+    from icv_envs.rl.leaderboard import add_arguments as _board_args
+
+    _board_args(sub.add_parser("leaderboard", help="every policy on every task, held-out seeds, IQM + bootstrap CIs"))
     k = sub.add_parser("conflicts", help="conflict matrix of the 12 intersection movements (derived from the lane use)",
                        formatter_class=fmt)
     k.add_argument("--lane-use", dest="lane_use", default="paper",  # checked by conflicts_report (exit 2)
@@ -261,6 +265,10 @@ def _dispatch(args) -> int:
         from icv_envs.rl.evaluate import run
 
         return run(args)
+    if args.command == "leaderboard":
+        from icv_envs.rl.leaderboard import run as run_board
+
+        return run_board(args)
     if args.command == "dataset":
         from icv_envs.rl.dataset import record_expert_dataset
         from icv_envs.rl.envs import parse_config
