@@ -57,6 +57,7 @@ METHOD_HELP = {
     "multi-vp": "regrouping + improved virtual platoon, a node per sub-formation (paper Sec. 4-5)",
     "single-vp": "virtual platoon with one vehicle per node",
     "fcfs": "tile reservation, first come first served (Dresner & Stone's AIM)",
+    "fcfs-tight": "tile reservation with 0.2 s / 0.5 m buffers",
 }
 POLICY_HELP = {
     "expert": "the env's scripted expert (infos[agent]['expert_action'])",

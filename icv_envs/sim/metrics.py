@@ -11,7 +11,7 @@ Motion (:class:`MotionStats`, every substep, every vehicle on the road):
 * ``speed_fluctuation``: mean |dv/dt| of the *realised* speed over all
   vehicle-substeps [m/s^2], ``dv = v(t + dt) - v(t)`` after the speed limits
   ``0 <= v <= v_max`` have been applied. The paper's Fig. 11 and Fig. 14
-  captions call this figure the "average acceleration"; it measures what the
+  captions call this figure the "average acceleration" (docs/metrics.md#speed-fluctuation); it measures what the
   vehicles do: a vehicle standing at 0 m/s while braking is commanded, or
   cruising at ``v_max`` while acceleration is commanded, contributes 0.
 * ``commanded_abs_accel``: mean |a| of the *commanded* acceleration (the

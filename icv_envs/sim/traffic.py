@@ -91,7 +91,7 @@ class Traffic:
     def __init__(self, wheelbase: float = 2.8, period: float | None = None,
                  lat_accel_max: float = LAT_ACCEL_MAX) -> None:
         self.wheelbase = float(wheelbase)
-        self.lat_accel_max = float(lat_accel_max)
+        self.lat_accel_max = None if lat_accel_max is None else float(lat_accel_max)  # None: no limit
         self.period = None if period is None else float(period)
         for f in _FLOAT_FIELDS:
             setattr(self, f, np.zeros(0, dtype=np.float64))
