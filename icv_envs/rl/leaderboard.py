@@ -34,7 +34,7 @@ Metrics per episode (each episode is one run in rliable's sense, the task
 one stratum): ``return`` (summed reward of all agents), ``collisions_per_100``
 (vehicles in a collision, or that left the road, per 100 vehicles of the
 episode; the intersection counts the spawned vehicles), ``mean_speed``
-(m/s), ``speed_fluctuation`` (mean |acceleration|, m/s^2), ``throughput``
+(m/s), ``speed_fluctuation`` (mean |dv/dt| of the realised speed, m/s^2), ``throughput``
 (intersection: achieved veh/h cleared on their own movement; highway-ramps:
 exited vehicles per hour; the highway-formation scenarios have no exit and no
 throughput). For each metric: the mean and rliable's interquartile mean (IQM),
