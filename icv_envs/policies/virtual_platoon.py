@@ -222,6 +222,42 @@ class VirtualPlatoon:
         order.insert(pos, nid)
         self.vp_order = order
 
+    def _repair_order(self, world, rs, order, o, ids):
+        f = world.fleet
+        lay = world.layout
+        lanes = {}
+        for k in order:
+            r = f.rows(self.nodes[k]["members"])
+            r = r[(r >= 0)]
+            r = r[rs.phase[r] == 0]
+            lanes[k] = {int(ln): float(rs.dist[r[rs.lane[r] == ln]].min()) for ln in np.unique(rs.lane[r])}, \
+                {int(ln): float(rs.dist[r[rs.lane[r] == ln]].max()) for ln in np.unique(rs.lane[r])}
+        leg = {k: int(lay.leg_of[self.nodes[k]["mv"]]) for k in order}
+        pos = {k: i for i, k in enumerate(order)}
+        changed = True
+        guard = 0
+        while changed and guard < 4 * len(order) + 4:
+            changed = False
+            guard += 1
+            for b in range(1, len(order)):
+                k = order[b]
+                for a in range(b):
+                    i = order[a]
+                    if leg[i] != leg[k]:
+                        continue
+                    # k has a vehicle ahead of a vehicle of i in a shared lane
+                    if any(ln in lanes[k][0] and lanes[k][0][ln] < lanes[i][1][ln] - 1e-6 and
+                           lanes[k][0][ln] < lanes[i][0][ln] for ln in lanes[i][1]):
+                        order.insert(a, order.pop(b))
+                        changed = True
+                        self.stats["order_repaired"] = self.stats.get("order_repaired", 0) + 1
+                        break
+                if changed:
+                    break
+        self.vp_order = order + [k for k in self.vp_order if k not in set(order)]
+        idx = {k: i for i, k in enumerate(ids)}
+        return np.array([idx[k] for k in order], dtype=np.int64) if len(order) else o
+
     def tree(self, world, rs):
         """Current virtual platoon: ``(node ids in order, depths (with the leader at 0), references)``."""
         f = world.fleet
@@ -250,9 +286,13 @@ class VirtualPlatoon:
             rear[k] = X[i1]
             mvs[k] = N["mv"]
             lens[k] = N["length"]
-        # nodes in the virtual platoon's order (_insert_node)
+        # nodes in the virtual platoon's order (_insert_node), repaired so that
+        # no node comes before a node of its own leg that has a vehicle ahead
+        # of one of its vehicles in the same approach lane (that node would
+        # wait behind it for a reference it cannot reach: a circular wait)
         rank = {k: i for i, k in enumerate(self.vp_order)}
         o = np.argsort([rank.get(k, len(rank) + k) for k in ids], kind="stable")
+        o = self._repair_order(world, rs, [ids[i] for i in o], o, ids)
         xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
         ids = [ids[i] for i in o]
         C = world.layout.conflict[np.ix_(mvs, mvs)]
