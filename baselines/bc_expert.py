@@ -32,6 +32,17 @@ losses and the final evaluation (every agent driven by the clone).
         --expert-steps 3000 --dagger-iters 2 --dagger-steps 1500 --out runs/bc_intersection
     icv-envs evaluate --env intersection_v0 --policy runs/bc_intersection --episodes 5
 
+``--dataset DIR`` (optionally ``DIR::DATASET_ID``) takes the expert data of
+step 1 from a Minari dataset written by ``icv-envs dataset`` (every step's
+observation and expert action, over all its episodes) instead of
+collecting ``--expert-steps`` steps; DAgger (step 3) then labels the
+learner's own rollouts on ``--config`` as usual (``--dagger-iters 0``: pure
+offline BC from the dataset). The dataset's spaces must be the env's. E.g.
+
+    icv-envs dataset --env icv_envs/highway_formation-v0 --config '{"scenario": "on-ramp"}' --episodes 50 \
+        --out runs/datasets
+    python baselines/bc_expert.py --config '{"scenario": "on-ramp"}' --dataset runs/datasets --out runs/bc_ds
+
 On the highway-formation env, ``--scenarios`` collects episodes from each
 listed scenario in turn (on top of ``--config``), for one clone that covers
 them all; by default all five (free, lane-drop, lane-change, off-ramp,
@@ -77,6 +88,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                    f"--config scenario if it names one); allowed: {', '.join(sorted(SCENARIOS))}. Other envs: 'config' "
                    "(the default)")
     p.add_argument("--expert-steps", type=int, default=6000, help="env steps with the expert driving")
+    p.add_argument("--dataset", default=None, help="Minari dataset DIR (MINARI_DATASETS_PATH) or DIR::DATASET_ID "
+                   "(default id icv_envs/<family>/expert-v0): the expert data instead of --expert-steps")
     p.add_argument("--dagger-iters", type=int, default=6, help="DAgger iterations (0: plain BC)")
     p.add_argument("--dagger-steps", type=int, default=3000, help="env steps of learner rollouts per iteration")
     p.add_argument("--epochs", type=int, default=10, help="passes over the data set per fit")
@@ -158,6 +171,34 @@ def collect(envs, n_steps: int, seed: int, policy=None) -> tuple[np.ndarray, np.
     return np.concatenate(X), np.clip(np.concatenate(Y), -1.0, 1.0), stats
 
 
+def load_dataset(arg: str, family: str, obs_space, act_space) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Observations and expert actions of every step of a Minari dataset
+    (``DIR`` or ``DIR::ID``, as written by ``icv-envs dataset``)."""
+    import os
+
+    import minari
+
+    from icv_envs.rl.dataset import DEFAULT_DATASET_ID
+
+    root, _, did = arg.partition("::")
+    did = did or DEFAULT_DATASET_ID.format(family=family)
+    if not Path(root).is_dir():
+        raise SystemExit(f"--dataset {arg!r}: directory {root!r} does not exist")
+    os.environ["MINARI_DATASETS_PATH"] = str(Path(root).resolve())
+    if did not in minari.list_local_datasets():
+        raise SystemExit(f"--dataset {arg!r}: no dataset {did!r} there; found: {sorted(minari.list_local_datasets())}")
+    ds = minari.load_dataset(did)
+    if ds.observation_space.shape != obs_space.shape or ds.action_space != act_space:
+        raise SystemExit(f"--dataset {did!r} has observation shape {ds.observation_space.shape} and action space "
+                         f"{ds.action_space}; the env has {obs_space.shape} and {act_space}")
+    X, Y = [], []
+    for ep in ds.iterate_episodes():
+        X.append(np.asarray(ep.observations[:-1], dtype=np.float32))
+        Y.append(np.asarray(ep.actions, dtype=np.float32))
+    X, Y = np.concatenate(X), np.clip(np.concatenate(Y), -1.0, 1.0)
+    return X, Y, {"dataset_id": did, "episodes": int(ds.total_episodes), "samples": int(len(X))}
+
+
 def fit(policy, X: np.ndarray, Y: np.ndarray, epochs: int, batch_size: int, lr: float, rng) -> dict:
     """Fit the mean of the policy's Gaussian to ``Y`` by MSE; returns losses
     (train, and on a 10 % hold-out)."""
@@ -218,8 +259,11 @@ def main(argv=None) -> int:
             return np.clip(policy.get_distribution(torch.as_tensor(obs_batch)).distribution.mean.numpy(), -1, 1)
 
     # 3. behaviour cloning on expert rollouts
-    X, Y, stats = collect(envs, args.expert_steps, seed=args.seed * 100_000)
-    history = [{"round": 0, "driver": "expert", "rollout": stats,
+    if args.dataset is not None:  # the expert data from a Minari dataset
+        X, Y, stats = load_dataset(args.dataset, args.spec.family, shell.observation_space, shell.action_space)
+    else:
+        X, Y, stats = collect(envs, args.expert_steps, seed=args.seed * 100_000)
+    history = [{"round": 0, "driver": "dataset" if args.dataset else "expert", "rollout": stats,
                 "fit": fit(policy, X, Y, args.epochs, args.batch_size, args.lr, rng)}]
 
     # 4. DAgger: learner drives, the expert labels, aggregate, refit. Each

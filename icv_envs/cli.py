@@ -6,11 +6,12 @@
     icv-envs run intersection --method multi-vp --throughput 1500 --lane-use paper --seconds 120 --seed 0 --out DIR [--video]
     icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
-    icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333]
+    icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333] [--vs-sumo]
     icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,...,5000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
     icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
+    icv-envs leaderboard [--out DIR] [--models DIR] [--tasks T,...] [--episodes N] [--reuse]
     icv-envs evaluate --env ID --policy expert|idm|lane-lp|single-vp|fcfs|zero|random|PATH --episodes N --seed S [--out DIR]
     icv-envs list [--json]
     icv-envs --version
@@ -56,6 +57,7 @@ METHOD_HELP = {
     "multi-vp": "regrouping + improved virtual platoon, a node per sub-formation (paper Sec. 4-5)",
     "single-vp": "virtual platoon with one vehicle per node",
     "fcfs": "tile reservation, first come first served (Dresner & Stone's AIM)",
+    "fcfs-tight": "tile reservation with 0.2 s / 0.5 m buffers",
 }
 POLICY_HELP = {
     "expert": "the env's scripted expert (infos[agent]['expert_action'])",
@@ -206,11 +208,16 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--throughput", type=float, default=None, help="intersection: vehicles/h (default 2200: about 60-70 vehicles)")
     b.add_argument("--method", type=_choice("method", METHODS["intersection"]), default=None,
                    help="intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
+    b.add_argument("--vs-sumo", dest="vs_sumo", action="store_true",
+                   help="highway-ramps: time the last 100 s beside SUMO on the same ring, alternately (extra 'bench')")
     b.add_argument("--out", default=None, help="also write the JSON to DIR/bench.json")
 
     from icv_envs.rl.evaluate import add_arguments as _eval_args
 
     _eval_args(sub.add_parser("evaluate", help="evaluate expert/zero/random or a model saved by baselines/"))
+    from icv_envs.rl.leaderboard import add_arguments as _board_args
+
+    _board_args(sub.add_parser("leaderboard", help="every policy on every task, held-out seeds, IQM + bootstrap CIs"))
     k = sub.add_parser("conflicts", help="conflict matrix of the 12 intersection movements (derived from the lane use)",
                        formatter_class=fmt)
     k.add_argument("--lane-use", dest="lane_use", default="paper",  # checked by conflicts_report (exit 2)
@@ -258,6 +265,10 @@ def _dispatch(args) -> int:
         from icv_envs.rl.evaluate import run
 
         return run(args)
+    if args.command == "leaderboard":
+        from icv_envs.rl.leaderboard import run as run_board
+
+        return run_board(args)
     if args.command == "dataset":
         from icv_envs.rl.dataset import record_expert_dataset
         from icv_envs.rl.envs import parse_config
@@ -299,6 +310,10 @@ def _dispatch(args) -> int:
     if args.command == "compare" and args.target == "intersection":
         from icv_envs.experiments.intersection_compare import run_cli as compare_intersection_cli
 
+        if args.seeds != list(range(len(args.seeds))):
+            raise ValueError(f"--seeds {args.seeds}: the intersection comparison takes a count N (seeds 0..N-1)")
+        args.seeds = len(args.seeds)
+
         args.progress = _progress()
         summary = compare_intersection_cli(args, echo=lambda s: print(s, flush=True))
         print(json.dumps(summary))
@@ -308,9 +323,7 @@ def _dispatch(args) -> int:
 
         args.methods = args.methods or ["formation", "lane-lp", "idm"]
 
-        if args.seeds != list(range(len(args.seeds))):
-            raise ValueError(f"compare highway-ramps runs seeds 0..N-1; got the seed list {args.seeds}: give a count")
-        summary = compare_highway_ramps(args.methods, args.vgr, len(args.seeds), args.seconds, args.out,
+        summary = compare_highway_ramps(args.methods, args.vgr, args.seeds, args.seconds, args.out,
                                         backend=args.backend, workers=args.workers, progress=_progress())
         for row in summary["table"]:
             print(f"{row['method']:10s} vgr={row['vgr']:<5g} remaining={row['remaining']:7.1f} "
@@ -360,6 +373,8 @@ def _dispatch(args) -> int:
     if args.command == "bench":
         from icv_envs.experiments.bench import bench_highway_formation, bench_highway_ramps
 
+        if args.vs_sumo and args.target != "highway-ramps":
+            raise ValueError(f"--vs-sumo is an option of 'bench highway-ramps', not of 'bench {args.target}'")
         if args.target == "intersection":
             from icv_envs.experiments.intersection_bench import run_cli as bench_intersection_cli
 
@@ -371,7 +386,12 @@ def _dispatch(args) -> int:
         elif args.target == "highway-ramps":
             if not 0 < args.vgr <= 1.0:
                 raise ValueError(f"--vgr {args.vgr!r}; allowed: 0 < vgr <= 1")
-            res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))
+            if args.vs_sumo:
+                from icv_envs.experiments.sumo_bench import ramps_vs_sumo
+
+                res = ramps_vs_sumo(args.seconds or 600.0, vgr=args.vgr, echo=lambda s: print(s, flush=True))
+            else:
+                res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))
         else:
             res = bench_highway_formation(args.sizes, args.seconds or 10.0, args.stock_seconds,
                                           echo=lambda s: print(s, flush=True))

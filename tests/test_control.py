@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -17,10 +19,10 @@ def test_default_gains_are_well_damped():
     assert DEFAULT_KP < 0 and DEFAULT_KV < 0
     # characteristic polynomial s^2 - kv s - kp
     poles = np.roots([1.0, -DEFAULT_KV, -DEFAULT_KP])
-    assert np.all(np.isreal(poles)) and np.all(poles.real < 0)
-    np.testing.assert_allclose(np.sort(poles.real), [-0.6, -0.5])
+    np.testing.assert_allclose(poles.real, [-math.sqrt(0.3)] * 2, atol=1e-6)  # critically damped double pole
+    np.testing.assert_allclose(poles.imag, 0.0, atol=1e-6)
     zeta = -DEFAULT_KV / (2 * np.sqrt(-DEFAULT_KP))
-    assert zeta >= 1.0
+    assert zeta == pytest.approx(1.0)
 
 
 def test_signs():
@@ -35,7 +37,7 @@ def test_signs():
     assert longitudinal_feedback(3.0, 3.0, 20.0, 20.0) == 0.0
     # exact value in the linear range
     a = longitudinal_feedback(0.0, 2.0, 21.0, 20.0)
-    assert a == pytest.approx(-0.3 * -2.0 + -1.1 * 1.0)
+    assert a == pytest.approx(-0.3 * -2.0 + -2.0 * math.sqrt(0.3) * 1.0)
 
 
 def test_clipping_and_vectorisation():
@@ -168,3 +170,77 @@ def test_bad_inputs():
         longitudinal_feedback(0.0, np.inf, 20.0, 20.0)
     with pytest.raises(ValueError, match=r"not broadcastable.*x\(3,\).*x_ref\(2,\)"):
         longitudinal_feedback(np.zeros(3), np.zeros(2), 20.0, 20.0)
+
+
+# ------------------------------------------------------------ join profile
+def test_gains_follow_the_stated_design_rule():
+    from icv_envs.formation.control import DAMPING_RATIO, DEFAULT_KP, DEFAULT_KV, FEEDBACK_ACCEL, FEEDBACK_ERROR
+
+    wn = math.sqrt(-DEFAULT_KP)
+    assert -DEFAULT_KV / (2 * wn) == pytest.approx(DAMPING_RATIO) == pytest.approx(1.0)
+    assert wn ** 2 * FEEDBACK_ERROR == pytest.approx(FEEDBACK_ACCEL)
+
+
+profile_st = st.tuples(st.floats(-200.0, 200.0), st.floats(-15.0, 15.0), st.floats(-1.5, 1.0))
+
+
+@settings(max_examples=60, deadline=None, database=None)
+@given(profile_st)
+def test_join_profile_starts_at_the_member_and_ends_on_the_slot_within_limits(state):
+    from icv_envs.formation.control import PROFILE_ACCEL, PROFILE_DECEL, PROFILE_JERK, join_duration, join_profile
+
+    d0, v0, a0 = state
+    T = float(join_duration(d0, v0, a0)[0])
+    t = np.linspace(0.0, T, 2001)
+    d, v, a = join_profile(t, T, d0, v0, a0)
+    assert d[0] == pytest.approx(d0) and v[0] == pytest.approx(v0) and a[0] == pytest.approx(a0)
+    assert abs(d[-1]) < 1e-6 and abs(v[-1]) < 1e-6 and abs(a[-1]) < 1e-6
+    # after T the reference stays on the slot
+    d2, v2, a2 = join_profile(T + 5.0, T, d0, v0, a0)
+    assert abs(d2) < 1e-6 and abs(v2) < 1e-6 and abs(a2) < 1e-6
+    # bounded acceleration and jerk (checked on a 10x finer grid than the planner's)
+    assert a.max() <= PROFILE_ACCEL + 1e-2 and a.min() >= -PROFILE_DECEL - 1e-2
+    jerk = np.diff(a) / np.diff(t)
+    assert np.abs(jerk).max() <= PROFILE_JERK + 1e-2
+    # consistency: v = d', a = v'
+    np.testing.assert_allclose(np.diff(d) / np.diff(t), 0.5 * (v[1:] + v[:-1]), atol=1e-3 * (1 + abs(v0)))
+
+
+def test_join_profile_of_a_60_m_join():
+    from icv_envs.formation.control import join_duration, join_profile
+
+    T = float(join_duration(60.0, 0.0, 0.0)[0])
+    # rest-to-rest minimum-jerk move: peak acceleration 5.77 d / T^2 <= 1 m/s^2
+    assert T == pytest.approx(math.sqrt(5.7735 * 60.0), rel=0.06)
+    d, v, a = join_profile(np.array([0.0, T / 2, T]), T, 60.0, 0.0, 0.0)
+    np.testing.assert_allclose(d, [60.0, 30.0, 0.0], atol=1e-9)
+
+
+def test_a_vehicle_on_its_profile_tracks_it_exactly():
+    # point mass driven by the law with the profile's acceleration fed forward
+    from icv_envs.formation.control import join_duration, join_profile
+
+    d0, v0 = -40.0, -5.0
+    T = float(join_duration(d0, v0, 0.0)[0])
+    x, v = 100.0 + d0, 25.0 + v0
+    worst = 0.0
+    for k in range(int(T / DT) + 200):
+        t = k * DT
+        dr, vr, ar = join_profile(t, T, d0, v0, 0.0)
+        a = float(longitudinal_feedback(x, 100.0 + 25.0 * t + dr, v, 25.0 + vr, a_ref=ar, a_min=-2.0, a_max=1.5))
+        worst = max(worst, abs(x - (100.0 + 25.0 * t + dr)))
+        v += a * DT
+        x += v * DT
+    assert worst < 0.2  # forward-Euler discretisation at dt = 0.04 s
+    assert abs(x - (100.0 + 25.0 * (k + 1) * DT)) < 0.05
+
+
+def test_join_duration_bad_input():
+    from icv_envs.formation.control import join_duration, join_profile
+
+    with pytest.raises(ValueError, match="jerk must be"):
+        join_duration(1.0, 0.0, 0.0, jerk=0.0)
+    with pytest.raises(ValueError, match="d0"):
+        join_duration(float("nan"), 0.0, 0.0)
+    with pytest.raises(ValueError, match="duration T must be > 0"):
+        join_profile(0.0, 0.0, 1.0, 0.0, 0.0)

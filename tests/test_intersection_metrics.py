@@ -129,12 +129,12 @@ def test_world_queue_rule():
 
 
 @pytest.mark.parametrize("text,out", [("3", [0, 1, 2]), (3, [0, 1, 2]), ("5,7,10-12", [5, 7, 10, 11, 12]),
-                                      ("4,", [4]), ("2-2", [2]), ([3, 1, 3], [1, 3]), (" 1 , 0 ", [0, 1])])
+                                      ("4,", [4]), ("2-2", [2]), (" 1 , 0 ", [1, 0])])
 def test_seed_lists(text, out):
     assert parse_seeds(text) == out
 
 
-@pytest.mark.parametrize("bad", ["", "0", "-1", "a", "3-1", "1,,x", 0, -2, True, 2.5, [], [-1], ",", "1.5"])
+@pytest.mark.parametrize("bad", ["", "0", "-1", "a", "3-1", "1,,x", 0, -2, True, 2.5, [], [-1], ",", "1.5", "1,1"])
 def test_bad_seed_lists(bad):
     with pytest.raises(ValueError, match="seeds"):
         parse_seeds(bad)

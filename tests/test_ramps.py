@@ -12,7 +12,6 @@ from pettingzoo.test import parallel_api_test
 from icv_envs import highway_ramps_v0
 from icv_envs.cli import main
 from icv_envs.experiments.compare import compare_highway_ramps, run_ramps
-from icv_envs.policies.lane_lp import optimal_lane_shares
 from icv_envs.sim.road import OffRamp, OnRamp, RoadLayout
 from icv_envs.sim.traffic import find_collisions, lane_index, leaders
 
@@ -141,30 +140,7 @@ def test_cli_run_and_bench(capsys, tmp_path):
         assert b[k] > 0
 
 
-# ------------------------------------------------------------- the LP alone
-def test_lp_shares_are_distributions_respecting_reachability():
-    p = optimal_lane_shares([10, 5, 8], [300.0, 2000.0, 6000.0], [25, 25, 25, 20], [60, 60, 60, 60], 250.0)
-    assert p.shape == (3, 4)
-    np.testing.assert_allclose(p.sum(axis=1), 1.0)
-    # 300 m: only lanes needing <= 1 lane change (lane 3) are reachable
-    assert p[0, :3].sum() < 1e-9
-    # capacity respected
-    assert (np.array([10, 5, 8]) @ p <= np.array([60, 60, 60, 60]) + 1e-6).all()
-
-
-def test_lp_puts_the_longest_trips_on_the_fast_lanes_when_capacity_binds():
-    # one fast lane (capacity 10) and one slow lane; 10 vehicles each going
-    # 1000 m and 5000 m: the far group saves most time on the fast lane
-    p = optimal_lane_shares([10, 10], [1000.0, 5000.0], [30.0, 20.0], [10.0, 100.0], 0.0)
-    np.testing.assert_allclose(p[1], [1.0, 0.0], atol=1e-9)
-    np.testing.assert_allclose(p[0], [0.0, 1.0], atol=1e-9)
-
-
-def test_lp_bad_input():
-    with pytest.raises(ValueError, match="counts must be >= 0"):
-        optimal_lane_shares([-1], [100.0], [25.0], [10.0])
-    with pytest.raises(ValueError, match="same shape"):
-        optimal_lane_shares([1, 2], [100.0], [25.0], [10.0])
+# the LP alone: tests/test_lane_lp.py
 
 
 # ------------------------------------------------------------- ring geometry

@@ -91,6 +91,12 @@ def check_actions(actions, agents) -> np.ndarray:
     return out
 
 
+def _rows(actions) -> np.ndarray:
+    """Checked actions as one ``(n, 2)`` array: the batched check already
+    gives one (``IcvAgentsEnv._check_actions``); a list of rows is stacked."""
+    return actions if isinstance(actions, np.ndarray) else np.stack(actions)
+
+
 class ActionType:
     """Converts agents' actions into the normalised controls the simulation applies."""
 
@@ -138,7 +144,7 @@ class ContinuousAction(ActionType):
     def controls(self, rows, actions) -> np.ndarray:
         if not len(rows):
             return np.zeros((0, 2))
-        return np.clip(np.stack(actions), -1.0, 1.0)
+        return np.clip(_rows(actions), -1.0, 1.0)
 
     def expert_action(self, expert_row):
         return np.asarray(expert_row, dtype=np.float32)
@@ -162,7 +168,7 @@ class FormationResidual(ContinuousAction):
         if not len(rows):
             return np.zeros((0, 2))
         ex = np.asarray(self.env.expert_actions(), dtype=np.float64)[rows]
-        return np.clip(ex + self.bound * np.clip(np.stack(actions), -1.0, 1.0), -1.0, 1.0)
+        return np.clip(ex + self.bound * np.clip(_rows(actions), -1.0, 1.0), -1.0, 1.0)
 
     def expert_action(self, expert_row):
         return np.zeros(2, dtype=np.float32)

@@ -17,13 +17,14 @@ conversion), and rendering.
 from __future__ import annotations
 
 import copy
+import functools
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from highway_env.envs.common.abstract import AbstractEnv
 
-from icv_envs.envs.actions import action_factory, check_actions
+from icv_envs.envs.actions import ContinuousAction, action_factory, check_actions
 from icv_envs.envs.observations import observation_factory
 
 __all__ = ["IcvAgentsEnv", "check_actions"]
@@ -187,14 +188,16 @@ class IcvAgentsEnv(AbstractEnv):
         if self.world is None:
             raise RuntimeError("call reset() before step()")
         veh = self._vehicles()
-        live = [f"icv_{v}" for v in veh.vid]
-        live_set = set(live)
+        live = [f"icv_{v}" for v in veh.vid.tolist()]
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
-        unknown = [a for a in actions if a not in live_set]
-        if unknown:
-            raise ValueError(f"actions for agents that are not live: {unknown[:5]}; live agents: {live[:5]}...")
-        missing = [a for a in live if a not in actions]
+        missing = []
+        if len(actions) != len(live) or actions.keys() != set(live):  # the usual case is one set comparison
+            live_set = set(live)
+            unknown = [a for a in actions if a not in live_set]
+            if unknown:
+                raise ValueError(f"actions for agents that are not live: {unknown[:5]}; live agents: {live[:5]}...")
+            missing = [a for a in live if a not in actions]
         if missing and self.config["missing_action"] == "error":
             raise ValueError(
                 f"no action for live agents {missing[:5]} ({len(missing)} missing); pass an action for every agent "
@@ -205,12 +208,84 @@ class IcvAgentsEnv(AbstractEnv):
         acts = np.zeros((veh.n, 2), dtype=np.float64)
         if missing:
             acts[:] = self.expert_actions()
-        given = [i for i, a in enumerate(live) if a in actions]
-        if given:
+            given = np.array([i for i, a in enumerate(live) if a in actions], dtype=np.int64)
+            names = [live[i] for i in given]
+        else:
+            given, names = np.arange(veh.n), live
+        if names:
             at = self._act_type
-            vals = [at.check(actions[live[i]], live[i]) for i in given]
-            acts[given] = at.controls(np.asarray(given, dtype=np.int64), vals)
+            values = [actions[a] for a in names]
+            if isinstance(at, ContinuousAction):
+                vals = self._check_actions(names, values)
+            else:
+                vals = [at.check(v, a) for a, v in zip(names, values)]
+            acts[given] = at.controls(given, vals)
         return self._ma_advance(acts)
+
+    def _check_actions(self, names: list, values: list) -> np.ndarray:
+        """Continuous actions of all agents checked and converted at once: one
+        array, one finiteness check, clipped to [-1, 1]. Anything the fast
+        path cannot take as one real ``(n, 2)`` array (a wrong shape, a
+        string, a dict, complex or boolean values) goes through the action
+        type's per-agent check, whose error names the agent; non-finite values
+        raise naming every bad agent."""
+        try:
+            arr = np.array(values)
+        except (ValueError, TypeError, OverflowError):
+            arr = None
+        if arr is None or arr.shape != (len(names), 2) or arr.dtype.kind not in "fiu":
+            arr = np.stack([self._check_action(v, a) for a, v in zip(names, values)])
+        else:
+            arr = arr.astype(np.float64, copy=False)
+        finite = np.isfinite(arr).all(axis=1)
+        if not finite.all():
+            bad = [names[i] for i in np.flatnonzero(~finite)]
+            more = f" (and {len(bad) - 1} more: {bad[1:10]}{' ...' if len(bad) > 10 else ''})" if len(bad) > 1 else ""
+            raise ValueError(f"action of {bad[0]} = {arr[~finite][0].tolist()} holds NaN or inf{more}; "
+                             f"allowed: finite values in [-1, 1]")
+        return np.clip(arr, -1.0, 1.0)
+
+    # ------------------------------------------- array -> PettingZoo dicts
+    # The env builds observations, rewards and infos as arrays over its rows;
+    # these turn them into the per-agent dicts once, at the API's edge.
+    @staticmethod
+    def _agent_dicts(agents: list, obs: np.ndarray, rew: np.ndarray, term: np.ndarray, trunc) -> tuple:
+        """``(observations, rewards, terminations, truncations)`` dicts from
+        row arrays (``trunc`` an array or one bool for all)."""
+        observations = dict(zip(agents, obs))
+        rewards = dict(zip(agents, np.asarray(rew, dtype=np.float64).tolist()))
+        terms = dict(zip(agents, np.asarray(term, dtype=bool).tolist()))
+        if np.ndim(trunc) == 0:
+            truncs = dict.fromkeys(agents, bool(trunc))
+        else:
+            truncs = dict(zip(agents, np.asarray(trunc, dtype=bool).tolist()))
+        return observations, rewards, terms, truncs
+
+    @staticmethod
+    def _info_dicts(agents: list, columns: dict, expert: np.ndarray | None = None, parts: dict | None = None) -> dict:
+        """One info dict per agent from per-agent columns (lists aligned with
+        ``agents``), the expert's action rows (one copy, one row each) and the
+        reward components (``info["rewards"]``)."""
+        keys = list(columns)
+        vals = [columns[k] for k in keys]
+        if expert is not None:
+            keys.append("expert_action")
+            vals.append(list(np.array(expert, copy=True)))
+        pk = list(parts) if parts else []
+        vals += [np.asarray(parts[k], dtype=np.float64).tolist() for k in pk]
+        return _dict_builder(tuple(keys), tuple(pk))(agents, vals)
+
+    @staticmethod
+    def _realign_rows(before_vid: np.ndarray, values: np.ndarray, vid: np.ndarray) -> np.ndarray:
+        """``values`` (rows aligned with the sorted ids ``before_vid``) moved
+        to the rows of the sorted ids ``vid``; zeros for ids not in
+        ``before_vid`` (vehicles that appeared since)."""
+        out = np.zeros((len(vid),) + values.shape[1:], dtype=values.dtype)
+        if len(before_vid) and len(vid):
+            pos = np.minimum(np.searchsorted(before_vid, vid), len(before_vid) - 1)
+            ok = before_vid[pos] == vid
+            out[ok] = values[pos[ok]]
+        return out
 
     # ------------------------------------------------------------------ expert
     def _expert_key(self) -> tuple:
@@ -317,3 +392,20 @@ class IcvAgentsEnv(AbstractEnv):
                 self._record_video_wrapper._capture_frame()
             else:
                 self.render()
+
+
+@functools.lru_cache(maxsize=64)
+def _dict_builder(keys: tuple, reward_keys: tuple):
+    """A function ``(agents, columns) -> {agent: {key: value, ...}}`` for
+    these keys, written as one dict display per agent (about twice as fast
+    as ``dict(zip(keys, row))``; CPython builds a literal in one opcode). The
+    keys are the envs' own info names, never user input; ``repr`` quotes
+    them. ``reward_keys`` go into a nested ``"rewards"`` dict."""
+    names = [f"c{i}" for i in range(len(keys) + len(reward_keys))]
+    items = [f"{k!r}: {v}" for k, v in zip(keys, names)]
+    if reward_keys:
+        inner = ", ".join(f"{k!r}: {v}" for k, v in zip(reward_keys, names[len(keys):]))
+        items.append(f"'rewards': {{{inner}}}")
+    src = (f"lambda agents, cols: {{a: {{{', '.join(items)}}} "
+           f"for a, {', '.join(names) + ','} in zip(agents, *cols)}}")
+    return eval(src, {})  # noqa: S307 - the source is built from the repr of the envs' constant key names

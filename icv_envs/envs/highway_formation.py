@@ -71,6 +71,9 @@ _FORMATION_DEFAULTS = {
     "exit_lookahead": 400.0,
     "max_anchor_lead": 15.0,
 }
+#: body length of every vehicle [m] (paper Table 1) and the IDM jam distance s0 [m]
+VEHICLE_LENGTH = 5.0
+JAM_DISTANCE = 2.0
 _REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "formation": 0.5}
 
 
@@ -238,6 +241,17 @@ class HighwayFormationEnv(IcvAgentsEnv):
         if f["geometry"] not in ("interlaced", "parallel"):
             raise ValueError(f"formation geometry {f['geometry']!r} is invalid; allowed: 'interlaced', 'parallel'")
         _num(f, "spacing", 0.0, 1000.0, lo_open=True, allowed="a number > 0 metres (at most 1000)", where="['formation']")
+        # two targets in one lane are ``spacing`` apart (one lane, or the
+        # parallel geometry): the bodies (5 m) plus the IDM jam distance s0
+        # (2 m) must fit, even after the initial jitter moved both towards
+        # each other
+        min_spacing = VEHICLE_LENGTH + JAM_DISTANCE + 2.0 * float(c["initial_jitter"])
+        if f["spacing"] < min_spacing:
+            raise ValueError(
+                f"formation.spacing = {f['spacing']} m is below the physical minimum {min_spacing:g} m "
+                f"(vehicle length {VEHICLE_LENGTH:g} m + jam distance s0 {JAM_DISTANCE:g} m + "
+                f"2 x initial_jitter {c['initial_jitter']} m): vehicles one target apart in a lane would overlap"
+            )
         _num(f, "w1", 0.0, 1e6, allowed="a number in [0, 1e6]", where="['formation']")
         _num(f, "w2", 0.0, 1e6, allowed="a number in [0, 1e6]", where="['formation']")
         _num(f, "speed", sr[0], sr[1], allowed=f"a number within speed_range {list(sr)}", where="['formation']")
@@ -319,34 +333,61 @@ class HighwayFormationEnv(IcvAgentsEnv):
         # vehicles must fit on the road
         self._placement()
 
-    def _placement(self) -> list[tuple[int, float]]:
-        """(count, anchor) per initial formation; raises if they do not fit."""
+    def _placement(self) -> list[tuple[int, float, list[int]]]:
+        """(count, anchor, lanes) per initial formation; raises if they do not fit.
+
+        Each formation is sized for the main lanes drivable over the window
+        its formation layer will use, ``[anchor - length - 10 m, anchor +
+        lookahead]`` (:meth:`FormationManager._lane_set`): a lane that drops
+        or is blocked in that window is not used, so the targets the vehicles
+        are placed on are the targets the formation layer assigns (sizing for
+        the starting lane count but assigning on fewer lanes put vehicles on
+        top of each other). Lane set and length depend on each other and on
+        the anchors: iterated to a fixed point (at most a few rounds)."""
         c = self.config
         n, size = int(c["vehicles_count"]), int(c["formation_size"])
         k = math.ceil(n / size)
         counts = [n // k + (1 if i < n % k else 0) for i in range(k)]
-        lanes = self._initial_lane_count()
         f = c["formation"]
-        lengths = [formation_length(m, lanes, f["spacing"], f["geometry"]) for m in counts]
-        needed = sum(lengths) + c["formation_gap"] * (k - 1) + 10.0
+        road = self._make_road()
+        lane_sets = [list(range(int(c["lanes_count"]))) for _ in counts]
         front = c["initial_position"]
-        if front is None:
-            front = needed + 10.0
-        if not isinstance(front, (int, float)) or not math.isfinite(front):
+        auto = front is None
+        if not auto and (not isinstance(front, (int, float)) or isinstance(front, bool) or not math.isfinite(front)):
             raise ValueError(f"config['initial_position'] = {front!r}; allowed: a number or None (automatic)")
-        if front - needed < 0 or front > c["road_length"] - 100.0:
+
+        def layout(sets):
+            lengths = [formation_length(m, len(ls), f["spacing"], f["geometry"]) for m, ls in zip(counts, sets)]
+            needed = sum(lengths) + c["formation_gap"] * (k - 1) + 10.0
+            fr = needed + 10.0 if auto else float(front)
+            anchors, a = [], fr
+            for length in lengths:
+                anchors.append(a)
+                a -= length + c["formation_gap"]
+            return lengths, needed, fr, anchors
+
+        # lanes only ever shrink (intersection), so this terminates
+        for _ in range(int(c["lanes_count"]) * k + 1):
+            lengths, needed, fr, anchors = layout(lane_sets)
+            new = []
+            for a, length, ls in zip(anchors, lengths, lane_sets):
+                got = [lane for lane in road.drivable_main_lanes(a - length - 10.0, a + f["lookahead"]) if lane in ls]
+                new.append(got or ls[:1])
+            if new == lane_sets:
+                break
+            lane_sets = new
+        lengths, needed, fr, anchors = layout(lane_sets)
+        lanes = min(len(ls) for ls in lane_sets)
+        if fr - needed < 0 or fr > c["road_length"] - 100.0:
             per_m = max(lanes, 1) / (2.0 * f["spacing"]) * 2.0
-            cap = int(max(0.0, min(front, c["road_length"] - 100.0) - 10.0) * per_m * 0.5) + 1
+            cap = int(max(0.0, min(fr, c["road_length"] - 100.0) - 10.0) * per_m * 0.5) + 1
             raise ValueError(
                 f"vehicles_count={n} does not fit: {lanes} lanes with spacing {f['spacing']} m need {needed:.0f} m "
-                f"behind initial_position={front} (road_length={c['road_length']}); at most about {cap} vehicles fit "
-                f"there, or set initial_position=None to place them automatically"
+                f"behind initial_position={fr} (road_length={c['road_length']}); at most about {cap} vehicles fit "
+                + ("there: use fewer vehicles or a longer road" if auto else
+                   "there, or set initial_position=None to place them automatically")
             )
-        anchors, a = [], float(front)
-        for m, length in zip(counts, lengths):
-            anchors.append((m, a))
-            a -= length + c["formation_gap"]
-        return anchors
+        return [(m, a, ls) for m, a, ls in zip(counts, anchors, lane_sets)]
 
     def _initial_lane_count(self) -> int:
         c = self.config
@@ -387,6 +428,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             desired_speed=float(c["formation"]["speed"]),
             ramp_speed=float(c["ramp_speed"]),
             exit_lookahead=float(c["formation"]["exit_lookahead"]),
+            lane_width=float(c["lane_width"]),
         )
 
     def _reset(self) -> None:
@@ -407,8 +449,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         exits = {int(k): int(v) for k, v in c["exits"].items()}
         h = 0.5 * c["wheelbase"]
         idx = 0
-        for count, anchor in self._placement():
-            lanes = road.drivable_main_lanes(anchor - 200.0, anchor + f["lookahead"]) or [0]
+        for count, anchor, lanes in self._placement():
             tx, tl = formation_targets(count, len(lanes), f["spacing"], f["geometry"])
             lane_arr = np.asarray(lanes)[tl - 1]
             cx = anchor - tx + rng.uniform(-1, 1, count) * c["initial_jitter"]
@@ -600,58 +641,46 @@ class HighwayFormationEnv(IcvAgentsEnv):
 
     def _ma_infos(self, agents, rows, parts) -> dict:
         c = self.config
-        infos = {}
         ex = self.expert_actions() if c["expert_in_info"] and len(rows) else None
         tr = self.world.traffic
-        x_ref, lane_ref, v_ref, member = self.world.manager.references(tr)
-        lanes = self.world.road.lane_of(tr.center()[1]).tolist()
-        speeds = tr.speed.tolist()
-        groups = tr.group.tolist()
-        tlanes = lane_ref.tolist()
-        for i, a in enumerate(agents):
-            r = int(rows[i])
-            info = {
-                "speed": speeds[r],
-                "lane": lanes[r],
-                "formation": groups[r],
-                "target_lane": tlanes[r],
-                "crashed": False,
-            }
-            if ex is not None:
-                info["expert_action"] = ex[r].copy()
-            if parts:
-                info["rewards"] = {k: float(v[i]) for k, v in parts.items()}
-            infos[a] = info
-        return infos
+        _, lane_ref, _, _ = self.world.manager.references(tr)
+        rows = np.asarray(rows, dtype=np.int64)
+        cols = {
+            "speed": tr.speed[rows].tolist(),
+            "lane": self.world.road.lane_of(tr.center()[1])[rows].tolist(),
+            "formation": tr.group[rows].tolist(),
+            "target_lane": lane_ref[rows].tolist(),
+            "crashed": [False] * len(rows),
+        }
+        return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
 
     def _ma_advance(self, acts: np.ndarray):
         c = self.config
         w = self.world
         tr = w.traffic
         before = tr.vid.copy()
-        acts_by_vid = {int(v): acts[i] for i, v in enumerate(before)}
+        if tr.n:
+            # who drives: an action equal to the expert's (float32) is expert-driven
+            ex = self.expert_actions()
+            w.set_expert_driven(before, np.all(np.abs(np.asarray(acts, dtype=np.float64) - ex) <= 1e-6, axis=1))
         events = self._advance(acts)
         self.time += 1.0 / c["policy_frequency"]
         self.steps += 1
         # formations react to what happened, then new vehicles appear
         w.manager.update(tr, w.road, 1.0 / c["policy_frequency"])
         crashed_rows = np.flatnonzero(tr.crashed)
-        self._last_actions = np.array([acts_by_vid.get(int(v), np.zeros(2)) for v in tr.vid]).reshape(-1, 2)
+        self._last_actions = self._realign_rows(before, np.asarray(acts, dtype=np.float64).reshape(-1, 2), tr.vid)
         rows = np.arange(tr.n)
-        agents = [f"icv_{v}" for v in tr.vid]
+        agents = [f"icv_{v}" for v in tr.vid.tolist()]
         crashed_now = tr.crashed.copy()
         F = self._features()  # once per step, for rewards and observations
         rew, parts = self._rewards_rows(rows, crashed_now, F)
         obs = self._observe_rows(rows, F)
         truncated_all = w.time >= float(c["duration"]) - 1e-9
-        observations = {a: obs[i] for i, a in enumerate(agents)}
-        rewards = {a: float(rew[i]) for i, a in enumerate(agents)}
-        terms = {a: bool(crashed_now[i]) for i, a in enumerate(agents)}
-        truncs = {a: bool(truncated_all) for a in agents}
+        observations, rewards, terms, truncs = self._agent_dicts(agents, obs, rew, crashed_now, truncated_all)
         infos = self._ma_infos(agents, rows, parts)
-        for i, a in enumerate(agents):
-            if crashed_now[i]:
-                infos[a]["crashed"] = True
+        for i in np.flatnonzero(crashed_now).tolist():
+            infos[agents[i]]["crashed"] = True
         # vehicles that left the simulation during the step: exits are
         # terminal successes, the end of the road is a truncation
         gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
@@ -694,8 +723,8 @@ class HighwayFormationEnv(IcvAgentsEnv):
 
     # --------------------------------------------------------------- metrics
     def metrics(self, **kwargs) -> dict:
-        """Run metrics so far (see :mod:`icv_envs.experiments.metrics`)."""
-        from icv_envs.experiments.metrics import run_metrics
+        """Run metrics so far (see :mod:`icv_envs.sim.metrics`)."""
+        from icv_envs.sim.metrics import run_metrics
 
         return run_metrics(self.world)
 

@@ -350,6 +350,8 @@ class HighwayRampsEnv(HighwayFormationEnv):
                 "exited": int(st["exited"]),
                 "missed_exits": int(st["missed_exits"]),
                 "collisions": int(st["collisions"]),
+                "stopped": int((tr.speed < 0.1).sum()),
+                "jammed": int(st["jammed"]),
                 "formations": len(w.manager.anchor),
             }
         )
@@ -360,7 +362,7 @@ class HighwayRampsEnv(HighwayFormationEnv):
 
         ``lost`` = spawned - exited - remaining - removed after a crash: a
         bookkeeping check that must be 0 (no vehicle disappears unaccounted)."""
-        from icv_envs.experiments.metrics import run_metrics
+        from icv_envs.sim.metrics import run_metrics
 
         m = run_metrics(self.world)
         st = self.world.stats

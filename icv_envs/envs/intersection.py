@@ -617,34 +617,29 @@ class IntersectionEnv(IcvAgentsEnv):
 
     def _ma_infos(self, agents, rows, parts) -> dict:
         c = self.config
-        infos = {}
         if not len(rows):
-            return infos
+            return {}
         ex = self.expert_actions() if c["expert_in_info"] else None
         f = self.world.fleet
         rs = self.world.route()
-        speeds = f.speed.tolist()
-        mvs = f.mv.tolist()
-        nodes = f.node.tolist()
+        rows = np.asarray(rows, dtype=np.int64)
+        nodes = f.node[rows].tolist()
         depth = self.expert.node_depth
-        X = rs.dist.tolist()
-        for i, a in enumerate(agents):
-            r = int(rows[i])
-            info = {"speed": speeds[r], "movement": mvs[r], "distance": X[r], "node": nodes[r],
-                    "tree_layer": depth.get(nodes[r], -1), "crashed": False}
-            if ex is not None:
-                info["expert_action"] = ex[r].copy()
-            if parts:
-                info["rewards"] = {k: float(v[i]) for k, v in parts.items()}
-            infos[a] = info
-        return infos
+        cols = {
+            "speed": f.speed[rows].tolist(),
+            "movement": f.mv[rows].tolist(),
+            "distance": np.asarray(rs.dist)[rows].tolist(),
+            "node": nodes,
+            "tree_layer": [depth.get(nd, -1) for nd in nodes],
+            "crashed": [False] * len(rows),
+        }
+        return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
 
     def _ma_advance(self, acts: np.ndarray):
         c = self.config
         w = self.world
         f = w.fleet
         before = f.vid.copy()
-        acts_by_vid = {int(v): acts[i] for i, v in enumerate(before)}
         events = self._advance(acts)
         self.time += 1.0 / c["policy_frequency"]
         self.steps += 1
@@ -655,23 +650,19 @@ class IntersectionEnv(IcvAgentsEnv):
         self.expert.update(w)
         f = w.fleet
         crashed_now = np.concatenate([crashed_now, np.zeros(f.n - len(crashed_now), dtype=bool)])
-        self._last_actions = np.array([acts_by_vid.get(int(v), np.zeros(2)) for v in f.vid]).reshape(-1, 2)
+        self._last_actions = self._realign_rows(before, np.asarray(acts, dtype=np.float64).reshape(-1, 2), f.vid)
         rows = np.arange(f.n)
-        agents = [f"icv_{v}" for v in f.vid]
+        agents = [f"icv_{v}" for v in f.vid.tolist()]
         F = self._features() if f.n else np.zeros((0, len(OBS_FEATURES)))
         rew, parts = self._rewards_rows(rows, crashed_now, F)
         obs = self._observe_rows(rows, F)
-        observations = {a: obs[i] for i, a in enumerate(agents)}
-        rewards = {a: float(rew[i]) for i, a in enumerate(agents)}
-        terms = {a: bool(crashed_now[i]) for i, a in enumerate(agents)}
-        truncs = {a: bool(truncated_all) and not crashed_now[i] for i, a in enumerate(agents)}
+        observations, rewards, terms, truncs = self._agent_dicts(
+            agents, obs, rew, crashed_now, bool(truncated_all) & ~crashed_now)
         infos = self._ma_infos(agents, rows, parts)
-        newset = set(new)
-        for i, a in enumerate(agents):
-            if crashed_now[i]:
-                infos[a]["crashed"] = True
-            if int(f.vid[i]) in newset:
-                rewards[a] = 0.0
+        for i in np.flatnonzero(crashed_now).tolist():
+            infos[agents[i]]["crashed"] = True
+        for v in new:
+            rewards[f"icv_{v}"] = 0.0
         # vehicles that left during the step: the departure end is a terminal
         # success, driving back out of the approach road a truncation
         gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)

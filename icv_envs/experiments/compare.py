@@ -6,15 +6,22 @@ local process pool (default: one worker per core) or on a Ray cluster
 (``backend="ray"``), shows a progress bar, and writes to ``out``:
 
 * ``results.csv``: one row per run (``method, vgr, seed, collisions, lost,
-  remaining, mean_speed, speed_fluctuation, ...``);
+  remaining, mean_speed, speed_fluctuation, speed_std, stopped_share,
+  commanded_abs_accel, min_gap, min_time_headway, time_headway_p05, ...``;
+  definitions in :mod:`icv_envs.sim.metrics`);
 * ``runs/<method>_vgr<vgr>_seed<seed>.json``: the run's totals, its 1 Hz time
   series and its density heat maps;
-* ``remaining_vs_vgr.png``, ``mean_speed_vs_vgr.png``,
-  ``speed_fluctuation_vs_vgr.png`` (mean and min-max over seeds per method),
-  ``remaining_vs_time.png`` (Fig. 9 style) and ``heatmap_<method>.png``
-  (vehicles per 500 m per lane, time-averaged, at the VGR nearest 1/3,
-  seed 0; Fig. 10 style);
-* ``summary.json``: per method and VGR, the seed means.
+* ``remaining_vs_vgr.png``, ``remaining_plus_queued_vs_vgr.png``,
+  ``mean_speed_vs_vgr.png``, ``speed_fluctuation_vs_vgr.png``,
+  ``min_time_headway_vs_vgr.png`` (seed mean and 95% confidence interval
+  per method), ``remaining_vs_time.png`` (Fig. 9 style);
+* ``heatmap.png`` (Fig. 10 as the paper draws it): vehicles per 500 m per
+  lane, at the VGR nearest 1/3 and the first seed, one row per method, the
+  snapshot at the end of the run (t = 600 s for 600 s runs) beside the time
+  average, all panels on ONE colour scale so colours compare across
+  methods; ``heatmap_<method>.png``: the same per method (same scale);
+* ``summary.json``: per method and VGR, the seed means and the half-widths
+  of their 95% confidence intervals (Student t, ``<key>_ci95``).
 """
 
 from __future__ import annotations
@@ -34,9 +41,14 @@ from icv_envs.envs.highway_ramps import MAX_VGR, METHODS
 __all__ = ["run_ramps", "compare_highway_ramps", "run_jobs", "CSV_COLUMNS", "validate_grid"]
 
 CSV_COLUMNS = [
-    "method", "vgr", "seed", "seconds", "collisions", "lost", "remaining", "mean_speed", "speed_fluctuation",
-    "spawned", "exited", "missed_exits", "queued", "not_spawned", "min_gap", "wall_seconds", "real_time_factor",
+    "method", "vgr", "seed", "seconds", "collisions", "lost", "remaining", "queued", "mean_speed",
+    "speed_fluctuation", "speed_std", "stopped_share", "commanded_abs_accel", "spawned", "exited", "missed_exits",
+    "not_spawned", "min_gap", "min_time_headway", "time_headway_p05", "wall_seconds", "real_time_factor",
 ]
+#: per-run figures summarised over seeds (mean and 95% CI)
+SUMMARY_KEYS = ("remaining", "queued", "remaining_plus_queued", "mean_speed", "speed_fluctuation", "speed_std",
+                "stopped_share", "commanded_abs_accel", "exited", "missed_exits", "min_gap", "min_time_headway",
+                "time_headway_p05")
 
 
 def validate_grid(methods, vgrs, seeds, seconds) -> None:
@@ -51,10 +63,22 @@ def validate_grid(methods, vgrs, seeds, seconds) -> None:
     for v in vgrs:
         if not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= MAX_VGR:
             raise ValueError(f"vgr {v!r} is invalid; allowed: 0 < vgr <= {MAX_VGR} vehicles/s per ramp")
-    if not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"seeds = {seeds!r}; allowed: an integer >= 1 (runs use seeds 0..seeds-1)")
+    _seed_list(seeds)
     if not isinstance(seconds, (int, float)) or not math.isfinite(seconds) or seconds <= 0:
         raise ValueError(f"seconds = {seconds!r}; allowed: a number > 0")
+
+
+def _seed_list(seeds) -> list[int]:
+    """``seeds``: a count N (seeds 0..N-1), a list of seeds, or the text
+    forms of :func:`icv_envs.experiments.seeds.parse_seeds`."""
+    from icv_envs.experiments.seeds import parse_seeds
+
+    if isinstance(seeds, (list, tuple)):
+        bad = [s for s in seeds if isinstance(s, bool) or not isinstance(s, int) or s < 0]
+        if bad or not seeds or len(set(seeds)) != len(seeds):
+            raise ValueError(f"seeds = {seeds!r}; allowed: a non-empty list of distinct integers >= 0, or a count")
+        return list(seeds)
+    return parse_seeds(seeds)
 
 
 def run_ramps(method: str, vgr: float, seed: int, seconds: float, config: dict | None = None) -> dict:
@@ -128,13 +152,13 @@ def _tag(method, vgr, seed) -> str:
     return f"{method}_vgr{vgr:g}_seed{seed}"
 
 
-def compare_highway_ramps(methods, vgrs, seeds: int, seconds: float, out, backend: str = "process",
+def compare_highway_ramps(methods, vgrs, seeds, seconds: float, out, backend: str = "process",
                           workers: int | None = None, progress: bool = True, config: dict | None = None) -> dict:
     validate_grid(methods, vgrs, seeds, seconds)
     check_backend(backend)
     out = Path(out)
     (out / "runs").mkdir(parents=True, exist_ok=True)
-    jobs = [(m, float(v), s, float(seconds), config) for m in methods for v in vgrs for s in range(seeds)]
+    jobs = [(m, float(v), s, float(seconds), config) for m in methods for v in vgrs for s in _seed_list(seeds)]
     results = run_jobs(_run_job, jobs, backend, workers, progress, "highway-ramps runs")
     results.sort(key=lambda r: (list(methods).index(r["method"]), r["vgr"], r["seed"]))
     for r in results:
@@ -150,19 +174,40 @@ def compare_highway_ramps(methods, vgrs, seeds: int, seconds: float, out, backen
     return summary
 
 
+def ci95(values) -> float:
+    """Half-width of the 95% confidence interval of the mean (Student t;
+    0 for a single value)."""
+    x = np.asarray([v for v in values if v is not None], dtype=np.float64)
+    if len(x) < 2:
+        return 0.0
+    from scipy.stats import t
+
+    return float(t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / math.sqrt(len(x)))
+
+
+def _value(r, k):
+    if k == "remaining_plus_queued":
+        return r["remaining"] + r["queued"]
+    return r.get(k)
+
+
 def summarise(results) -> dict:
     rows = {}
     for r in results:
         rows.setdefault((r["method"], r["vgr"]), []).append(r)
     table = []
     for (m, v), rs in sorted(rows.items(), key=lambda kv: (kv[0][1], kv[0][0])):
-        table.append({
-            "method": m, "vgr": v, "seeds": len(rs),
-            **{k: float(np.mean([x[k] for x in rs])) for k in ("remaining", "mean_speed", "speed_fluctuation",
-                                                                   "exited", "missed_exits", "queued")},
-            "collisions": int(sum(x["collisions"] for x in rs)),
-            "lost": int(sum(x["lost"] for x in rs)),
-        })
+        row = {"method": m, "vgr": v, "seeds": len(rs), "seed_list": sorted(x["seed"] for x in rs)}
+        for k in SUMMARY_KEYS:
+            vals = [_value(x, k) for x in rs if _value(x, k) is not None]
+            row[k] = float(np.mean(vals)) if vals else None
+            row[f"{k}_ci95"] = ci95(vals) if vals else None
+        for k in ("min_gap", "min_time_headway", "time_headway_p05"):
+            vals = [x[k] for x in rs if x.get(k) is not None]
+            row[f"{k}_worst"] = float(min(vals)) if vals else None
+        row["collisions"] = int(sum(x["collisions"] for x in rs))
+        row["lost"] = int(sum(x["lost"] for x in rs))
+        table.append(row)
     return {"runs": len(results), "table": table}
 
 
@@ -177,18 +222,25 @@ def plot_results(results, out) -> list[str]:
     colours = {"formation": "tab:red", "lane-lp": "tab:blue", "idm": "tab:grey"}
     files = []
     for key, label in (("remaining", "vehicles remaining on the road at the end"),
+                       ("remaining_plus_queued", "remaining on the road + queued at the ramps"),
                        ("mean_speed", "mean speed [m/s]"),
-                       ("speed_fluctuation", "speed fluctuation: mean |a| [m/s$^2$]")):
+                       ("speed_fluctuation", "speed fluctuation: mean |dv/dt| [m/s$^2$]"),
+                       ("min_time_headway", "minimum time headway [s]")):
         fig, ax = plt.subplots(figsize=(6, 4))
         for m in methods:
             vs = sorted({r["vgr"] for r in results if r["method"] == m})
-            ys = [[r[key] for r in results if r["method"] == m and r["vgr"] == v] for v in vs]
-            mean = [np.mean(y) for y in ys]
+            ys = [[_value(r, key) for r in results if r["method"] == m and r["vgr"] == v] for v in vs]
+            ys = [[y for y in yy if y is not None] for yy in ys]
+            keep = [i for i, y in enumerate(ys) if y]
+            vs, ys = [vs[i] for i in keep], [ys[i] for i in keep]
+            mean = np.array([np.mean(y) for y in ys])
+            half = np.array([ci95(y) for y in ys])
             ax.plot(vs, mean, "o-", color=colours.get(m), label=m)
-            ax.fill_between(vs, [min(y) for y in ys], [max(y) for y in ys], color=colours.get(m), alpha=0.15)
+            ax.fill_between(vs, mean - half, mean + half, color=colours.get(m), alpha=0.15)
+        seeds_n = len({r["seed"] for r in results})
         ax.set_xlabel("vehicle generating rate [vehicles/s per on-ramp]")
         ax.set_ylabel(label)
-        ax.set_title(f"HighwayRamps: {key.replace('_', ' ')} vs VGR")
+        ax.set_title(f"HighwayRamps: {key.replace('_', ' ')} vs VGR (mean, 95% CI, {seeds_n} seeds)", fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend()
         fig.tight_layout()
@@ -199,8 +251,9 @@ def plot_results(results, out) -> list[str]:
     # remaining vehicles over time, one panel per method (Fig. 9)
     fig, axes = plt.subplots(1, len(methods), figsize=(4.5 * len(methods), 3.6), sharey=True, squeeze=False)
     for ax, m in zip(axes[0], methods):
+        first = min(r["seed"] for r in results)
         for r in results:
-            if r["method"] == m and r["seed"] == 0:
+            if r["method"] == m and r["seed"] == first:
                 ts = r["timeseries"]
                 ax.plot([p["t"] for p in ts], [p["remaining"] for p in ts], label=f"VGR {r['vgr']:g}")
         ax.set_title(m)
@@ -213,21 +266,57 @@ def plot_results(results, out) -> list[str]:
     fig.savefig(path, dpi=120)
     plt.close(fig)
     files.append(str(path))
-    # density heat maps (Fig. 10), VGR nearest 1/3, seed 0
+    files += plot_heatmaps(results, out, methods)
+    return files
+
+
+def plot_heatmaps(results, out, methods) -> list[str]:
+    """Fig. 10: per method, the density snapshot at the end of the run and
+    the time average, vehicles per ``heatmap_bin`` metres per lane, at the
+    VGR nearest 1/3 and the first seed, on one colour scale for all panels."""
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    first = min(r["seed"] for r in results)
+    picked = {}
     for m in methods:
-        rs = [r for r in results if r["method"] == m and r["seed"] == 0]
-        if not rs:
-            continue
-        r = min(rs, key=lambda x: abs(x["vgr"] - 1 / 3))
-        heat = np.asarray(r["heatmap_mean"])
-        fig, ax = plt.subplots(figsize=(8, 2.4))
-        im = ax.imshow(heat, aspect="auto", cmap="inferno", extent=[0, heat.shape[1] * r["heatmap_bin"], heat.shape[0] - 0.5, -0.5])
+        rs = [r for r in results if r["method"] == m and r["seed"] == first and "heatmap_final" in r]
+        if rs:
+            picked[m] = min(rs, key=lambda x: (abs(x["vgr"] - 1 / 3), x["vgr"]))
+    if not picked:
+        return []
+    vmax = max(max(np.max(r["heatmap_final"]), np.max(r["heatmap_mean"])) for r in picked.values())
+    vmax = max(float(vmax), 1.0)
+
+    def panel(ax, heat, r, title):
+        heat = np.asarray(heat)
+        im = ax.imshow(heat, aspect="auto", cmap="inferno", vmin=0.0, vmax=vmax, interpolation="nearest",
+                       extent=[0, heat.shape[1] * r["heatmap_bin"], heat.shape[0] - 0.5, -0.5])
         ax.set_yticks(range(heat.shape[0]))
-        ax.set_yticklabels([f"lane {i + 1}" for i in range(heat.shape[0])])
+        ax.set_yticklabels([f"lane {i + 1}" for i in range(heat.shape[0])], fontsize=8)
+        ax.set_title(title, fontsize=9)
+        return im
+
+    files = []
+    fig, axes = plt.subplots(len(picked), 2, figsize=(13, 1.9 * len(picked) + 0.9), squeeze=False)
+    for row, (m, r) in enumerate(picked.items()):
+        t_end = r["timeseries"][-1]["t"] if r.get("timeseries") else r["sim_seconds"]
+        im = panel(axes[row][0], r["heatmap_final"], r, f"{m}: snapshot at t = {t_end:g} s, VGR {r['vgr']:g}")
+        panel(axes[row][1], r["heatmap_mean"], r, f"{m}: time average over the run, VGR {r['vgr']:g}")
+    for ax in axes[-1]:
         ax.set_xlabel("position on the ring [m] (0 = first on-ramp)")
-        ax.set_title(f"{m}: mean vehicles per {r['heatmap_bin']:g} m, VGR {r['vgr']:g}")
-        fig.colorbar(im, ax=ax)
-        fig.tight_layout()
+    fig.colorbar(im, ax=axes.ravel().tolist(), label=f"vehicles per {r['heatmap_bin']:g} m per lane", shrink=0.9)
+    path = out / "heatmap.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    files.append(str(path))
+    for m, r in picked.items():
+        fig, axes = plt.subplots(2, 1, figsize=(9, 4.2), squeeze=False)
+        t_end = r["timeseries"][-1]["t"] if r.get("timeseries") else r["sim_seconds"]
+        im = panel(axes[0][0], r["heatmap_final"], r, f"{m}: snapshot at t = {t_end:g} s, VGR {r['vgr']:g}")
+        panel(axes[1][0], r["heatmap_mean"], r, f"{m}: time average")
+        axes[1][0].set_xlabel("position on the ring [m] (0 = first on-ramp)")
+        fig.colorbar(im, ax=[axes[0][0], axes[1][0]], label=f"vehicles per {r['heatmap_bin']:g} m (scale shared by all methods)")
         path = out / f"heatmap_{m}.png"
         fig.savefig(path, dpi=120)
         plt.close(fig)

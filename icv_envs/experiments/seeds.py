@@ -1,79 +1,55 @@
-"""Seed lists for the sweeps: ``--seeds 3`` or ``--seeds 5,7,10-12``.
-
-One parser for every ``compare`` command.  Rules:
-
-* a bare integer ``N`` (``3``, or the int 3) is a COUNT: seeds ``0 .. N-1``
-  (what ``--seeds 3`` always meant);
-* anything with a comma or a dash is a LIST of seeds and inclusive ranges:
-  ``5,7,10-12`` = ``[5, 7, 10, 11, 12]``; a single seed ``s`` is written
-  ``s,`` or ``s-s``;
-* a list or tuple of integers is taken as the seed list itself.
-
-Seeds are integers >= 0, returned sorted without duplicates (a repeated seed
-would only repeat a run: the runs are deterministic).
-"""
+"""The ``--seeds`` argument of the sweep commands."""
 
 from __future__ import annotations
 
-import numbers
-
-__all__ = ["parse_seeds", "MAX_SEEDS"]
-
-#: a sanity bound on the number of seeds of one sweep
-MAX_SEEDS = 100_000
+__all__ = ["parse_seeds"]
 
 
-def _int(tok: str, text) -> int:
-    tok = tok.strip()
-    if not tok.isdigit():
-        raise ValueError(f"--seeds {text!r}: {tok!r} is not a seed; allowed: a count N (seeds 0..N-1) or a "
-                         f"comma-separated list of seeds >= 0 and ranges a-b, e.g. '5,7,10-12'")
-    return int(tok)
+def parse_seeds(text) -> list[int]:
+    """Seeds from a count or a list of seeds and ranges.
 
+    * ``"5"`` (a bare count, also the int ``5``): seeds ``0..4``;
+    * ``"5,7,10-12"``: seeds 5, 7, 10, 11, 12 (ranges inclusive), in the
+      order given; a list with one element must be written with a comma
+      (``"7,"``) or as a range (``"7-7"``) to mean "seed 7" rather than
+      "seven seeds".
 
-def parse_seeds(value) -> list[int]:
-    """Seeds from a count, a list/range string or a list (module docstring).
-
-    Raises:
-        ValueError: naming the bad value and what is allowed.
-    """
-    if isinstance(value, bool):
-        raise ValueError(f"--seeds {value!r} is invalid; allowed: a count N >= 1 or a list like '5,7,10-12'")
-    if isinstance(value, numbers.Integral):
-        n = int(value)
-        if not 1 <= n <= MAX_SEEDS:
-            raise ValueError(f"--seeds {value!r}: a count must be in 1..{MAX_SEEDS} (runs use seeds 0..N-1)")
+    Seeds are integers >= 0; a seed listed twice is an error (it would run
+    the same trajectory twice and weight it double in the means)."""
+    if isinstance(text, (list, tuple)):
+        bad = [s for s in text if isinstance(s, bool) or not isinstance(s, int) or s < 0]
+        if bad or not text or len(set(text)) != len(text):
+            raise ValueError(f"seeds = {text!r}; allowed: a non-empty list of distinct integers >= 0, or a count")
+        return list(text)
+    if isinstance(text, bool):
+        raise ValueError(f"seeds = {text!r}; allowed: a count N >= 1 or a list/range like '5,7,10-12'")
+    if isinstance(text, int):
+        text = str(text)
+    if not isinstance(text, str) or not text.strip():
+        raise ValueError(f"seeds = {text!r}; allowed: a count N >= 1 or a list/range like '5,7,10-12'")
+    s = text.strip()
+    if s.isdigit():
+        n = int(s)
+        if n < 1:
+            raise ValueError(f"seeds = {text!r}: a count must be >= 1 (runs use seeds 0..N-1)")
         return list(range(n))
-    if isinstance(value, (list, tuple)):
-        out = []
-        for v in value:
-            if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < 0:
-                raise ValueError(f"--seeds {value!r}: {v!r} is not a seed; allowed: integers >= 0")
-            out.append(int(v))
-        if not out:
-            raise ValueError("--seeds is an empty list; allowed: at least one seed")
-        return sorted(set(out))
-    if not isinstance(value, str):
-        raise ValueError(f"--seeds {value!r} is invalid; allowed: a count N >= 1 or a list like '5,7,10-12'")
-    text = value.strip()
-    if not text:
-        raise ValueError("--seeds is empty; allowed: a count N >= 1 or a list like '5,7,10-12'")
-    if "," not in text and "-" not in text:
-        return parse_seeds(_int(text, value))
-    out = set()
-    for part in text.split(","):
-        if not part.strip():
+    out: list[int] = []
+    for part in s.split(","):
+        part = part.strip()
+        if not part:
             continue
-        if "-" in part:
-            a, sep, b = part.partition("-")
-            lo, hi = _int(a, value), _int(b, value)
-            if hi < lo:
-                raise ValueError(f"--seeds {value!r}: range {part.strip()!r} is empty (a-b needs a <= b)")
-            if hi - lo + 1 + len(out) > MAX_SEEDS:
-                raise ValueError(f"--seeds {value!r}: more than {MAX_SEEDS} seeds")
-            out.update(range(lo, hi + 1))
-        else:
-            out.add(_int(part, value))
+        lo, sep, hi = part.partition("-")
+        if not (lo.strip().isdigit() and (not sep or hi.strip().isdigit())):
+            raise ValueError(f"seeds = {text!r}: {part!r} is not a seed or a range a-b of seeds >= 0; "
+                             f"allowed: a count N or a list like '5,7,10-12'")
+        a = int(lo)
+        b = int(hi) if sep else a
+        if b < a:
+            raise ValueError(f"seeds = {text!r}: range {part!r} is empty (its end is below its start)")
+        out.extend(range(a, b + 1))
     if not out:
-        raise ValueError(f"--seeds {value!r} holds no seed; allowed: e.g. '5,7,10-12'")
-    return sorted(out)
+        raise ValueError(f"seeds = {text!r}: no seeds; allowed: a count N or a list like '5,7,10-12'")
+    dup = sorted({x for x in out if out.count(x) > 1})
+    if dup:
+        raise ValueError(f"seeds = {text!r}: seeds {dup} are listed more than once")
+    return out

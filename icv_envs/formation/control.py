@@ -4,8 +4,25 @@ Paper Sec. 2.2, eq. (law) (Xu et al., IET ITS 2021)::
 
     a_i = k_p (X_i - X_ref,i) + k_v (v_i - v_ref,i)
 
-``X`` points forward, so both gains must be negative (docs/formation.md#feedback-law).  The
-paper gives no values; ours are :data:`DEFAULT_KP` and :data:`DEFAULT_KV`.
+``X`` points forward, so both gains must be negative.  The paper gives no
+values; ours (:data:`DEFAULT_KP`, :data:`DEFAULT_KV`) follow from a stated
+design rule, below.  The law tracks a reference that moves smoothly from
+where a vehicle is to its formation slot (:func:`join_profile`,
+:func:`join_duration`), so the feedback only ever sees small errors.
+
+Design rule for the gains (error dynamics ``e'' = k_v e' + k_p e`` with
+``e = X - X_ref`` for a reference of constant speed):
+
+* damping ratio ``zeta = 1`` (critically damped: a member never overshoots
+  its slot towards the member ahead of it in the same lane);
+* natural frequency from the largest error the feedback alone has to remove,
+  ``e_max = L_s / 4 = 5 m`` (a quarter of the paper's sublayer spacing
+  L_s = 20 m; larger errors are re-planned by the reference profile), taken
+  at the comfort acceleration limit ``a_fb = 1.5 m/s^2`` of the formation
+  expert: the initial command of the critically damped loop from rest is
+  ``omega_n^2 e``, so ``omega_n = sqrt(a_fb / e_max) = 0.548 rad/s``;
+* hence ``k_p = -omega_n^2 = -0.3 s^-2`` and ``k_v = -2 zeta omega_n =
+  -1.095 s^-1``; the 2% settling time is ``5.83 / omega_n = 10.6 s``.
 """
 
 from __future__ import annotations
@@ -17,18 +34,33 @@ import numpy as np
 
 from icv_envs.formation._validate import finite
 
-__all__ = ["DEFAULT_KP", "DEFAULT_KV", "DEFAULT_A_MIN", "DEFAULT_A_MAX", "longitudinal_feedback"]
+__all__ = [
+    "DEFAULT_KP", "DEFAULT_KV", "DEFAULT_A_MIN", "DEFAULT_A_MAX", "DAMPING_RATIO", "FEEDBACK_ERROR",
+    "FEEDBACK_ACCEL", "PROFILE_ACCEL", "PROFILE_DECEL", "PROFILE_JERK", "PROFILE_MIN_DURATION",
+    "longitudinal_feedback", "join_profile", "join_duration",
+]
 
-#: Position gain k_p (1/s^2).  With e = X - X_ref and a reference moving at
-#: constant speed, the closed loop is e'' = k_v e' + k_p e, i.e. the
-#: characteristic polynomial s^2 - k_v s - k_p = s^2 + 1.1 s + 0.3 with real
-#: poles -0.5 and -0.6 (time constants 2.0 s and 1.67 s): natural frequency
-#: omega_n = sqrt(0.3) = 0.548 rad/s and damping ratio
-#: zeta = 1.1 / (2 sqrt(0.3)) = 1.004, i.e. (just) over-damped, so a position
-#: error closes without overshoot.
-DEFAULT_KP: float = -0.3
-#: Speed gain k_v (1/s); see :data:`DEFAULT_KP` for the closed-loop poles.
-DEFAULT_KV: float = -1.1
+#: Damping ratio of the error dynamics (critically damped: no overshoot).
+DAMPING_RATIO: float = 1.0
+#: [m] largest position error the feedback handles alone: L_s / 4 (paper Table 1, L_s = 20 m).
+FEEDBACK_ERROR: float = 5.0
+#: [m/s^2] comfort acceleration of the formation expert that error may ask for.
+FEEDBACK_ACCEL: float = 1.5
+_OMEGA_N = math.sqrt(FEEDBACK_ACCEL / FEEDBACK_ERROR)
+#: Position gain k_p = -omega_n^2 (1/s^2), omega_n = sqrt(FEEDBACK_ACCEL / FEEDBACK_ERROR) = 0.548 rad/s.
+DEFAULT_KP: float = -(_OMEGA_N ** 2)
+#: Speed gain k_v = -2 zeta omega_n (1/s) = -1.095.
+DEFAULT_KV: float = -2.0 * DAMPING_RATIO * _OMEGA_N
+#: [m/s^2] peak acceleration of a join/re-assignment reference profile: IDM's
+#: desired acceleration on highways (Treiber, Hennecke & Helbing 2000, a = 1 m/s^2).
+PROFILE_ACCEL: float = 1.0
+#: [m/s^2] peak deceleration of a profile: IDM's comfortable deceleration (ibid., b = 1.5 m/s^2).
+PROFILE_DECEL: float = 1.5
+#: [m/s^3] peak jerk of a profile (design choice: the profile's acceleration
+#: takes at least 1 s to reach PROFILE_ACCEL).
+PROFILE_JERK: float = 1.0
+#: [s] shortest profile (a re-plan from nearly on the slot).
+PROFILE_MIN_DURATION: float = 2.0
 #: Acceleration limits (m/s^2) from the paper's vehicle parameter table.
 DEFAULT_A_MIN: float = -6.0
 DEFAULT_A_MAX: float = 3.0
@@ -55,6 +87,7 @@ def longitudinal_feedback(
     kv=DEFAULT_KV,
     a_min: float = DEFAULT_A_MIN,
     a_max: float = DEFAULT_A_MAX,
+    a_ref=0.0,
 ) -> np.ndarray:
     """Acceleration command of the longitudinal feedback law.
 
@@ -64,10 +97,12 @@ def longitudinal_feedback(
 
     A vehicle behind its reference (``x < x_ref``) accelerates; one faster than
     its reference (``v > v_ref``) brakes.  With the default gains
-    (``k_p = -0.3``, ``k_v = -1.1``) the unsaturated error dynamics
-    ``e'' + 1.1 e' + 0.3 e = 0`` have poles -0.5 and -0.6
-    (``omega_n = 0.548 rad/s``, ``zeta = 1.004``, over-damped).  The limits
-    default to the paper's ``a in [-6, 3] m/s^2``.
+    (``k_p = -0.3``, ``k_v = -1.095``, module docstring) the unsaturated
+    error dynamics ``e'' + 1.095 e' + 0.3 e = 0`` have a double pole at
+    -0.548 (``omega_n = 0.548 rad/s``, ``zeta = 1``).  The limits default to
+    the paper's ``a in [-6, 3] m/s^2``.  ``a_ref`` (default 0) is the
+    reference's own acceleration, fed forward (a reference profile from
+    :func:`join_profile` is followed exactly by a vehicle that starts on it).
 
     Saturation caveat (measured with a point mass ``x'' = a``, dt = 0.04 s,
     zero initial speed error): the linear loop cannot overshoot, but the
@@ -115,8 +150,9 @@ def longitudinal_feedback(
         raise ValueError(f"a_max must be > 0 (m/s^2), got {a_max!r}")
     xa, xr = _finite("x", x), _finite("x_ref", x_ref)
     va, vr = _finite("v", v), _finite("v_ref", v_ref)
+    ar = _finite("a_ref", a_ref)
     try:
-        a = kpa * (xa - xr) + kva * (va - vr)
+        a = ar + kpa * (xa - xr) + kva * (va - vr)
     except ValueError:
         shapes = ", ".join(
             f"{n}{np.shape(s)}" for n, s in
@@ -124,3 +160,100 @@ def longitudinal_feedback(
         )
         raise ValueError(f"arguments are not broadcastable to a common shape: {shapes}") from None
     return np.clip(a, lo, hi)
+
+
+# ------------------------------------------------------------ join profile
+def _quintic(t, T, d0, v0, a0):
+    """Offset, speed and acceleration of the quintic from ``(d0, v0, a0)`` at
+    ``t = 0`` to ``(0, 0, 0)`` at ``t = T`` (clamped to 0 after ``T``)."""
+    t = np.minimum(np.maximum(t, 0.0), T)
+    c3 = -(20.0 * d0 + 12.0 * v0 * T + 3.0 * a0 * T ** 2) / (2.0 * T ** 3)
+    c4 = (30.0 * d0 + 16.0 * v0 * T + 3.0 * a0 * T ** 2) / (2.0 * T ** 4)
+    c5 = -(12.0 * d0 + 6.0 * v0 * T + a0 * T ** 2) / (2.0 * T ** 5)
+    d = d0 + v0 * t + 0.5 * a0 * t ** 2 + c3 * t ** 3 + c4 * t ** 4 + c5 * t ** 5
+    v = v0 + a0 * t + 3.0 * c3 * t ** 2 + 4.0 * c4 * t ** 3 + 5.0 * c5 * t ** 4
+    a = a0 + 6.0 * c3 * t + 12.0 * c4 * t ** 2 + 20.0 * c5 * t ** 3
+    j = 6.0 * c3 + 24.0 * c4 * t + 60.0 * c5 * t ** 2
+    return d, v, a, j
+
+
+def join_profile(t, T, d0, v0, a0):
+    """Reference offset from a formation slot during a join (or after a
+    re-assignment): ``(d, d', d'')`` at time ``t`` since the plan started.
+
+    A member that joins at position error ``d0 = X - X_slot``, relative
+    speed ``v0 = v - v_slot`` and acceleration ``a0`` tracks
+    ``X_ref = X_slot + d(t)``, ``v_ref = v_slot + d'(t)``, with ``d''(t)``
+    fed forward: a quintic (the minimum-jerk motion between the two states,
+    Flash & Hogan 1985) that starts at the member's state and reaches the
+    slot at rest relative to it after ``T`` seconds (:func:`join_duration`),
+    instead of a step error. Arrays broadcast; after ``T`` the offset is 0."""
+    T = np.asarray(T, dtype=np.float64)
+    if np.any(~(T > 0)):
+        raise ValueError(f"profile duration T must be > 0, got {T!r}")
+    d, v, a, _ = _quintic(np.asarray(t, dtype=np.float64), T, np.asarray(d0, dtype=np.float64),
+                          np.asarray(v0, dtype=np.float64), np.asarray(a0, dtype=np.float64))
+    return d, v, a
+
+
+def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFILE_DECEL,
+                  jerk: float = PROFILE_JERK, t_min: float = PROFILE_MIN_DURATION, grow: float = 1.05,
+                  max_duration: float = 600.0, v_lo=-np.inf, v_hi=np.inf) -> np.ndarray:
+    """Shortest duration ``T >= t_min`` (to within a factor ``grow``) for which the profile of :func:`join_profile` keeps its
+    acceleration within ``[-decel, accel]`` (widened to the initial
+    acceleration ``a0`` if that lies outside), its jerk within ``+-jerk``
+    and its relative speed within ``[v_lo, v_hi]`` (widened to ``v0``;
+    the caller passes the road's speed limits minus the slot's speed),
+    checked on 201 points per profile. Vectorised."""
+    for name, val in (("accel", accel), ("decel", decel), ("jerk", jerk), ("t_min", t_min)):
+        if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+            raise ValueError(f"{name} must be a finite number > 0, got {val!r}")
+    if not grow > 1.0:
+        raise ValueError(f"grow must be > 1, got {grow!r}")
+    d0, v0, a0 = np.broadcast_arrays(*(np.atleast_1d(_finite(n, x)) for n, x in
+                                       (("d0", d0), ("v0", v0), ("a0", a0))))
+    hi_a = np.maximum(accel, a0)
+    lo_a = np.minimum(-decel, a0)
+    vhi = np.maximum(np.broadcast_to(np.asarray(v_hi, dtype=np.float64), d0.shape), v0)
+    vlo = np.minimum(np.broadcast_to(np.asarray(v_lo, dtype=np.float64), d0.shape), v0)
+    tau = np.linspace(0.0, 1.0, 201)
+
+    def feasible(T, idx):
+        Ti = T[:, None]
+        _, v, a, j = _quintic(tau[None, :] * Ti, Ti, d0[idx][:, None], v0[idx][:, None], a0[idx][:, None])
+        return ((a.max(axis=1) <= hi_a[idx] + 1e-9) & (a.min(axis=1) >= lo_a[idx] - 1e-9)
+                & (np.abs(j).max(axis=1) <= jerk + 1e-9) & (v.max(axis=1) <= vhi[idx] + 1e-9)
+                & (v.min(axis=1) >= vlo[idx] - 1e-9)) | (T >= max_duration)
+
+    # start from (0.7 x) the rest-to-rest estimate of the minimum-jerk move
+    # (peak acceleration 5.77 d / T^2, jerk 60 d / T^3), double until
+    # feasible, then bisect (in log T) between the last infeasible and the
+    # first feasible duration to a ratio of ``grow``
+    ad = np.abs(d0)
+    est = np.maximum.reduce([np.sqrt(5.7735 * ad / max(accel, decel)), np.cbrt(60.0 * ad / jerk),
+                             np.abs(v0) / max(accel, decel)])
+    lo = np.maximum(float(t_min), 0.7 * est)
+    idx_all = np.arange(d0.size)
+    ok = feasible(lo, idx_all)
+    T = lo.copy()
+    bad = np.flatnonzero(~ok)
+    if len(bad):
+        lo_b = lo[bad]
+        hi_b = np.minimum(2.0 * lo_b, max_duration)
+        todo = np.ones(len(bad), dtype=bool)
+        while todo.any():
+            k = np.flatnonzero(todo)
+            fk = feasible(hi_b[k], bad[k])
+            lo_b[k[~fk]] = hi_b[k[~fk]]
+            hi_b[k[~fk]] = np.minimum(2.0 * hi_b[k[~fk]], max_duration)
+            todo[k[fk]] = False
+        while True:
+            k = np.flatnonzero(hi_b > lo_b * grow)
+            if not len(k):
+                break
+            mid = np.sqrt(lo_b[k] * hi_b[k])
+            fm = feasible(mid, bad[k])
+            hi_b[k[fm]] = mid[fm]
+            lo_b[k[~fm]] = mid[~fm]
+        T[bad] = hi_b
+    return T

@@ -15,10 +15,15 @@ For every ICV it returns an action in the agents' action space
   from its lane changes lanes one lane at a time along a cubic Bezier curve
   (:func:`icv_envs.formation.bezier.lane_change_lateral`), tracked with a
   preview (pure-pursuit) steering law; otherwise it keeps its lane centre.
-* **Longitudinal** (paper Sec. 2.2, eq. (law)): members track their target
-  with ``a = k_p (X - X_ref) + k_v (v - v_ref)``; free ICVs (joining from a
-  ramp before they are assigned, leaving for an exit) drive IDM at the lane's
-  desired speed.
+* **Longitudinal** (paper Sec. 2.2, eq. (law)): members track their
+  reference with ``a = a_ref + k_p (X - X_ref) + k_v (v - v_ref)``, where
+  the formation layer's reference moves smoothly from where the member
+  joined to its slot (:func:`icv_envs.formation.control.join_profile`) and
+  ``a_ref`` is its acceleration fed forward; the gains follow from a damping
+  ratio of 1 and the largest error the feedback handles alone
+  (:mod:`icv_envs.formation.control`). Free ICVs (joining from a ramp before
+  they are assigned, leaving for an exit) drive IDM at the lane's desired
+  speed.
 * **Safety layer** (the "lower-level controller" the paper delegates to,
   Sec. 3.4): the command is capped by IDM's interaction term towards the
   leader in every lane the vehicle occupies or is moving into, and towards the
@@ -41,8 +46,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from icv_envs.formation.bezier import lane_change_lateral, pure_pursuit_steering
-from icv_envs.formation.control import longitudinal_feedback
-from icv_envs.sim.traffic import followers, idm_acceleration, leaders
+from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, longitudinal_feedback
+from icv_envs.sim.traffic import LAT_ACCEL_MAX, followers, idm_acceleration, leaders
+
+
+def _bezier_peak() -> float:
+    """max |d^2 y / dx^2| * D^2 / W of the lane-change curve (about 5.52)."""
+    x = np.linspace(0.0, 1.0, 20001)
+    y, _ = lane_change_lateral(x, 0.0, 0.0, 1.0, 1.0)
+    return float(np.abs(np.gradient(np.gradient(y, x), x)[50:-50]).max())
+
+
+BEZIER_PEAK = _bezier_peak()
 
 __all__ = ["ExpertParams", "FormationExpert"]
 
@@ -59,9 +74,8 @@ class ExpertParams:
     ramp_speed: float = 15.0  # free ICVs on the ramp lane [m/s]
     exit_speed: float = 20.0  # free ICVs heading for their exit (paper Table 1: fourth lane 20 m/s)
     blocked_slowdown: float = 3.0  # [m/s] a vehicle whose lane change is refused slows by this to find a gap
-    kp: float = -0.3
-    kv: float = -1.1
-    ref_error_clip: float = 50.0  # [m] position error fed to the feedback law is clipped to +-this
+    kp: float = DEFAULT_KP  # -0.3 1/s^2 (zeta = 1, omega_n = 0.548 rad/s; icv_envs.formation.control)
+    kv: float = DEFAULT_KV  # -1.095 1/s
     # formation keeping uses comfortable limits; the safety envelope may still
     # brake down to a_min
     comfort_accel: tuple = (-2.0, 1.5)
@@ -82,6 +96,8 @@ class ExpertParams:
     # desired speed of free vehicles per lane index (main lanes, then the ramp
     # lane); None: ``desired_speed`` on main lanes, ``ramp_speed`` on the ramp
     lane_speeds: tuple | None = None
+    lane_width: float = 4.0  # [m] lateral size of one lane change
+    lat_accel_max: float = LAT_ACCEL_MAX  # [m/s^2] the vehicle model's bound (0.5 mu g)
 
 
 class FormationExpert:
@@ -93,6 +109,14 @@ class FormationExpert:
 
     def __init__(self, params: ExpertParams | None = None) -> None:
         self.p = params or ExpertParams()
+        # shortest lane change at speed v: the Bezier's peak lateral
+        # acceleration is BEZIER_PEAK * W v^2 / D^2, kept within the vehicle
+        # model's bound (LAT_ACCEL_MAX): D >= v * sqrt(BEZIER_PEAK * W / a_y)
+        self._lc_time_min = float(np.sqrt(BEZIER_PEAK * self.p.lane_width / self.p.lat_accel_max))
+        # ... and its peak curvature BEZIER_PEAK * W / D^2 within the steering
+        # limit tan(steer_max) / L: D >= sqrt(BEZIER_PEAK * W * L / tan(steer_max))
+        self._lc_length_min = float(np.sqrt(BEZIER_PEAK * self.p.lane_width * self.p.wheelbase
+                                            / np.tan(self.p.steer_max)))
 
     # ------------------------------------------------------------------ hooks
     def _lane_speeds(self, road, lane) -> np.ndarray:
@@ -138,13 +162,21 @@ class FormationExpert:
             ramp = road.ramp_lane
             exiting = np.zeros(n, dtype=bool)
             has = (tr.exit >= 0) & ~member
+            # a vehicle on its off-ramp lane is exiting, member or not (the
+            # ramp leads nowhere else; it must not stop at the ramp's end)
+            has_any = tr.exit >= 0
+            if has_any.any() and road.n_exits:
+                ha = np.flatnonzero(has_any)
+                ds_a = road.diverge_start(tr.exit[ha])
+                past_a = road.wrap(cx[ha] - ds_a)
+                exiting[ha] = (lane[ha] == ramp) & (past_a >= 0) & (past_a <= road.exit_position(tr.exit[ha]) - ds_a)
             if has.any() and road.n_exits:
                 dist = road.exit_ahead(tr.exit[has], cx[has])
                 dlen = road.diverge_end(tr.exit[has]) - road.diverge_start(tr.exit[has])
                 ds = road.diverge_start(tr.exit[has])
                 past_ds = road.wrap(cx[has] - ds)
                 on_its_off_ramp = (lane[has] == ramp) & (past_ds >= 0) & (past_ds <= road.exit_position(tr.exit[has]) - ds)
-                exiting[has] = ((dist < p.exit_lookahead) & (dist >= -dlen)) | on_its_off_ramp
+                exiting[has] |= ((dist < p.exit_lookahead) & (dist >= -dlen)) | on_its_off_ramp
             desired = np.where(exiting, ramp, desired)
             # free vehicles on the ramp lane of an on-ramp move onto the main road
             on_ramp = (lane == ramp) & ~exiting & ~member
@@ -152,16 +184,22 @@ class FormationExpert:
         else:
             exiting = np.zeros(n, dtype=bool)
         desired = self._desired_lanes(world, desired, lane, member, exiting, cx, v, index)
-        # free vehicles whose lane ends ahead move to a neighbouring lane
-        free = ~member & ~exiting & (desired == lane)
+        # free vehicles whose lane ends ahead head for the nearest main lane
+        # that continues at least 50 m further (possibly several lanes away),
+        # starting (k + 1) * lc_max_length before the end for k lane changes
+        free = ~member & ~exiting & (desired == lane) & (lane < road.n_lanes)
         if free.any():
             end = road.interval_end(lane, cx)
-            soon = free & (end - cx < 150.0)
-            if soon.any():
-                for d in (-1, 1):
-                    alt = np.clip(lane + d, 0, road.n_lanes - 1)
-                    ok = soon & (alt != lane) & (road.interval_end(alt, cx) > end + 50.0)
-                    desired = np.where(ok & (desired == lane), alt, desired)
+            f_rows = np.flatnonzero(free & np.isfinite(end))
+            if len(f_rows):
+                lanes_all = np.arange(road.n_lanes)
+                ends = road.interval_end(lanes_all[None, :], cx[f_rows][:, None])
+                dist = np.abs(lanes_all[None, :] - lane[f_rows][:, None]).astype(np.float64)
+                dist = np.where(ends > end[f_rows][:, None] + 50.0, dist, np.inf)
+                best = np.argmin(dist + 1e-3 * lanes_all[None, :], axis=1)  # ties: the left lane
+                k = dist[np.arange(len(f_rows)), best]
+                go = np.isfinite(k) & (end[f_rows] - cx[f_rows] < (k + 1.0) * p.lc_max_length)
+                desired[f_rows[go]] = best[go]
 
         # --------------------------------------------- lane-change plan state
         active = tr.lc_lane >= 0
@@ -173,8 +211,11 @@ class FormationExpert:
             stray = np.abs(y_plan - tr.y[a_rows]) > p.replan_tolerance
             # a lane change ends once past the curve AND settled on the new
             # lane centre (until then the vehicle keeps steering for it)
+            # (or stopped there: a vehicle held by a lane end before the end of
+            # its curve is on the new lane and may plan its next change)
             done = (tr.x[a_rows] >= tr.lc_x0[a_rows] + tr.lc_len[a_rows]) & (
                 np.abs(tr.y[a_rows] - tr.lc_y1[a_rows]) < 0.3)
+            done |= (v[a_rows] < 0.5) & (np.abs(cy[a_rows] - tr.lc_y1[a_rows]) < 0.3)
             tr.lc_lane[a_rows[stray | done]] = -1
             active = tr.lc_lane >= 0
 
@@ -190,18 +231,33 @@ class FormationExpert:
             xw = cx[w_rows]
             ok = (nxt >= 0) & (nxt < n_tot)
             nxt = np.clip(nxt, 0, n_tot - 1)
-            # the target lane must exist now and over the whole manoeuvre
-            ok &= road.available(nxt, xw) & road.available(nxt, xw + length)
+            # the target lane must exist now; the body centre crosses the lane
+            # line half way along the curve, which must come before the own
+            # lane ends (half a body length to spare); and the manoeuvre plus
+            # the k_after lane changes still needed after it (each
+            # ``lc_min_length`` from standstill) must fit before the target
+            # lane ends (lanes that end together: a lane drop to fewer lanes
+            # than the vehicle must cross), s0 / 2 to spare. The lane-end
+            # envelope below stops such a vehicle s0 before the line
+            # ``end - k * lc_min_length``, which always leaves this room.
+            ok &= road.available(nxt, xw)
+            end_own = road.interval_end(lane[w_rows], xw)
+            end_nxt = road.interval_end(nxt, xw)
+            k_after = np.abs(desired[w_rows] - nxt)
+            room_own = 2.0 * (end_own - xw - 0.5 * tr.length[w_rows])
+            room_nxt = end_nxt - xw - 0.5 * p.idm_s0 - k_after * p.lc_min_length
+            length = np.minimum(length, np.minimum(room_own, room_nxt))
+            # shortened curves must stay within the vehicle's lateral-acceleration
+            # bound and, at low speed, its steering limit (lc_min_length is
+            # the planning unit of the lane-end stop lines, the physical
+            # minimum is shorter: slack for a vehicle that stopped late)
+            ok &= length >= np.maximum(self._lc_length_min, vw * self._lc_time_min)
             if road.has_ramp_lane:
                 into_ramp = nxt == road.ramp_lane
                 from_ramp = lane[w_rows] == road.ramp_lane
                 ok &= ~into_ramp | road.in_diverge(xw)
                 ok &= ~from_ramp | road.in_merge(xw)
                 # a merge must end before the ramp lane does
-                rend = road.interval_end(lane[w_rows], xw)
-                room = rend - xw - 5.0
-                length = np.where(from_ramp, np.minimum(length, room), length)
-                ok &= ~from_ramp | (room >= p.lc_min_length)
             # gap acceptance in the target lane
             lead, lx = leaders(index, w_rows, nxt, cx, return_x=True)
             foll, fx = followers(index, w_rows, nxt, cx, return_x=True)
@@ -215,7 +271,22 @@ class FormationExpert:
             own = idm_acceleration(vw, p.v_max, gap_f, vw - vl, p.a_max, p.idm_b, Tw, p.idm_s0, free_term=False)
             fol = idm_acceleration(vf, p.v_max, gap_r, vf - vw, p.a_max, p.idm_b, Tf, p.idm_s0, free_term=False)
             possible = ok.copy()  # the manoeuvre is allowed here; only the gaps may refuse it
-            ok &= (gap_f > p.lc_min_gap) & (gap_r > p.lc_min_gap) & (own > -p.b_safe) & (fol > -p.b_safe)
+            # a standing follower cannot close the gap while the manoeuvre
+            # starts (its own envelope holds it): half the jam distance s0
+            # suffices behind it (two vehicles queued at a lane end must be
+            # able to file into the continuing lane one after the other)
+            min_r = np.where(vf < 0.5, 0.5 * p.idm_s0, p.lc_min_gap)
+            ok &= (gap_f > p.lc_min_gap) & (gap_r > min_r) & (own > -p.b_safe) & (fol > -p.b_safe)
+            # the body stays in the old lane for the first half of the curve:
+            # at constant speeds the old lane's leader must still be s0 ahead
+            # when the vehicle has covered it (a vehicle cannot move sideways
+            # without moving forward, so a lane change started behind a
+            # standing leader would stop half way, blocking both lanes)
+            lo, lox = leaders(index, w_rows, lane[w_rows], cx, return_x=True)
+            t_half = 0.5 * length / np.maximum(vw, 1.0)
+            gap_o = np.where(lo >= 0, lox - xw - 0.5 * (tr.length[lo] + lw), np.inf)
+            gap_o = gap_o + np.where(lo >= 0, v[lo], 0.0) * t_half - np.maximum(vw, 1.0) * t_half
+            ok &= gap_o >= p.idm_s0
             # two vehicles must not start into the same lane side by side in
             # one step (neither sees the other yet): keep the front one
             cand = np.flatnonzero(ok)
@@ -255,6 +326,12 @@ class FormationExpert:
         lane_speed = self._lane_speeds(road, lane)
         lane_speed = np.where(exiting & (lane < road.n_lanes), p.exit_speed, lane_speed)
         lane_speed = np.where(blocked & ~member, np.maximum(lane_speed - p.blocked_slowdown, p.v_min), lane_speed)
+        # a vehicle refused on its way to its exit drops to the minimum speed:
+        # alongside traffic at the lane speed then passes it within seconds and
+        # opens the gap (at lane speed - blocked_slowdown the vehicles heading
+        # for the same exit stay side by side for hundreds of metres and one
+        # misses the exit)
+        lane_speed = np.where(blocked & ~member & exiting, np.minimum(lane_speed, p.v_min), lane_speed)
         acc = np.empty(n)
         free = ~member
         if free.any():
@@ -263,12 +340,14 @@ class FormationExpert:
             )
         if member.any():
             m = np.flatnonzero(member)
-            # bounded reference: with a_max = 3 the clipped law overshoots for
-            # errors beyond ~100 m; clipping the error to +-ref_error_clip keeps
-            # the closing speed small enough that it never does
-            x_eff = cx[m] + np.clip(road.wrap(x_ref[m] - cx[m]), -p.ref_error_clip, p.ref_error_clip)
+            # the reference starts where the member joined and moves to its
+            # slot smoothly (the formation layer re-plans it when the member
+            # falls more than 5 m off), so the error seen here stays small
+            a_ref = world.manager.reference_accel(tr)[m]
+            x_eff = cx[m] + road.wrap(x_ref[m] - cx[m])
             acc[m] = longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], p.kp, p.kv,
-                                           max(p.a_min, p.comfort_accel[0]), min(p.a_max, p.comfort_accel[1]))
+                                           max(p.a_min, p.comfort_accel[0]), min(p.a_max, p.comfort_accel[1]),
+                                           a_ref=a_ref)
             # control floor: do not command speeds below the configured minimum
             # (braking is faded out as v approaches v_min; the safety cap below still wins)
             acc[m] = np.maximum(acc[m], 1.0 * (p.v_min - v[m]))
@@ -291,11 +370,19 @@ class FormationExpert:
         end = road.interval_end(q_lanes, cx[q_rows])
         leaving = (tr.lc_lane[q_rows] >= 0) & (tr.lc_lane[q_rows] != q_lanes)
         exit_ramp_end = (q_lanes == road.n_lanes) & exiting[q_rows]  # exits: leave at the ramp end
-        gap_end = np.where(leaving | exit_ramp_end, np.inf, end - cx[q_rows] - 0.5 * tr.length[q_rows])
-        # a vehicle waiting to merge stops early enough to keep room for a
-        # full-length lane change (``lc_min_length``) before the ramp ends
-        waiting = (q_lanes == road.n_lanes) & ~exiting[q_rows] & ~leaving
-        gap_end = np.where(waiting, gap_end - p.lc_min_length - 5.0, gap_end)
+        # lane ends bind in the lane of the body centre (where leaving the
+        # road is judged) and in the lane being entered, not in a lane a
+        # corner of the footprint merely overlaps
+        own_or_target = (q_lanes == lane[q_rows]) | (q_lanes == tr.lc_lane[q_rows])
+        gap_end = np.where(leaving | exit_ramp_end | ~own_or_target, np.inf, end - cx[q_rows] - 0.5 * tr.length[q_rows])
+        # a vehicle that must leave a lane before it ends (merging from a
+        # ramp, or k lanes to cross at a lane drop) stops with its centre s0
+        # before the line ``end - k * lc_min_length``: room for those k lane
+        # changes from standstill (``lc_min_length`` each) before the lane ends
+        k_q = np.abs(desired[q_rows] - q_lanes)
+        must_leave = (k_q > 0) & ~leaving & ~exit_ramp_end & own_or_target & (
+            end < road.interval_end(desired[q_rows], cx[q_rows]))
+        gap_end = np.where(must_leave, end - k_q * p.lc_min_length - cx[q_rows], gap_end)
         use_end = gap_end < gap
         gap = np.where(use_end, gap_end, gap)
         dv = np.where(use_end, v[q_rows], dv)

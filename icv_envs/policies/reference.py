@@ -118,11 +118,11 @@ class IdmMobilPolicy(FormationExpert):
 
 class LaneLpPolicy(IdmMobilPolicy):
     def __init__(self, params: ExpertParams | None = None, lp_period: float = 10.0, segment: float = 2000.0,
-                 min_distance_per_lane: float = 250.0, **kw):
+                 lane_change_distance: float = 100.0, **kw):
         super().__init__(params, **kw)
         self.lp_period = float(lp_period)
         self.segment = float(segment)
-        self.min_distance_per_lane = float(min_distance_per_lane)
+        self.lane_change_distance = float(lane_change_distance)
         self.assigned: dict[int, int] = {}
         self._shares: dict[int, tuple[float, np.ndarray]] = {}
         self._given: dict[int, np.ndarray] = {}
@@ -144,7 +144,7 @@ class LaneLpPolicy(IdmMobilPolicy):
         lanes = np.arange(road.n_lanes)
         speeds = self._lane_speeds(road, lanes)
         cap = self.segment / (p.idm_s0 + speeds * p.idm_T + 5.0)
-        shares = optimal_lane_shares(counts, dist, speeds, cap, self.min_distance_per_lane)
+        shares = optimal_lane_shares(counts, dist, speeds, cap, self.lane_change_distance)
         self._shares[k] = (t, shares)
         self._given.setdefault(k, np.zeros((E, road.n_lanes)))
         self.solves += 1

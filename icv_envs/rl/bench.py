@@ -20,6 +20,14 @@ Episode resets are included in the timings. Reported per env:
 * ``env_sim_seconds_per_second``: simulated seconds per wall second, env
   alone (``env_sps / policy_frequency``).
 
+Beside them, the batched worlds of :mod:`icv_envs.vector` (16
+HighwayFormation worlds of ``vehicles`` agents in this process,
+:func:`batched_sps`): agent-steps per CPU second and per wall second with
+external actions (no expert computed) and with the expert's action computed
+for every agent (``batched_learned_actions`` / ``batched_expert_actions``),
+and highway-fast-v0's agent-steps per second (one controlled vehicle: its
+``env_sps``).
+
 A step is not the same amount of driving in both: icv_envs acts at 5 Hz
 (0.2 s per step, physics at 25 Hz), highway-fast-v0 at 1 Hz (1 s per step,
 physics at 5 Hz). ``env_speedup`` / ``ppo_speedup`` compare steps (what an RL
@@ -121,8 +129,37 @@ def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -
             "ppo_wall_seconds": wall}
 
 
+def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: bool = False, seed: int = 0) -> dict:
+    """Agent-steps per second of :class:`icv_envs.vector.BatchedWorlds`:
+    ``worlds`` HighwayFormation worlds of ``vehicles`` agents each, stepped
+    together in this process. ``expert=False``: actions come from outside
+    (zeros, coasting: what a learned policy's output costs the env; policy
+    inference is not included) and the expert is never computed;
+    ``expert=True``: the expert's action is computed for every agent every
+    step and fed back. Auto-resets are included. Per CPU second (process
+    time) and per wall second."""
+    from icv_envs.vector import BatchedWorlds
+
+    bw = BatchedWorlds(worlds, config={"vehicles_count": int(vehicles), "initial_position": None}, seed=seed,
+                       expert=expert)
+    bw.reset()
+    acts = np.zeros((worlds, bw.K, 2), dtype=np.float32)
+    agent_steps = 0
+    c0, t0 = time.process_time(), time.perf_counter()
+    for _ in range(steps):
+        if expert:
+            acts = bw.expert_actions
+        agent_steps += int(bw.mask.sum())
+        bw.step(acts)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+    bw.close()
+    return {"worlds": int(worlds), "vehicles_per_world": int(vehicles), "expert": bool(expert),
+            "agent_steps": agent_steps, "agent_steps_per_cpu_s": agent_steps / cpu,
+            "agent_steps_per_wall_s": agent_steps / wall}
+
+
 def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096, seed: int = 0,
-                reference: bool = True, echo=None) -> dict:
+                reference: bool = True, echo=None, batched: bool = True) -> dict:
     """Measure this package's single-agent env and (``reference=True``)
     highway-fast-v0, alone and inside PPO; returns one JSON-able dict."""
     for name, v in (("vehicles", vehicles), ("env_steps", env_steps), ("ppo_steps", ppo_steps)):
@@ -140,6 +177,18 @@ def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096
                  f"(rollouts {row['ppo_rollout_sps']:7.1f} steps/s)")
     icv = rows[ICV_ID]
     res = {"bench": "rl-train", "vehicles": int(vehicles), "icv_envs": icv}
+    if batched:
+        for key, ex in (("batched_learned_actions", False), ("batched_expert_actions", True)):
+            # 16 worlds: one batch step is 16 env steps of 20 agents; env_steps / 20
+            # batch steps (100 by default) time about as many world steps as the env alone
+            res[key] = b = batched_sps(vehicles, expert=ex, seed=seed, steps=max(2, env_steps // 20))
+            if echo is not None:
+                echo(f"batched worlds ({b['worlds']} x {vehicles} agents, {'expert' if ex else 'external'} actions): "
+                     f"{b['agent_steps_per_cpu_s']:,.0f} agent-steps per CPU s "
+                     f"({b['agent_steps_per_wall_s']:,.0f} per wall s); bar {100_000 if ex else 200_000:,}")
+        if reference:
+            # highway-fast-v0 controls one vehicle: one agent-step per env step
+            res["highway_fast_v0_agent_steps_per_s"] = rows[REFERENCE_ID]["env_sps"]
     if reference:
         ref = rows[REFERENCE_ID]
         res["highway_fast_v0"] = ref

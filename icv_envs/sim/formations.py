@@ -21,9 +21,22 @@ Decisions the paper leaves open (docs/decisions.md), each a config value:
   (lane drop, blocking obstacle, lane re-opening after an obstacle). Between
   events the assignment is kept (re-assigning every step would make vehicles
   chase one another);
-* a member farther than ``stall_error`` metres from its target for
-  ``stall_time`` seconds also triggers a re-assignment (from the current
-  positions), so an assignment that traffic makes unreachable is revised;
+* a member's reference does not jump to its target: whenever a vehicle
+  gets a new target (it joins, or a re-assignment moves its slot) the layer
+  plans a reference that starts at the vehicle's position, speed and
+  acceleration and reaches the slot at rest relative to it with bounded
+  acceleration and jerk (:func:`icv_envs.formation.control.join_profile`,
+  limits ``profile_accel``/``profile_decel``/``profile_jerk``, speeds
+  within ``profile_speeds``: the paper's main-road range 15..30 m/s, the top
+  lowered by 1 m/s so the feedback keeps room above the reference); a member
+  that falls more than ``replan_error`` metres off its reference (traffic
+  held it back) gets a new plan from where it is. The published
+  ``X_ref``/``v_ref`` are this reference, :meth:`reference_accel` its
+  acceleration;
+* a member still farther than ``stall_error`` metres from its target
+  ``stall_time`` seconds after its first plan for that target should have
+  arrived also triggers a re-assignment (from the current positions), so an
+  assignment that traffic makes unreachable is revised;
 * a free ICV joins a formation when it is within ``join_distance`` of the
   formation's span and the formation has fewer than ``max_size`` members; a
   member whose exit's diverge segment is less than ``exit_lookahead`` ahead
@@ -35,7 +48,17 @@ from __future__ import annotations
 import numpy as np
 
 from icv_envs.formation.assignment import assign_targets
+from icv_envs.formation.control import (
+    FEEDBACK_ERROR,
+    PROFILE_ACCEL,
+    PROFILE_DECEL,
+    PROFILE_JERK,
+    PROFILE_MIN_DURATION,
+    join_duration,
+    join_profile,
+)
 from icv_envs.formation.targets import formation_targets
+from icv_envs.sim._kernels import drivable_lane_bits, segment_max
 
 __all__ = ["FormationManager"]
 
@@ -61,6 +84,12 @@ class FormationManager:
         new_formation_gap: float = 60.0,
         formation_gap: float = 40.0,
         anchor_brake: float = 5.0,
+        profile_accel: float = PROFILE_ACCEL,
+        profile_decel: float = PROFILE_DECEL,
+        profile_jerk: float = PROFILE_JERK,
+        profile_min_duration: float = PROFILE_MIN_DURATION,
+        replan_error: float = FEEDBACK_ERROR,
+        profile_speeds: tuple = (15.0, 29.0),
     ) -> None:
         self.spacing = float(spacing)
         self.geometry = geometry
@@ -85,6 +114,20 @@ class FormationManager:
         self.length: dict[int, float] = {}
         self.next_gid = 0
         self.reforms = 0
+        self.profile_limits = dict(accel=float(profile_accel), decel=float(profile_decel), jerk=float(profile_jerk),
+                                   t_min=float(profile_min_duration))
+        self.replan_error = float(replan_error)
+        self.profile_speeds = (float(profile_speeds[0]), float(profile_speeds[1]))
+        self.time = 0.0
+        self.plans = 0
+        # per vehicle id: the slot a plan was made for (group, metres behind
+        # the front), the plan (start time, duration, initial offset, relative
+        # speed, acceleration) and when the first plan for that slot ends
+        self._cap = 0
+        for name in ("_slot_gid",):
+            setattr(self, name, np.zeros(0, dtype=np.int64))
+        for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline"):
+            setattr(self, name, np.zeros(0))
 
     # ---------------------------------------------------------------- helpers
     def _lane_set(self, road, anchor: float, length: float) -> tuple[int, ...]:
@@ -92,6 +135,44 @@ class FormationManager:
         if self.allowed_lanes is not None:
             lanes = [lane for lane in lanes if lane in self.allowed_lanes]
         return tuple(lanes)
+
+    def _grow(self, size: int) -> None:
+        if size <= self._cap:
+            return
+        new = max(size, 2 * self._cap, 256)
+        pad = new - self._cap
+        self._slot_gid = np.concatenate([self._slot_gid, np.full(pad, -1, dtype=np.int64)])
+        for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline"):
+            setattr(self, name, np.concatenate([getattr(self, name), np.zeros(pad)]))
+        self._p_T[self._cap:] = 1.0
+        self._cap = new
+
+    def _slot_x(self, traffic, rows) -> np.ndarray:
+        anchors = np.array([self.anchor.get(int(k), np.nan) for k in range(self.next_gid)])
+        return anchors[traffic.group[rows]] - traffic.tgt_behind[rows]
+
+    def _plan(self, traffic, road, rows, cx) -> np.ndarray:
+        """Plan references for members ``rows`` from their current state;
+        returns the plans' durations."""
+        if not len(rows):
+            return np.zeros(0)
+        vid = traffic.vid[rows]
+        self._grow(int(vid.max()) + 1)
+        lim = self.profile_limits
+        d0 = road.wrap(cx[rows] - self._slot_x(traffic, rows))
+        v0 = traffic.speed[rows] - self.speed
+        a0 = np.clip(traffic.accel[rows], -lim["decel"], lim["accel"])
+        T = join_duration(d0, v0, a0, **lim, v_lo=self.profile_speeds[0] - self.speed,
+                          v_hi=self.profile_speeds[1] - self.speed)
+        self._p_t0[vid], self._p_T[vid] = self.time, T
+        self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
+        self.plans += len(rows)
+        return T
+
+    def _profile(self, traffic, rows):
+        vid = traffic.vid[rows]
+        return join_profile(self.time - self._p_t0[vid], self._p_T[vid], self._p_d0[vid], self._p_v0[vid],
+                            self._p_a0[vid])
 
     def create(self, traffic, rows, road, anchor: float | None = None) -> int:
         """Make a new formation of vehicles ``rows`` and assign them targets."""
@@ -145,6 +226,16 @@ class FormationManager:
         traffic.tgt_behind[rows] = tx[slot]
         traffic.tgt_lane[rows] = np.asarray(lanes, dtype=np.int64)[tl[slot] - 1]
         self.reforms += 1
+        # members with a new slot get a reference from where they are
+        vid = traffic.vid[rows]
+        self._grow(int(vid.max()) + 1)
+        new = (self._slot_gid[vid] != gid) | (self._slot_behind[vid] != traffic.tgt_behind[rows])
+        if new.any():
+            r = rows[new]
+            T = self._plan(traffic, road, r, cx)
+            self._slot_gid[traffic.vid[r]] = gid
+            self._slot_behind[traffic.vid[r]] = traffic.tgt_behind[r]
+            self._p_deadline[traffic.vid[r]] = self.time + T
 
     # ----------------------------------------------------------------- update
     def _eligible_free(self, traffic, road, cx) -> np.ndarray:
@@ -155,7 +246,9 @@ class FormationManager:
             # vehicles still on a ramp merge first, as free vehicles, and join
             # from the main road (a formation cannot help them merge)
             _, cy = traffic.center()
-            free = free[road.lane_of(cy[free]) < road.n_lanes]
+            # ... and so do vehicles changing lanes into the ramp lane (an exit
+            # taken late: the centre crosses after the diverge segment ends)
+            free = free[(road.lane_of(cy[free]) < road.n_lanes) & (traffic.lc_lane[free] != road.ramp_lane)]
         if len(free) and road.n_exits:
             ex = traffic.exit[free]
             has = ex >= 0
@@ -183,19 +276,29 @@ class FormationManager:
         cx, cy = traffic.center()
         wrap = road.wrap
         changed: set[int] = set()
+        self.time += dt
         gids = list(self.anchor)
-        for gid in gids:
-            self.anchor[gid] = float(road.mod(self.anchor[gid] + self.speed * dt))
+        if gids:  # one array operation for all front targets
+            moved = road.mod(np.array([self.anchor[g] for g in gids]) + self.speed * dt)
+            self.anchor.update(zip(gids, moved.tolist()))
         if traffic.n and road.n_exits:
             # members about to exit leave (the vehicle becomes free and heads for its ramp)
             rows = np.flatnonzero((traffic.exit >= 0) & (traffic.group >= 0))
             if len(rows):
                 d = road.exit_ahead(traffic.exit[rows], cx[rows])
                 leave = rows[d < self.exit_lookahead]
+                if road.has_ramp_lane:
+                    # a member on (or moving to) the ramp lane cannot hold a main-lane target
+                    _, cy_r = traffic.center()
+                    on_ramp = (road.lane_of(cy_r[rows]) == road.ramp_lane) | (traffic.lc_lane[rows] == road.ramp_lane)
+                    leave = rows[(d < self.exit_lookahead) | on_ramp]
                 for gid in np.unique(traffic.group[leave]):
                     changed.add(int(gid))
                 traffic.group[leave] = -1
                 traffic.tgt_lane[leave] = -1
+                if len(leave):
+                    self._grow(int(traffic.vid[leave].max()) + 1)
+                    self._slot_gid[traffic.vid[leave]] = -1
         counts = np.bincount(traffic.group[traffic.group >= 0], minlength=self.next_gid) if traffic.n else np.zeros(
             self.next_gid, dtype=np.int64
         )
@@ -251,68 +354,148 @@ class FormationManager:
             rel = np.where(rel > -Lf[:, None], rel, np.inf)
             nearest = rel.min(axis=1)
             room = {g: float(r) - self.formation_gap for g, r in zip(gids, nearest) if np.isfinite(r)}
-        if traffic.n:
-            grp = traffic.group
-            order_rows = np.argsort(grp, kind="stable")
-            sorted_g = grp[order_rows]
-            starts = np.searchsorted(sorted_g, gids, side="left")
-            ends = np.searchsorted(sorted_g, gids, side="right")
-        for k, gid in enumerate(gids):
-            rows = order_rows[starts[k]:ends[k]] if traffic.n else np.zeros(0, dtype=np.int64)
-            if not len(rows):
-                continue
-            # the front target slows down (by at most ``anchor_brake`` m/s) rather
-            # than jumping back, so members see a smooth reference
-            back = 0.0
-            if gid not in changed:
-                implied = float(wrap(cx[rows] + traffic.tgt_behind[rows] - self.anchor[gid]).max())
-                if implied < -self.max_anchor_lead:
-                    back = min(back, implied + self.max_anchor_lead)
-            r = room.get(gid)
-            if r is not None and r < 0:
-                back = min(back, r)
-            if back < 0:
-                self.anchor[gid] = float(road.mod(self.anchor[gid] + max(back, -self.anchor_brake * dt)))
-            if gid not in changed and self._lane_set(road, self.anchor[gid], self.length[gid]) != self.lanes[gid]:
-                changed.add(gid)
-            # a member that stays far from its target (e.g. it joined ahead of
-            # the formation and its target lies beyond a member in its lane)
-            # triggers a re-assignment from the current positions
-            err = float(np.abs(wrap(cx[rows] - (self.anchor[gid] - traffic.tgt_behind[rows]))).max())
-            if gid in changed:
-                self.stalled_for[gid] = 0.0
-            elif err > self.stall_error:
-                self.stalled_for[gid] = self.stalled_for.get(gid, 0.0) + dt
-                if self.stalled_for[gid] >= self.stall_time:
-                    changed.add(gid)
-                    self.stalled_for[gid] = 0.0
-            else:
-                self.stalled_for[gid] = 0.0
+        self._hold_targets(traffic, road, gids, changed, room, cx, dt)
         for gid in sorted(changed):
             self._reform(traffic, road, gid, cx)
+        # members that fell off their reference (held back by traffic) re-plan
+        # from where they are
+        m = np.flatnonzero(traffic.group >= 0) if traffic.n else np.zeros(0, dtype=np.int64)
+        if len(m):
+            self._grow(int(traffic.vid[m].max()) + 1)
+            d, _, _ = self._profile(traffic, m)
+            off = np.abs(wrap(cx[m] - (self._slot_x(traffic, m) + d))) > self.replan_error
+            if off.any():
+                self._plan(traffic, road, m[off], cx)
         for gid in list(self.anchor):
             if self.count.get(gid, 0) == 0:
                 for d in (self.anchor, self.lanes, self.count, self.length, self.stalled_for):
                     d.pop(gid, None)
         return sorted(changed)
 
+    def _hold_targets(self, traffic, road, gids, changed: set, room: dict, cx, dt: float) -> None:
+        """Per formation (all at once, as arrays): the front target slows
+        down (by at most ``anchor_brake`` m/s, so members see a smooth
+        reference) when it leads its best-placed member by more than
+        ``max_anchor_lead`` or comes closer than ``formation_gap`` to the
+        formation ahead; a change of the drivable lane set over the
+        formation's window, or a member far from its target for
+        ``stall_time`` (e.g. it joined ahead of the formation and its target
+        lies beyond a member in its lane), marks it for re-forming. The
+        segment reductions and lane windows run in :mod:`icv_envs.sim._kernels`;
+        the arithmetic is the scalar code's, element by element."""
+        if not traffic.n or not gids:
+            return
+        grp = traffic.group
+        order_rows = np.argsort(grp, kind="stable")
+        sorted_g = grp[order_rows]
+        starts = np.searchsorted(sorted_g, gids, side="left")
+        ends = np.searchsorted(sorted_g, gids, side="right")
+        has = ends > starts
+        if not has.any():
+            return
+        G = len(gids)
+        A = np.array([self.anchor[g] for g in gids])
+        Lf = np.array([self.length[g] for g in gids])
+        chg = np.array([g in changed for g in gids])
+        # rows of every formation, concatenated in formation order
+        counts = ends - starts
+        seg_end = np.cumsum(counts)
+        seg_start = seg_end - counts
+        pos = np.arange(int(seg_end[-1])) - np.repeat(seg_start - starts, counts)
+        rr = order_rows[pos]
+        kk = np.repeat(np.arange(G), counts)
+        tb = traffic.tgt_behind[rr]
+        implied = segment_max(road.wrap(cx[rr] + tb - A[kk]), seg_start, seg_end)
+        back = np.where(~chg & (implied < -self.max_anchor_lead), implied + self.max_anchor_lead, 0.0)
+        r = np.array([room.get(g, np.nan) for g in gids])
+        back = np.where(r < 0, np.minimum(back, r), back)
+        brake = has & (back < 0)
+        if brake.any():
+            A[brake] = road.mod(A[brake] + np.maximum(back[brake], -self.anchor_brake * dt))
+            self.anchor.update(zip([gids[k] for k in np.flatnonzero(brake)], A[brake].tolist()))
+        check = np.flatnonzero(has & ~chg)
+        if len(check):
+            bits = self._lane_bits(road, A[check], Lf[check])
+            for k, b in zip(check.tolist(), bits.tolist()):
+                if b != sum(1 << lane for lane in self.lanes[gids[k]]):
+                    changed.add(gids[k])
+        # a member far from its target AFTER its plan should have brought it
+        # there (the join profile's deadline) counts as stalled
+        vid = traffic.vid[rr]
+        self._grow(int(vid.max()) + 1)
+        late_rows = (np.abs(road.wrap(cx[rr] - (A[kk] - tb))) > self.stall_error) & (self.time > self._p_deadline[vid])
+        late = segment_max(late_rows.astype(np.float64), seg_start, seg_end) > 0.5
+        for k in np.flatnonzero(has).tolist():
+            gid = gids[k]
+            if gid in changed:
+                self.stalled_for[gid] = 0.0
+            elif late[k]:
+                self.stalled_for[gid] = self.stalled_for.get(gid, 0.0) + dt
+                if self.stalled_for[gid] >= self.stall_time:
+                    changed.add(gid)
+                    self.stalled_for[gid] = 0.0
+            else:
+                self.stalled_for[gid] = 0.0
+
+    def _lane_bits(self, road, anchors: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+        """:meth:`_lane_set` for many formations at once, as bit sets."""
+        x0 = anchors - lengths - 10.0
+        x1 = anchors + self.lookahead
+        L = float(road.length)
+        span = np.minimum(np.maximum(x1 - x0, 0.0), L)
+        a = np.mod(x0, L)
+        allowed = np.ones(road.n_lanes, dtype=bool)
+        if self.allowed_lanes is not None:
+            allowed[:] = False
+            allowed[[lane for lane in self.allowed_lanes if lane < road.n_lanes]] = True
+        ob_lane = np.asarray(road._ob_lane, dtype=np.int64) if len(road._ob_lane) else np.zeros(0, dtype=np.int64)
+        ob_lo = np.asarray(road._ob_lo, dtype=np.float64) if len(road._ob_lane) else np.zeros(0)
+        ob_hi = np.asarray(road._ob_hi, dtype=np.float64) if len(road._ob_lane) else np.zeros(0)
+        return drivable_lane_bits(a, span, x0, x1, bool(road.periodic), L, road.lane_ends, ob_lane, ob_lo, ob_hi,
+                                  allowed)
+
     def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-vehicle ``(x_ref, lane_ref, v_ref, member)``: body-centre
-        reference position ``X_ref = anchor - x_g`` (paper Sec. 4 uses the
-        same form), target lane, formation speed, membership mask. Free
-        vehicles get ``nan`` / ``-1``."""
+        reference position, target lane, reference speed, membership mask.
+        The target is ``X_slot = anchor - x_g`` (paper Sec. 4 uses the same
+        form) at the formation speed; the reference is the slot plus the
+        member's join profile ``d(t)`` (module docstring), equal to the slot
+        once the profile has ended. Free vehicles get ``nan`` / ``-1``."""
         member = traffic.group >= 0
         x_ref = np.full(traffic.n, np.nan)
         v_ref = np.full(traffic.n, np.nan)
         if member.any():
-            g = traffic.group[member]
-            anchors = np.array([self.anchor.get(int(k), np.nan) for k in range(self.next_gid)])
-            x_ref[member] = anchors[g] - traffic.tgt_behind[member]
+            m = np.flatnonzero(member)
+            self._grow(int(traffic.vid[m].max()) + 1)
+            d, dv, _ = self._profile(traffic, m)
+            x_ref[m] = self._slot_x(traffic, m) + d
             if traffic.period is not None:
-                x_ref[member] = np.mod(x_ref[member], traffic.period)
-            v_ref[member] = self.speed
+                x_ref[m] = np.mod(x_ref[m], traffic.period)
+            v_ref[m] = self.speed + dv
         lane_ref = np.where(member, traffic.tgt_lane, -1)
         return x_ref, lane_ref, v_ref, member
+
+    def reference_accel(self, traffic) -> np.ndarray:
+        """Per-vehicle acceleration of the reference (the join profile's
+        ``d''``; 0 for settled members, ``nan`` for free vehicles)."""
+        member = traffic.group >= 0
+        out = np.full(traffic.n, np.nan)
+        if member.any():
+            m = np.flatnonzero(member)
+            self._grow(int(traffic.vid[m].max()) + 1)
+            out[m] = self._profile(traffic, m)[2]
+        return out
+
+    def slots(self, traffic) -> np.ndarray:
+        """Per-vehicle target position ``X_slot = anchor - x_g`` (``nan`` for
+        free vehicles), the end point of every member's reference."""
+        out = np.full(traffic.n, np.nan)
+        m = np.flatnonzero(traffic.group >= 0)
+        if len(m):
+            out[m] = self._slot_x(traffic, m)
+            if traffic.period is not None:
+                out[m] = np.mod(out[m], traffic.period)
+        return out
 
     def summary(self) -> list[dict]:
         return [

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from icv_envs.sim._kernels import sweep_candidates
+
 __all__ = [
     "Traffic",
     "LaneIndex",
@@ -27,7 +29,24 @@ __all__ = [
     "find_collisions",
     "rect_overlap",
     "idm_acceleration",
+    "limit_steering",
+    "LAT_ACCEL_MAX",
 ]
+
+#: Friction coefficient of a dry asphalt road (Rajamani, *Vehicle Dynamics and
+#: Control*, 2nd ed., Springer 2012, Sec. 13: peak mu about 0.8-1.0 on dry
+#: asphalt; we take the low end).
+FRICTION_MU = 0.8
+#: Gravitational acceleration [m/s^2].
+GRAVITY = 9.81
+#: Lateral-acceleration bound of the kinematic bicycle model [m/s^2]:
+#: ``|a_y| <= 0.5 mu g``. Polack, Altche, d'Andrea-Novel and de La Fortelle,
+#: "The kinematic bicycle model: a consistent model for planning feasible
+#: trajectories for autonomous vehicles?", IEEE IV 2017, show that the
+#: kinematic model stays consistent with a dynamic (tyre) model only while the
+#: lateral acceleration stays below ``0.5 mu g``; beyond it the tyres saturate
+#: and a kinematic model would let a vehicle turn on the spot at speed.
+LAT_ACCEL_MAX = 0.5 * FRICTION_MU * GRAVITY
 
 _FLOAT_FIELDS = (
     "x",  # rear-axle position along the road [m]
@@ -46,6 +65,8 @@ _FLOAT_FIELDS = (
     "lc_len",
     # formation manager: the assigned target, metres behind the front target
     "tgt_behind",
+    # standing time [s]: how long the vehicle has been below 0.1 m/s (jam detection)
+    "stopped_for",
 )
 _INT_FIELDS = (
     "vid",  # unique id, also the agent index ("icv_<vid>")
@@ -67,8 +88,10 @@ class Traffic:
     axle), used for gaps, lanes and collisions.
     """
 
-    def __init__(self, wheelbase: float = 2.8, period: float | None = None) -> None:
+    def __init__(self, wheelbase: float = 2.8, period: float | None = None,
+                 lat_accel_max: float = LAT_ACCEL_MAX) -> None:
         self.wheelbase = float(wheelbase)
+        self.lat_accel_max = None if lat_accel_max is None else float(lat_accel_max)  # None: no limit
         self.period = None if period is None else float(period)
         for f in _FLOAT_FIELDS:
             setattr(self, f, np.zeros(0, dtype=np.float64))
@@ -112,6 +135,7 @@ class Traffic:
             "lc_y1": 0.0,
             "lc_len": 0.0,
             "tgt_behind": 0.0,
+            "stopped_for": 0.0,
         }
         ids = np.arange(self.next_vid, self.next_vid + k, dtype=np.int64)
         self.next_vid += k
@@ -151,9 +175,15 @@ class Traffic:
 
         with forward Euler over ``dt``. Speed is kept in ``[0, v_max]``:
         the lower bound of the configured speed range is a control target,
-        not a physical limit, so a vehicle can always brake to a stop."""
+        not a physical limit, so a vehicle can always brake to a stop.
+
+        The steering angle is first limited by speed so that the lateral
+        acceleration ``v^2 tan(phi) / L`` stays within ``lat_accel_max``
+        (:func:`limit_steering`, :data:`LAT_ACCEL_MAX`); ``steer`` records
+        the angle actually applied."""
         self.accel = np.asarray(accel, dtype=np.float64)
-        self.steer = np.asarray(steer, dtype=np.float64)
+        self.steer = limit_steering(np.asarray(steer, dtype=np.float64), self.speed, self.wheelbase,
+                                    self.lat_accel_max)
         v = self.speed
         self.x = self.x + v * np.cos(self.heading) * dt
         self.y = self.y + v * np.sin(self.heading) * dt
@@ -163,9 +193,28 @@ class Traffic:
             self.x = np.mod(self.x, self.period)
 
 
-def bicycle_step(x, y, heading, speed, accel, steer, dt, wheelbase=2.8, v_max=np.inf):
+def limit_steering(steer, speed, wheelbase=2.8, lat_accel_max=LAT_ACCEL_MAX):
+    """Front-wheel angle limited so that the lateral acceleration of the
+    rear-axle kinematic bicycle model, ``a_y = v^2 tan(phi) / L``, satisfies
+    ``|a_y| <= lat_accel_max`` (default ``0.5 mu g``, see
+    :data:`LAT_ACCEL_MAX`). At low speed the mechanical limit
+    (``steer_max``, applied by the caller) is the binding one; above
+    ``sqrt(a_y L / tan(steer_max))`` (about 4.5 m/s with 30 deg) this one is.
+    ``lat_accel_max=None`` disables the limit. Vectorised."""
+    steer = np.asarray(steer, dtype=np.float64)
+    if lat_accel_max is None:
+        return steer
+    v2 = np.maximum(np.asarray(speed, dtype=np.float64) ** 2, 1e-9)
+    phi_max = np.arctan(float(lat_accel_max) * float(wheelbase) / v2)
+    return np.clip(steer, -phi_max, phi_max)
+
+
+def bicycle_step(x, y, heading, speed, accel, steer, dt, wheelbase=2.8, v_max=np.inf, lat_accel_max=None):
     """Pure-function form of :meth:`Traffic.step` (paper eq. (state)); used by
-    the highway-env vehicle class so both paths share one model."""
+    the highway-env vehicle class so both paths share one model. With
+    ``lat_accel_max`` the steering is limited by :func:`limit_steering`
+    first (:class:`Traffic` always applies it)."""
+    steer = limit_steering(steer, speed, wheelbase, lat_accel_max)
     x = x + speed * np.cos(heading) * dt
     y = y + speed * np.sin(heading) * dt
     heading = heading + speed * np.tan(steer) / wheelbase * dt
@@ -185,13 +234,21 @@ class LaneIndex:
         self.keys, self.rows, self.lanes, self.x, self.offset = keys, rows, lanes, x, offset
 
 
-def occupied_lanes(cy, width, lane_width, n_lanes, margin=0.3):
+def occupied_lanes(cy, width, lane_width, n_lanes, margin=0.0, length=None, heading=None):
     """(rows, lanes) pairs: vehicle ``row`` overlaps lane ``lane`` when its
-    body reaches more than ``margin`` metres over the lane's edge line."""
+    footprint reaches more than ``margin`` metres over the lane's edge line.
+
+    The footprint is the rotated body rectangle: with ``length`` and
+    ``heading`` its lateral half-extent is ``(L |sin h| + W |cos h|) / 2``, so
+    a vehicle angled across a lane line (mid lane change) is listed in every
+    lane a corner of it is in, and the vehicles of those lanes see it."""
     base = np.rint(cy / lane_width).astype(np.int64)
     rows_l, lanes_l = [], []
     idx = np.arange(len(cy))
-    reach = 0.5 * (lane_width + width) - margin
+    half = 0.5 * np.asarray(width, dtype=np.float64)
+    if length is not None and heading is not None:
+        half = 0.5 * (np.asarray(length) * np.abs(np.sin(heading)) + np.asarray(width) * np.abs(np.cos(heading)))
+    reach = 0.5 * lane_width + half - margin
     for d in (-1, 0, 1):
         lane = base + d
         ok = (lane >= 0) & (lane < n_lanes) & (np.abs(cy - lane * lane_width) < reach)
@@ -201,7 +258,7 @@ def occupied_lanes(cy, width, lane_width, n_lanes, margin=0.3):
 
 
 def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool = False, ghost: float = 1000.0,
-               reserved_lane=None) -> LaneIndex:
+               reserved_lane=None, length=None, heading=None) -> LaneIndex:
     """Build the lane-sorted index. On a ring (``periodic``), vehicles within
     ``ghost`` metres of the seam are listed a second time one lap further
     (``x + length`` and ``x - length``) so that searches see round the seam;
@@ -209,8 +266,10 @@ def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool =
 
     ``reserved_lane[i] >= 0`` lists vehicle ``i`` in that lane too: a vehicle
     that has started a lane change holds its target lane before its body
-    reaches it (a turn signal), so two vehicles do not move into one gap."""
-    rows, lanes = occupied_lanes(cy, width, lane_width, n_lanes)
+    reaches it (a turn signal), so two vehicles do not move into one gap.
+    ``length`` and ``heading`` give each vehicle's footprint (see
+    :func:`occupied_lanes`)."""
+    rows, lanes = occupied_lanes(cy, width, lane_width, n_lanes, length=length, heading=heading)
     if reserved_lane is not None:
         res = np.flatnonzero((reserved_lane >= 0) & (reserved_lane < n_lanes))
         if len(res):
@@ -324,21 +383,11 @@ def find_collisions(cx, cy, heading, length, width, period: float | None = None)
     order = np.argsort(cx, kind="stable")
     xs, ys, hxs, hys = cx[order], cy[order], hx[order], hy[order]
     reach = 2.0 * hxs.max()
-    out_i, out_j = [], []
-    for k in range(1, n):
-        dx = xs[k:] - xs[:-k]
-        near = dx < reach
-        if not near.any():
-            break
-        cand = near & (dx < hxs[k:] + hxs[:-k]) & (np.abs(ys[k:] - ys[:-k]) < hys[k:] + hys[:-k])
-        if cand.any():
-            a = np.flatnonzero(cand)
-            out_i.append(order[a])
-            out_j.append(order[a + k])
-    if not out_i:
+    a, k = sweep_candidates(xs, ys, hxs, hys, reach)  # compiled sweep (icv_envs.sim._kernels)
+    if not len(a):
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    i = np.concatenate(out_i)
-    j = np.concatenate(out_j)
+    i = order[a]
+    j = order[a + k]
     hit = rect_overlap(cx[i], cy[i], heading[i], length[i], width[i], cx[j], cy[j], heading[j], length[j], width[j])
     return i[hit], j[hit]
 

@@ -3,7 +3,8 @@
 :class:`ICVVehicle` is a :class:`highway_env.vehicle.kinematics.Vehicle` whose
 :meth:`step` integrates the paper's rear-axle kinematic bicycle model (Sec.
 2.2, eq. (state); L = 2.8 m, steering within +-30 deg, acceleration within
-[-6, 3] m/s^2) with the same function the vectorised core uses
+[-6, 3] m/s^2; lateral acceleration within ``0.5 mu g``, see
+:data:`icv_envs.sim.traffic.LAT_ACCEL_MAX`) with the same function the vectorised core uses
 (:func:`icv_envs.sim.traffic.bicycle_step`), so it can be dropped into any
 highway-env road. Inside :mod:`icv_envs` environments the state lives in
 arrays and these objects are views refreshed only for rendering.
@@ -14,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from highway_env.vehicle.kinematics import Vehicle
 
-from icv_envs.sim.traffic import bicycle_step
+from icv_envs.sim.traffic import LAT_ACCEL_MAX, bicycle_step
 
 __all__ = ["ICVVehicle"]
 
@@ -35,6 +36,7 @@ class ICVVehicle(Vehicle):
     ACCEL_RANGE = (-6.0, 3.0)
     MAX_SPEED = 30.0
     MIN_SPEED = 0.0
+    LAT_ACCEL_MAX = LAT_ACCEL_MAX
 
     def __init__(self, road, position, heading: float = 0.0, speed: float = 0.0, vid: int = -1, **kwargs):
         super().__init__(road, position, heading, speed, **kwargs)
@@ -49,7 +51,8 @@ class ICVVehicle(Vehicle):
         h = 0.5 * self.WHEELBASE
         rx = self.position[0] - h * np.cos(self.heading)
         ry = self.position[1] - h * np.sin(self.heading)
-        rx, ry, heading, speed = bicycle_step(rx, ry, self.heading, self.speed, a, phi, dt, self.WHEELBASE, self.MAX_SPEED)
+        rx, ry, heading, speed = bicycle_step(rx, ry, self.heading, self.speed, a, phi, dt, self.WHEELBASE, self.MAX_SPEED,
+                                              lat_accel_max=self.LAT_ACCEL_MAX)
         self.heading = float(heading)
         self.speed = float(speed)
         self.position = np.array([rx + h * np.cos(self.heading), ry + h * np.sin(self.heading)])

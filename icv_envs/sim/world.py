@@ -10,10 +10,24 @@ from __future__ import annotations
 import numpy as np
 
 from icv_envs.sim.formations import FormationManager
+from icv_envs.sim.metrics import HeadwayStats, MotionStats
 from icv_envs.sim.road import RoadLayout
 from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, leaders, rect_overlap
 
-__all__ = ["World", "StepEvents"]
+__all__ = ["World", "StepEvents", "JAM_STOP_TIME", "JAM_FREE_GAP", "COLLISION_KINDS"]
+
+#: Collision kinds by the at-fault vehicle (:meth:`World.classify_collisions`)
+COLLISION_KINDS = ("struck_ahead", "struck_from_behind", "side_swipe", "road")
+#: lateral speed [m/s] above which a vehicle counts as moving sideways (cut-in)
+CUT_IN_SPEED = 0.2
+
+#: A vehicle standing (below 0.1 m/s) longer than this [s] ...
+JAM_STOP_TIME = 30.0
+#: ... while the road ahead of it is free over at least this distance [m] is
+#: jammed: nothing physical holds it. The distance is the IDM desired gap at
+#: the top speed, s0 + v_max T = 2 + 30 * 1 m (Treiber et al. 2000): a vehicle
+#: this far behind its leader (or the end of its lane) would accelerate.
+JAM_FREE_GAP = 32.0
 
 
 class StepEvents:
@@ -47,18 +61,24 @@ class World:
         self.traffic = Traffic(wheelbase, period=road.length if road.periodic else None)
         self.time = 0.0
         self._index = None
-        # run metrics, accumulated every substep (see icv_envs.experiments.metrics)
+        # run metrics (definitions in icv_envs.sim.metrics): event counts here,
+        # speed/acceleration every substep in ``motion``, gaps and time
+        # headways every policy step in ``headways``
         self.stats = {
-            "vehicle_steps": 0,
-            "speed_sum": 0.0,
-            "abs_accel_sum": 0.0,
             "collisions": 0,
             "exited": 0,
             "left_road": 0,
-            "min_gap": np.inf,
             "missed_exits": 0,
             "crashed_removed": 0,
+            "jammed": 0,
+            "collisions_by_fault": {k: {"expert": 0, "policy": 0} for k in COLLISION_KINDS},
         }
+        self.motion = MotionStats()
+        self.headways = HeadwayStats()
+        # ids of vehicles driven by the expert this step (set by the env,
+        # :meth:`set_expert_driven`); None: all expert-driven
+        self._expert_vids: set[int] | None = None
+        self._jammed: set[int] = set()
 
     # ---------------------------------------------------------------- queries
     def lane_index(self, reserved: bool = True):
@@ -70,8 +90,10 @@ class World:
             cx, cy = self.traffic.center()
             args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
             self._index = (
-                lane_index(*args, periodic=self.road.periodic, reserved_lane=self.traffic.lc_lane),
-                lane_index(*args, periodic=self.road.periodic),
+                lane_index(*args, periodic=self.road.periodic, reserved_lane=self.traffic.lc_lane,
+                           length=self.traffic.length, heading=self.traffic.heading),
+                lane_index(*args, periodic=self.road.periodic, length=self.traffic.length,
+                           heading=self.traffic.heading),
             )
         return self._index[0] if reserved else self._index[1]
 
@@ -101,19 +123,20 @@ class World:
         if tr.n:
             accel = np.where(tr.crashed, -6.0, accel)
             steer = np.where(tr.crashed, 0.0, steer)
+            v_before = tr.speed
             tr.step(accel, steer, self.dt, self.v_max)
+            self.motion.record(tr.vid, v_before, tr.speed, tr.accel, self.dt)
+            tr.stopped_for = np.where(tr.speed < 0.1, tr.stopped_for + self.dt, 0.0)
         self.time += self.dt
         self._index = None
         if not tr.n:
             return
         st = self.stats
-        st["vehicle_steps"] += tr.n
-        st["speed_sum"] += float(tr.speed.sum())
-        st["abs_accel_sum"] += float(np.abs(tr.accel).sum())
         cx, cy = tr.center()
         i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width,
                                period=self.road.length if self.road.periodic else None)
         hit = np.zeros(tr.n, dtype=bool)
+        hit_obstacle = np.zeros(tr.n, dtype=bool)
         if len(i):
             hit[i] = True
             hit[j] = True
@@ -129,6 +152,7 @@ class World:
                         ob.x, ob.lane * self.road.lane_width, 0.0, ob.length, ob.width,
                     )
                     hit[near[h]] = True
+                    hit_obstacle[near[h]] = True
         # leaving the drivable surface: a main-road vehicle whose lane has
         # ended, or a ramp vehicle past the ramp's end, has crashed
         lane = self.road.lane_of(cy)
@@ -156,6 +180,7 @@ class World:
         off &= ~at_end
         new_crash = (hit | off) & ~tr.crashed
         if new_crash.any():
+            self.classify_collisions(i, j, (off | hit_obstacle) & new_crash, new_crash, cx, cy)
             tr.crashed |= new_crash
             events.crashed.update(int(v) for v in tr.vid[new_crash])
             st["collisions"] += int(new_crash.sum())
@@ -170,6 +195,56 @@ class World:
             tr.remove(gone)
             self._index = None
 
+    def set_expert_driven(self, vids, expert_mask) -> None:
+        """Tell the world which vehicles the expert drives in the coming
+        step (the others follow a given, e.g. learned, action), for the
+        at-fault attribution of :meth:`classify_collisions`."""
+        vids = np.asarray(vids)
+        self._expert_vids = set(int(v) for v in vids[np.asarray(expert_mask, dtype=bool)])
+
+    def classify_collisions(self, i, j, road_rows, new_crash, cx, cy) -> None:
+        """Count this substep's new collisions in
+        ``stats["collisions_by_fault"][kind][driver]``, one per colliding pair
+        (at least one of the two newly crashed) and one per vehicle that left
+        the road or hit an obstacle (``road``, at fault itself).
+
+        A pair whose bodies overlap less along the road than across it is a
+        rear-end contact: the rear vehicle is at fault (``struck_ahead``)
+        unless the front one was moving sideways towards it faster than
+        ``CUT_IN_SPEED`` (a cut-in: the front vehicle, ``struck_from_behind``,
+        is at fault). Otherwise it is a ``side_swipe``, at fault the vehicle
+        moving sideways towards the other faster. ``driver`` is ``expert``
+        or ``policy`` by who drove the at-fault vehicle
+        (:meth:`set_expert_driven`)."""
+        tr = self.traffic
+        out = self.stats["collisions_by_fault"]
+        ev = self._expert_vids
+
+        def driver(row):
+            return "expert" if ev is None or int(tr.vid[row]) in ev else "policy"
+
+        for r in np.flatnonzero(road_rows):
+            out["road"][driver(r)] += 1
+        vy = tr.speed * np.sin(tr.heading)
+        for a, b in zip(np.asarray(i).tolist(), np.asarray(j).tolist()):
+            if not (new_crash[a] or new_crash[b]):
+                continue
+            dx = float(self.road.wrap(cx[b] - cx[a]))
+            dy = float(cy[b] - cy[a])
+            ox = 0.5 * (tr.length[a] + tr.length[b]) - abs(dx)
+            oy = 0.5 * (tr.width[a] + tr.width[b]) - abs(dy)
+            if ox < oy:  # rear-end
+                rear, front = (a, b) if dx > 0 else (b, a)
+                towards = np.sign(cy[rear] - cy[front]) * vy[front]
+                if towards > CUT_IN_SPEED:
+                    out["struck_from_behind"][driver(front)] += 1
+                else:
+                    out["struck_ahead"][driver(rear)] += 1
+            else:
+                sa = np.sign(dy) * vy[a]
+                sb = -np.sign(dy) * vy[b]
+                out["side_swipe"][driver(a if sa >= sb else b)] += 1
+
     def remove_crashed_vehicles(self) -> np.ndarray:
         tr = self.traffic
         ids = tr.vid[tr.crashed]
@@ -180,6 +255,24 @@ class World:
         return ids
 
     def record_min_gap(self) -> None:
-        if self.traffic.n > 1:
+        """Per policy step: the smallest own-lane gap, and jam detection:
+        ``stats["jammed"]`` counts the vehicles that have at some time stood
+        longer than :data:`JAM_STOP_TIME` with at least :data:`JAM_FREE_GAP`
+        of free lane ahead (no leader, no lane end), each vehicle once.
+        The gaps and time headways feed :class:`icv_envs.sim.metrics.HeadwayStats`."""
+        tr = self.traffic
+        if tr.n > 1:
             gap, _ = self.own_lane_gaps()
-            self.stats["min_gap"] = min(self.stats["min_gap"], float(gap.min()))
+            self.headways.record(gap, self.traffic.speed)
+        if tr.n:
+            long_stop = tr.stopped_for > JAM_STOP_TIME
+            if long_stop.any():
+                rows = np.flatnonzero(long_stop)
+                gap = self.own_lane_gaps()[0][rows] if tr.n > 1 else np.full(len(rows), np.inf)
+                cx, cy = tr.center()
+                lane = self.road.lane_of(cy[rows])
+                to_end = self.road.interval_end(lane, cx[rows]) - cx[rows] - 0.5 * tr.length[rows]
+                free = (gap > JAM_FREE_GAP) & (to_end > JAM_FREE_GAP)
+                if free.any():
+                    self._jammed.update(int(v) for v in tr.vid[rows[free]])
+                    self.stats["jammed"] = len(self._jammed)

@@ -1,0 +1,210 @@
+"""This package against SUMO on the same road, in one process (issue 10).
+
+``ramps_vs_sumo`` -- ``icv-envs bench highway-ramps --vs-sumo``: the paper's
+ring (HighwayRamps, VGR 1/3, formation method, every vehicle an agent of the
+PettingZoo parallel API, the formation expert's action read and fed back
+every step) is run to ``seconds - measure`` (not timed); then SUMO starts on
+the same 10 km four-lane ring (:mod:`icv_envs.experiments.sumo_ring`) with
+as many vehicles as the ring holds at that moment, warms up ``sumo_warmup``
+simulated seconds, and the last ``measure`` seconds are timed in
+``chunks`` alternating slices, ours then SUMO's, so both see the same
+machine load. Vehicle-steps are physics steps of one vehicle (25 Hz both:
+ours steps the policy at 5 Hz with 5 physics sub-steps).
+
+Time base: process CPU time (libsumo runs in this process and thread, so
+both are charged the same way; on a shared machine wall time also counts
+the other processes' time slices). Wall time is reported too.
+
+``scaling`` -- ms of CPU per simulated second against the vehicle count,
+HighwayFormation (straight road, formations of 12, expert, PettingZoo API)
+beside SUMO's ring with the same count; CSV + PNG (``python -m
+icv_envs.experiments.sumo_bench scaling --out results/bench``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import platform
+import resource
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["ramps_vs_sumo", "scaling", "time_icv_formation", "time_sumo"]
+
+
+def _rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def _icv_chunk(env, policy_steps: int) -> dict:
+    st = env.core.world.stats
+    vs0 = st["vehicle_steps"]
+    c0, t0 = time.process_time(), time.perf_counter()
+    for _ in range(policy_steps):
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+    return {"cpu": time.process_time() - c0, "wall": time.perf_counter() - t0,
+            "vehicle_steps": st["vehicle_steps"] - vs0}
+
+
+def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1.0 / 3.0, seed: int = 0,
+                  chunks: int = 10, sumo_warmup: float = 20.0, echo=print) -> dict:
+    from tqdm import tqdm
+
+    from icv_envs.envs.highway_ramps_v0 import parallel_env
+    from icv_envs.experiments.sumo_ring import SumoRing, sumo_available
+
+    if not sumo_available():
+        raise RuntimeError("--vs-sumo needs SUMO: pip install 'icv-envs[bench]' (eclipse-sumo, libsumo)")
+    if not 0 < measure < seconds:
+        raise ValueError(f"measure = {measure!r}; allowed: 0 < measure < seconds = {seconds}")
+    env = parallel_env(vgr=float(vgr), duration=float(seconds), method="formation")
+    env.reset(seed=seed)
+    pf = int(env.core.config["policy_frequency"])
+    frames = int(env.core.config["simulation_frequency"]) // pf
+    warm_steps = int(round((seconds - measure) * pf))
+    c0 = time.process_time()
+    for _ in tqdm(range(warm_steps), desc="highway-ramps warm-up", mininterval=5.0, file=sys.stderr):
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+    warm_cpu = time.process_time() - c0
+    rss_icv = _rss_mb()
+    n = len(env.agents)
+    ring = SumoRing(max(n, 1), seed=seed)
+    ring.step(int(round(sumo_warmup / ring.dt)))
+    per_chunk = int(round(measure * pf / chunks))
+    ours = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0}
+    theirs = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0}
+    counts = []
+    for _ in tqdm(range(chunks), desc="alternating slices", file=sys.stderr):
+        counts.append(len(env.agents))
+        r = _icv_chunk(env, per_chunk)
+        for k in ours:
+            ours[k] += r[k]
+        r = ring.step(per_chunk * frames)
+        for k in theirs:
+            theirs[k] += r[k]
+    sumo_vehicles = ring.traci.vehicle.getIDCount()
+    ring.close()
+    m = env.metrics()
+    env.close()
+    o_cpu = ours["vehicle_steps"] / ours["cpu"]
+    s_cpu = theirs["vehicle_steps"] / theirs["cpu"]
+    res = {
+        "bench": "highway-ramps-vs-sumo",
+        "vgr": float(vgr), "sim_seconds": float(seconds), "measured_seconds": float(measure),
+        "icv_vehicles": [int(min(counts)), int(max(counts))], "sumo_vehicles": int(sumo_vehicles),
+        "icv_vehicle_steps_per_cpu_s": o_cpu, "sumo_vehicle_steps_per_cpu_s": s_cpu, "ratio_cpu": o_cpu / s_cpu,
+        "icv_vehicle_steps_per_wall_s": ours["vehicle_steps"] / ours["wall"],
+        "sumo_vehicle_steps_per_wall_s": theirs["vehicle_steps"] / theirs["wall"],
+        "ratio_wall": (ours["vehicle_steps"] / ours["wall"]) / (theirs["vehicle_steps"] / theirs["wall"]),
+        "icv_warmup_cpu_s": warm_cpu, "peak_rss_mb_icv_run": rss_icv, "peak_rss_mb_with_sumo": _rss_mb(),
+        "collisions": m["collisions"], "lost": m["lost"], "bar_ratio": 4.0,
+        "sumo": "SUMO 1.28 libsumo, Krauss + LC2013, dt 0.04 s",
+        "python": f"{platform.python_implementation()} {platform.python_version()} numpy {np.__version__}",
+    }
+    echo(f"highway-ramps VGR {vgr:.3g}, last {measure:g} s of {seconds:g}: icv_envs {o_cpu:,.0f} veh-steps/s "
+         f"({res['icv_vehicles'][0]}-{res['icv_vehicles'][1]} vehicles), SUMO {s_cpu:,.0f} veh-steps/s "
+         f"({sumo_vehicles} vehicles): x{res['ratio_cpu']:.2f} (CPU time; wall x{res['ratio_wall']:.2f}); "
+         f"peak RSS {rss_icv:.0f} MB")
+    return res
+
+
+def time_icv_formation(n: int, seconds: float = 5.0, warmup: float = 1.0, seed: int = 0) -> dict:
+    """CPU ms per simulated second of HighwayFormation with ``n`` vehicles
+    (formations of 12, expert through the PettingZoo API)."""
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+
+    span = math.ceil(n / 12) * (6 * 20.0 + 60.0) + 100.0
+    total = warmup + seconds
+    env = parallel_env(vehicles_count=int(n), formation_size=12, initial_position=None,
+                       road_length=float(span + 30.0 * total + 300.0), duration=float(total + 1.0))
+    env.reset(seed=seed)
+    pf = int(env.core.config["policy_frequency"])
+    _icv_chunk(env, int(round(warmup * pf)))
+    r = _icv_chunk(env, int(round(seconds * pf)))
+    env.close()
+    return {"ms_per_sim_s": 1e3 * r["cpu"] / seconds, "vehicle_steps_per_s": r["vehicle_steps"] / r["cpu"]}
+
+
+def time_sumo(n: int, seconds: float = 5.0, warmup: float = 1.0, seed: int = 0) -> dict:
+    from icv_envs.experiments.sumo_ring import SumoRing
+
+    ring = SumoRing(int(n), seed=seed)
+    ring.step(int(round(warmup / ring.dt)))
+    r = ring.step(int(round(seconds / ring.dt)))
+    ring.close()
+    return {"ms_per_sim_s": 1e3 * r["cpu"] / seconds, "vehicle_steps_per_s": r["vehicle_steps"] / r["cpu"],
+            "vehicles": r["vehicles"]}
+
+
+def scaling(sizes=(50, 100, 200, 400, 800, 1600, 3200), seconds: float = 5.0, out: str | None = None,
+            echo=print) -> dict:
+    from tqdm import tqdm
+
+    from icv_envs.experiments.sumo_ring import sumo_available
+
+    rows = []
+    for n in tqdm(sizes, desc="scaling", file=sys.stderr):
+        o = time_icv_formation(n, seconds)
+        s = time_sumo(n, seconds) if sumo_available() else {"ms_per_sim_s": None, "vehicle_steps_per_s": None}
+        row = {"vehicles": int(n), "icv_ms_per_sim_s": o["ms_per_sim_s"], "sumo_ms_per_sim_s": s["ms_per_sim_s"],
+               "icv_vehicle_steps_per_s": o["vehicle_steps_per_s"],
+               "sumo_vehicle_steps_per_s": s["vehicle_steps_per_s"],
+               "ratio": (s["ms_per_sim_s"] / o["ms_per_sim_s"]) if s["ms_per_sim_s"] else None}
+        rows.append(row)
+        echo(f"{n:5d} vehicles: icv_envs {o['ms_per_sim_s']:8.1f} ms/sim-s   SUMO "
+             f"{s['ms_per_sim_s'] or float('nan'):8.1f} ms/sim-s   x{row['ratio'] or float('nan'):.2f}")
+    res = {"bench": "scaling", "seconds": seconds, "time": "process CPU time", "results": rows}
+    if out:
+        d = Path(out)
+        d.mkdir(parents=True, exist_ok=True)
+        with open(d / "scaling.csv", "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6, 4))
+        x = [r["vehicles"] for r in rows]
+        ax.loglog(x, [r["icv_ms_per_sim_s"] for r in rows], "o-", label="icv_envs (HighwayFormation, expert, PettingZoo)")
+        if rows[0]["sumo_ms_per_sim_s"] is not None:
+            ax.loglog(x, [r["sumo_ms_per_sim_s"] for r in rows], "s--", label="SUMO 1.28 libsumo (ring, Krauss+LC2013)")
+        ax.loglog(x, [1000.0] * len(x), ":", color="gray", label="real time")
+        ax.set_xlabel("vehicles")
+        ax.set_ylabel("CPU ms per simulated second (25 Hz physics)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(d / "scaling.png", dpi=120)
+        plt.close(fig)
+        (d / "scaling.json").write_text(json.dumps(res, indent=2))
+    return res
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m icv_envs.experiments.sumo_bench")
+    p.add_argument("what", choices=["scaling", "ramps"])
+    p.add_argument("--sizes", default="50,100,200,400,800,1600,3200")
+    p.add_argument("--seconds", type=float, default=5.0)
+    p.add_argument("--out", default=None)
+    a = p.parse_args(argv)
+    if a.what == "scaling":
+        res = scaling([int(s) for s in a.sizes.split(",")], a.seconds, a.out)
+    else:
+        res = ramps_vs_sumo()
+    print(json.dumps(res))
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,332 @@
+"""Batched worlds for training: ``B`` independent worlds stepped together in
+one process, arrays in and arrays out.
+
+* :class:`IcvVectorEnv` -- a Gymnasium ``VectorEnv`` (1.2-1.4 API) over the
+  single-agent envs (``icv_envs/HighwayFormation-v0``, ...): ``obs (B, V,
+  F)``, ``actions (B, 2)``, per-world auto-reset in Gymnasium's
+  ``NEXT_STEP`` (default, as ``SyncVectorEnv``) or ``SAME_STEP`` mode
+  (``metadata["autoreset_mode"]``; in ``SAME_STEP`` the last observation of
+  a finished episode is ``infos["final_obs"][b]`` where
+  ``infos["_final_obs"][b]``), per-world seeding (``reset(seed=s)`` seeds
+  world ``b`` with ``s + b``, as Gymnasium does; later auto-resets continue
+  each world's own generator). :meth:`IcvVectorEnv.to_sb3` gives a
+  Stable-Baselines3 ``VecEnv`` over the same worlds.
+* :class:`BatchedWorlds` -- the multi-agent envs in a fixed-K slot layout:
+  slot ``k`` of world ``b`` is ``possible_agents[k]``; ``obs (B, K, V, F)``,
+  ``actions (B, K, 2)``, ``rewards``/``terminated``/``truncated (B, K)`` and
+  ``mask (B, K)`` (True where the slot holds a live agent whose next action
+  is used; observations of empty slots are zeros and their actions are
+  ignored). A world whose episode is over
+  (:func:`icv_envs.rl.envs.episode_finished`: the time is up, or no agent is
+  left and none is due; on the open roads a world may be empty for a while)
+  is reset in the same step (its
+  slots' last observations in ``info["final_obs"]``, ``info["reset"][b]``
+  True); world ``b``'s episodes are seeded from
+  ``numpy.random.SeedSequence(seed).spawn(B)[b]``.
+
+Decisions, as a vectorised RL simulator would take them: worlds never
+interact and are stepped in a fixed order, so a batch is bit-identical to
+``B`` separate envs with the same seeds; the batch owns its output arrays and
+returns copies (``copy=True``, Gymnasium's default) or views refreshed in
+place (``copy=False``). The worlds are stepped one after the other in this
+process: every world is the vectorised core of :mod:`icv_envs.sim` with its
+own formation layer, so the batch removes the per-process and per-env
+Python layers (wrappers, dicts for the single-agent case) but not the
+per-world step.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from icv_envs.rl.envs import episode_finished
+
+__all__ = ["IcvVectorEnv", "BatchedWorlds"]
+
+
+def _check_num(num: int, what: str) -> int:
+    if not (isinstance(num, (int, np.integer)) and not isinstance(num, bool) and num >= 1):
+        raise ValueError(f"{what} = {num!r}; allowed: an integer >= 1")
+    return int(num)
+
+
+class IcvVectorEnv(VectorEnv):
+    """``num_envs`` single-agent icv_envs worlds as one Gymnasium VectorEnv."""
+
+    def __init__(self, env_id: str = "icv_envs/HighwayFormation-v0", num_envs: int = 8, config: dict | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, copy: bool = True) -> None:
+        import icv_envs  # noqa: F401  (registers the ids)
+
+        if env_id not in icv_envs.GYM_IDS:
+            raise ValueError(f"env_id {env_id!r} is not a single-agent icv_envs env; allowed: {sorted(icv_envs.GYM_IDS)}")
+        self.num_envs = _check_num(num_envs, "num_envs")
+        mode = AutoresetMode(autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"autoreset_mode = {autoreset_mode!r}; allowed: NEXT_STEP or SAME_STEP")
+        self.autoreset_mode = mode
+        self.metadata = {"autoreset_mode": mode, "render_modes": []}
+        self.copy = bool(copy)
+        self.envs = [gym.make(env_id, config=dict(config or {})).unwrapped for _ in range(self.num_envs)]
+        self.single_observation_space = self.envs[0].observation_space
+        self.single_action_space = self.envs[0].action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        B = self.num_envs
+        self._obs = np.zeros((B,) + self.single_observation_space.shape, dtype=np.float32)
+        self._rew = np.zeros(B, dtype=np.float64)
+        self._term = np.zeros(B, dtype=bool)
+        self._trunc = np.zeros(B, dtype=bool)
+        self._expert = np.zeros((B, 2), dtype=np.float32)
+        self._autoreset = np.zeros(B, dtype=bool)
+        self.env_id = env_id
+
+    def _out(self, a):
+        return a.copy() if self.copy else a
+
+    def reset(self, *, seed: int | list | None = None, options: dict | None = None):
+        B = self.num_envs
+        if seed is None or isinstance(seed, (int, np.integer)):
+            seeds = [None if seed is None else int(seed) + b for b in range(B)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != B:
+                raise ValueError(f"{len(seeds)} seeds for {B} worlds; pass one int or one seed per world")
+        for b, env in enumerate(self.envs):
+            self._obs[b], info = env.reset(seed=seeds[b], options=options)
+            self._expert[b] = info.get("expert_action", 0.0)
+        self._autoreset[:] = False
+        return self._out(self._obs), {"expert_action": self._out(self._expert)}
+
+    def step(self, actions):
+        acts = np.asarray(actions, dtype=np.float64)
+        if acts.shape != (self.num_envs, 2):
+            raise ValueError(f"actions have shape {acts.shape}; allowed: ({self.num_envs}, 2)")
+        infos: dict[str, Any] = {}
+        for b, env in enumerate(self.envs):
+            if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset[b]:
+                self._obs[b], info = env.reset()
+                self._rew[b], self._term[b], self._trunc[b] = 0.0, False, False
+            else:
+                self._obs[b], self._rew[b], self._term[b], self._trunc[b], info = env.step(acts[b])
+                if self.autoreset_mode == AutoresetMode.SAME_STEP and (self._term[b] or self._trunc[b]):
+                    infos = self._add_info(infos, {"final_obs": self._obs[b].copy(), "final_info": info}, b)
+                    self._obs[b], info = env.reset()
+            self._expert[b] = info.get("expert_action", 0.0)
+        self._autoreset = self._term | self._trunc
+        infos["expert_action"] = self._out(self._expert)
+        return self._out(self._obs), self._rew.copy(), self._term.copy(), self._trunc.copy(), infos
+
+    def close_extras(self, **kwargs) -> None:
+        for env in getattr(self, "envs", []):
+            env.close()
+
+    def to_sb3(self):
+        """A Stable-Baselines3 ``VecEnv`` over these worlds (SB3's own
+        conventions: same-step reset, ``infos[b]["terminal_observation"]``,
+        ``infos[b]["TimeLimit.truncated"]``)."""
+        return _Sb3Adapter(self)
+
+
+def _sb3_vecenv_base():
+    from stable_baselines3.common.vec_env.base_vec_env import VecEnv as _V
+
+    return _V
+
+
+class _Sb3Adapter:  # made a real SB3 VecEnv subclass on first use (SB3 is an optional extra)
+    def __new__(cls, venv: IcvVectorEnv):
+        base = _sb3_vecenv_base()
+
+        class IcvSb3VecEnv(base):
+            def __init__(self, venv):
+                if venv.autoreset_mode != AutoresetMode.SAME_STEP:
+                    venv.autoreset_mode = AutoresetMode.SAME_STEP
+                    venv.metadata["autoreset_mode"] = AutoresetMode.SAME_STEP
+                self.venv = venv
+                super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
+                self._actions = None
+                self._seed = None
+
+            def reset(self):
+                obs, _ = self.venv.reset(seed=self._seed)
+                self._seed = None
+                return obs
+
+            def step_async(self, actions):
+                self._actions = np.asarray(actions)
+
+            def step_wait(self):
+                obs, rew, term, trunc, infos = self.venv.step(self._actions)
+                dones = term | trunc
+                out = [{} for _ in range(self.num_envs)]
+                for b in np.flatnonzero(dones):
+                    out[b]["terminal_observation"] = infos["final_obs"][b]
+                    out[b]["TimeLimit.truncated"] = bool(trunc[b] and not term[b])
+                return obs, rew.astype(np.float32), dones, out
+
+            def seed(self, seed=None):
+                self._seed = seed
+                return [None if seed is None else seed + b for b in range(self.num_envs)]
+
+            def close(self):
+                self.venv.close()
+
+            def get_attr(self, attr_name, indices=None):
+                return [getattr(self.venv.envs[i], attr_name) for i in self._idx(indices)]
+
+            def set_attr(self, attr_name, value, indices=None):
+                for i in self._idx(indices):
+                    setattr(self.venv.envs[i], attr_name, value)
+
+            def env_method(self, method_name, *args, indices=None, **kwargs):
+                return [getattr(self.venv.envs[i], method_name)(*args, **kwargs) for i in self._idx(indices)]
+
+            def env_is_wrapped(self, wrapper_class, indices=None):
+                return [False for _ in self._idx(indices)]
+
+            def _idx(self, indices):
+                if indices is None:
+                    return range(self.num_envs)
+                return [indices] if isinstance(indices, int) else list(indices)
+
+        return IcvSb3VecEnv(venv)
+
+
+class BatchedWorlds:
+    """``num_worlds`` multi-agent worlds in the fixed-K slot layout (see the
+    module docstring). ``env``: ``"highway_formation"``, ``"highway_ramps"``
+    or ``"intersection"``; ``config``: the PettingZoo env's keyword
+    arguments; ``expert``: also return the expert's action for every slot
+    (``info["expert_actions"]``, ``(B, K, 2)``, zeros in empty slots)."""
+
+    ENVS = ("highway_formation", "highway_ramps", "intersection")
+
+    def __init__(self, num_worlds: int = 8, env: str = "highway_formation", config: dict | None = None,
+                 seed: int = 0, expert: bool = False, copy: bool = True) -> None:
+        import importlib
+
+        if env not in self.ENVS:
+            raise ValueError(f"env = {env!r}; allowed: {list(self.ENVS)}")
+        self.num_worlds = B = _check_num(num_worlds, "num_worlds")
+        cfg = dict(config or {})
+        cfg.setdefault("expert_in_info", False)  # the batch asks the expert once per step itself
+        mod = importlib.import_module(f"icv_envs.envs.{env}_v0")
+        self.envs = [mod.parallel_env(**cfg) for _ in range(B)]
+        self.possible_agents = list(self.envs[0].possible_agents)
+        self.K = K = len(self.possible_agents)
+        self.slot_of = {a: k for k, a in enumerate(self.possible_agents)}
+        self.single_observation_space = self.envs[0].observation_space(self.possible_agents[0])
+        self.single_action_space = self.envs[0].action_space(self.possible_agents[0])
+        obs_shape = self.single_observation_space.shape
+        self.observation_space = spaces.Box(-1.0, 1.0, (B, K) + obs_shape, dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (B, K, 2), dtype=np.float32)
+        self.expert = bool(expert)
+        self.copy = bool(copy)
+        self._seeds = np.random.SeedSequence(int(seed)).spawn(B)
+        self._episode = np.zeros(B, dtype=np.int64)
+        self.obs = np.zeros((B, K) + obs_shape, dtype=np.float32)
+        self.mask = np.zeros((B, K), dtype=bool)
+        self.rewards = np.zeros((B, K), dtype=np.float64)
+        self.terminated = np.zeros((B, K), dtype=bool)
+        self.truncated = np.zeros((B, K), dtype=bool)
+        self.expert_actions = np.zeros((B, K, 2), dtype=np.float32)
+        self.final_obs = np.zeros((B, K) + obs_shape, dtype=np.float32)
+
+    def episode_seed(self, b: int, episode: int) -> int:
+        """The seed of world ``b``'s ``episode``-th episode."""
+        return int(np.random.SeedSequence(self._seeds[b].entropy, spawn_key=self._seeds[b].spawn_key + (episode,))
+                   .generate_state(1)[0])
+
+    def _slots(self, agents) -> np.ndarray:
+        so = self.slot_of
+        return np.fromiter((so[a] for a in agents), dtype=np.int64, count=len(agents))
+
+    def _reset_world(self, b: int) -> None:
+        env = self.envs[b]
+        obs, _ = env.reset(seed=self.episode_seed(b, int(self._episode[b])))
+        if list(env.possible_agents) != self.possible_agents:
+            raise ValueError("the number of possible agents changed between episodes; the slot layout needs a fixed K")
+        self._episode[b] += 1
+        self.obs[b] = 0.0
+        self.mask[b] = False
+        if obs:
+            k = self._slots(list(obs))
+            self.obs[b, k] = np.stack(list(obs.values()))
+            self.mask[b, self._slots(env.agents)] = True
+        self._fill_expert(b)
+
+    def _fill_expert(self, b: int) -> None:
+        if not self.expert:
+            return
+        env = self.envs[b]
+        self.expert_actions[b] = 0.0
+        if env.agents:
+            ex = env.core.expert_actions()
+            vid = env.core.world.traffic.vid if hasattr(env.core.world, "traffic") else env.core.world.fleet.vid
+            self.expert_actions[b, self._slots([f"icv_{v}" for v in vid.tolist()])] = ex
+
+    def _out(self, a):
+        return a.copy() if self.copy else a
+
+    def reset(self):
+        """Reset every world; returns ``(obs, mask)``."""
+        for b in range(self.num_worlds):
+            self._reset_world(b)
+        return self._out(self.obs), self._out(self.mask)
+
+    def step(self, actions):
+        """``actions (B, K, 2)``; returns ``obs, rewards, terminated,
+        truncated, mask, info`` (``info["reset"] (B,)``, ``info["final_obs"]``
+        and with ``expert`` ``info["expert_actions"]``)."""
+        acts = np.asarray(actions, dtype=np.float64)
+        if acts.shape != (self.num_worlds, self.K, 2):
+            raise ValueError(f"actions have shape {acts.shape}; allowed: ({self.num_worlds}, {self.K}, 2)")
+        bad = ~np.isfinite(acts).all(axis=-1) & self.mask
+        if bad.any():
+            b, k = np.argwhere(bad)[0]
+            raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k].tolist()} "
+                             f"holds NaN or inf; allowed: finite values in [-1, 1]")
+        self.rewards[:] = 0.0
+        self.terminated[:] = False
+        self.truncated[:] = False
+        reset = np.zeros(self.num_worlds, dtype=bool)
+        for b, env in enumerate(self.envs):
+            live = env.agents
+            if live:
+                k = self._slots(live)
+                obs, rew, term, trunc, _ = env.step(dict(zip(live, acts[b, k])))
+            else:
+                obs, rew, term, trunc, _ = env.step({})
+            self.obs[b] = 0.0
+            self.mask[b] = False
+            if obs:
+                names = list(obs)
+                k = self._slots(names)
+                self.obs[b, k] = np.stack(list(obs.values()))
+                self.rewards[b, k] = np.fromiter(rew.values(), dtype=np.float64, count=len(names))
+                self.terminated[b, k] = np.fromiter(term.values(), dtype=bool, count=len(names))
+                self.truncated[b, k] = np.fromiter(trunc.values(), dtype=bool, count=len(names))
+            if env.agents:
+                self.mask[b, self._slots(env.agents)] = True
+            if episode_finished(env):
+                self.final_obs[b] = self.obs[b]
+                self.truncated[b] |= self.mask[b]
+                reset[b] = True
+                self._reset_world(b)
+            else:
+                self._fill_expert(b)
+        info = {"reset": reset, "final_obs": self._out(self.final_obs)}
+        if self.expert:
+            info["expert_actions"] = self._out(self.expert_actions)
+        return (self._out(self.obs), self.rewards.copy(), self.terminated.copy(), self.truncated.copy(),
+                self._out(self.mask), info)
+
+    def close(self) -> None:
+        for env in self.envs:
+            env.close()

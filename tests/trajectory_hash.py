@@ -1,0 +1,95 @@
+"""Trajectory fingerprints for the bit-identity test (tests/test_trajectory_hash.py).
+
+A fingerprint is the SHA-256 of every policy step's full simulation state
+(every float / int / bool array of :class:`icv_envs.sim.traffic.Traffic` plus
+the formation manager's anchors), observations, rewards, terminations and the infos' expert actions and reward
+components, in
+agent order, over a short expert-driven PettingZoo episode. Any change in any
+bit of any of them changes the hash.
+
+Re-record (only when a change of trajectories is intended and explained)::
+
+    PYTHONPATH=$PWD python tests/trajectory_hash.py --record
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+REFERENCE = Path(__file__).parent / "data" / "trajectory_hashes.json"
+
+# (name, module, config, seed, policy steps)
+CASES = [
+    ("formation-free-40", "highway_formation_v0", {"vehicles_count": 40, "initial_position": None}, 0, 60),
+    ("formation-lane-drop", "highway_formation_v0", {"scenario": "lane-drop"}, 1, 80),
+    ("formation-lane-change", "highway_formation_v0", {"scenario": "lane-change"}, 2, 80),
+    ("formation-off-ramp", "highway_formation_v0", {"scenario": "off-ramp"}, 3, 80),
+    ("formation-on-ramp", "highway_formation_v0", {"scenario": "on-ramp"}, 4, 80),
+    ("ramps-formation", "highway_ramps_v0", {"vgr": 1.0, "duration": 60.0}, 0, 300),
+    ("ramps-idm", "highway_ramps_v0", {"vgr": 0.5, "duration": 30.0, "method": "idm"}, 5, 150),
+    ("intersection-multi-vp", "intersection_v0", {}, 0, 100),
+    ("intersection-fcfs", "intersection_v0", {"method": "fcfs"}, 6, 100),
+]
+
+
+def _traffic_arrays(core):
+    tr = core.world.traffic
+    names = sorted(k for k, v in vars(tr).items() if isinstance(v, np.ndarray))
+    return [(k, getattr(tr, k)) for k in names]
+
+
+def fingerprint(module: str, config: dict, seed: int, steps: int) -> str:
+    import importlib
+
+    mod = importlib.import_module(f"icv_envs.envs.{module}")
+    env = mod.parallel_env(**config)
+    h = hashlib.sha256()
+
+    def feed(obs, infos, rew=None, term=None, trunc=None):
+        for a in sorted(obs):
+            h.update(a.encode())
+            h.update(np.ascontiguousarray(obs[a], dtype=np.float32).tobytes())
+            info = infos.get(a, {})
+            if "expert_action" in info:
+                h.update(np.ascontiguousarray(info["expert_action"], dtype=np.float32).tobytes())
+            for k, v in sorted(info.get("rewards", {}).items()):
+                h.update(k.encode() + np.float64(v).tobytes())
+            if rew is not None:
+                h.update(np.float64(rew[a]).tobytes())
+                h.update(bytes([bool(term[a]), bool(trunc[a])]))
+        for k, v in _traffic_arrays(env.core):
+            h.update(k.encode())
+            h.update(np.ascontiguousarray(v).tobytes())
+        man = getattr(env.core.world, "manager", None)
+        if man is not None and hasattr(man, "anchor"):
+            for g in sorted(man.anchor):
+                h.update(np.array([g, man.anchor[g]], dtype=np.float64).tobytes())
+
+    obs, infos = env.reset(seed=seed)
+    feed(obs, infos)
+    for _ in range(steps):
+        if env.episode_over:
+            break
+        ex = env.expert_actions()
+        obs, rew, term, trunc, infos = env.step({a: ex[a] for a in env.agents})
+        feed(obs, infos, rew, term, trunc)
+    env.close()
+    return h.hexdigest()
+
+
+def all_fingerprints(names=None) -> dict:
+    return {name: fingerprint(m, c, s, n) for name, m, c, s, n in CASES if names is None or name in names}
+
+
+if __name__ == "__main__":
+    if "--record" in sys.argv:
+        REFERENCE.parent.mkdir(exist_ok=True)
+        REFERENCE.write_text(json.dumps(all_fingerprints(), indent=1) + "\n")
+        print(REFERENCE.read_text())
+    else:
+        print(json.dumps(all_fingerprints(), indent=1))
