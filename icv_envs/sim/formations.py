@@ -62,6 +62,10 @@ from icv_envs.sim._kernels import drivable_lane_bits, segment_max
 
 __all__ = ["FormationManager"]
 
+#: cap of the join-plan duration search within the speed band [s]: a plan
+#: that needs longer is infeasible inside the band (see ``_plan``)
+JOIN_MAX_DURATION = 120.0
+
 
 class FormationManager:
     def __init__(
@@ -163,7 +167,18 @@ class FormationManager:
         v0 = traffic.speed[rows] - self.speed
         a0 = np.clip(traffic.accel[rows], -lim["decel"], lim["accel"])
         T = join_duration(d0, v0, a0, **lim, v_lo=self.profile_speeds[0] - self.speed,
-                          v_hi=self.profile_speeds[1] - self.speed)
+                          v_hi=self.profile_speeds[1] - self.speed, max_duration=JOIN_MAX_DURATION)
+        # no duration keeps a quintic inside the speed band when the member
+        # must first reverse a large relative speed (a slow ramp vehicle
+        # joining behind its slot: d0 < 0, v0 << 0 overshoots any band): the
+        # search then ends at its cap and the reference would hold the
+        # member's own speed for minutes. Those members get the shortest
+        # plan within the acceleration and jerk limits alone; the vehicle's
+        # own speed limit and the re-plan rule handle the overshoot.
+        stuck = T >= JOIN_MAX_DURATION
+        if np.any(stuck):
+            T = np.asarray(T, dtype=np.float64).copy()
+            T[stuck] = join_duration(d0[stuck], v0[stuck], a0[stuck], **lim)
         self._p_t0[vid], self._p_T[vid] = self.time, T
         self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
         self.plans += len(rows)
@@ -405,7 +420,15 @@ class FormationManager:
         rr = order_rows[pos]
         kk = np.repeat(np.arange(G), counts)
         tb = traffic.tgt_behind[rr]
-        implied = segment_max(road.wrap(cx[rr] + tb - A[kk]), seg_start, seg_end)
+        # the lead of the front target over its members is measured against
+        # each member's REFERENCE (slot + join profile), not its slot: a member
+        # on its join plan is meant to be behind its slot, and holding the
+        # front target back for it would move the slot slower than the plan
+        # assumes, so the reference would never pull the member up (a
+        # positive feedback that left whole formations at the speed floor)
+        self._grow(int(traffic.vid[rr].max()) + 1)
+        d_ref = self._profile(traffic, rr)[0]
+        implied = segment_max(road.wrap(cx[rr] + tb - A[kk]) - d_ref, seg_start, seg_end)
         back = np.where(~chg & (implied < -self.max_anchor_lead), implied + self.max_anchor_lead, 0.0)
         r = np.array([room.get(g, np.nan) for g in gids])
         back = np.where(r < 0, np.minimum(back, r), back)
