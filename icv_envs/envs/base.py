@@ -229,10 +229,14 @@ class IcvAgentsEnv(AbstractEnv):
         string, a dict, complex or boolean values) goes through the action
         type's per-agent check, whose error names the agent; non-finite values
         raise naming every bad agent."""
-        try:
-            arr = np.array(values)
-        except (ValueError, TypeError, OverflowError):
-            arr = None
+        arr = None
+        # the fast path takes real numpy arrays only: np.array() of a mixed
+        # list would silently upcast one agent's bool / int-list action
+        if all(type(v) is np.ndarray and v.dtype.kind in "fiu" for v in values):
+            try:
+                arr = np.array(values)
+            except (ValueError, TypeError, OverflowError):
+                arr = None
         if arr is None or arr.shape != (len(names), 2) or arr.dtype.kind not in "fiu":
             arr = np.stack([self._check_action(v, a) for a, v in zip(names, values)])
         else:
