@@ -34,13 +34,13 @@ def test_expert_actions_not_stale_after_crash_and_spawn_in_one_step():
     the vehicle count: the cache must still recompute (labels of the new
     agent and the expert driving missing agents use the current state)."""
     spawns = [{"time": round(0.2 * k, 1), "position": 1200.0 + 40 * (k % 20), "lane": k % 4} for k in range(1, 80)]
-    env = highway_formation_v0.parallel_env(vehicles_count=24, duration=16.0, spawns=spawns, missing_action="expert")
+    env = highway_formation_v0.parallel_env(vehicles_count=24, duration=30.0, spawns=spawns, missing_action="expert")
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     both = stale = 0
-    for _ in range(75):
+    for _ in range(140):
         before = set(env.agents)
-        acts = {a: rng.uniform(-1, 1, 2) for a in env.agents if rng.random() < 0.3}  # random agents crash
+        acts = {a: rng.uniform(-1, 1, 2) for a in env.agents if rng.random() < 0.5}  # random agents crash
         obs, _, _, _, infos = env.step(acts)
         core = env.core
         vid = core.world.traffic.vid
