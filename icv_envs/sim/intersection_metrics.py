@@ -65,77 +65,17 @@ import math
 
 import numpy as np
 
+from icv_envs.sim.metrics import STOPPED_SPEED, MotionStats  # one definition of the motion metrics
+
 __all__ = ["STOPPED_SPEED", "JAM_SECONDS", "QUEUE_GAP", "MotionStats", "ConflictAreas", "PetStats", "JamWatch",
            "pet_summary", "MOTION_KEYS"]
 
-#: [m/s] below this a vehicle counts as stopped (the highway uses the same value)
-STOPPED_SPEED: float = 0.1
 #: [s] stopped longer than this outside a queue at the box = jammed
 JAM_SECONDS: float = 10.0
 #: [m] bumper gap that still counts as "in the queue" (a stopped IDM queue keeps 1-2 m)
 QUEUE_GAP: float = 10.0
 #: the motion keys (shared with the highway's metrics)
 MOTION_KEYS = ("mean_speed", "speed_fluctuation", "speed_std", "stopped_share", "commanded_abs_accel")
-
-
-class MotionStats:
-    """Speed and realised / commanded acceleration over vehicle-substeps."""
-
-    def __init__(self) -> None:
-        self.reset()
-
-    def reset(self) -> None:
-        self.vehicle_steps = 0
-        self.speed_sum = 0.0
-        self.realised_abs_accel_sum = 0.0
-        self.commanded_abs_accel_sum = 0.0
-        self.stopped_steps = 0
-        self._n = np.zeros(0, dtype=np.int64)
-        self._s1 = np.zeros(0)
-        self._s2 = np.zeros(0)
-
-    def _grow(self, size: int) -> None:
-        if size > len(self._n):
-            pad = max(size, 2 * len(self._n), 64) - len(self._n)
-            self._n = np.concatenate([self._n, np.zeros(pad, dtype=np.int64)])
-            self._s1 = np.concatenate([self._s1, np.zeros(pad)])
-            self._s2 = np.concatenate([self._s2, np.zeros(pad)])
-
-    def record(self, vid, v_before, v_after, commanded, dt: float) -> None:
-        """One substep: ids, speeds before and after it, commanded accelerations, ``dt``."""
-        vid = np.asarray(vid, dtype=np.int64)
-        if not len(vid):
-            return
-        if not dt > 0:
-            raise ValueError(f"dt must be > 0, got {dt!r}")
-        v0 = np.asarray(v_before, dtype=np.float64)
-        v1 = np.asarray(v_after, dtype=np.float64)
-        self.vehicle_steps += len(vid)
-        self.speed_sum += float(v1.sum())
-        self.realised_abs_accel_sum += float(np.abs(v1 - v0).sum()) / float(dt)
-        self.commanded_abs_accel_sum += float(np.abs(np.asarray(commanded, dtype=np.float64)).sum())
-        self.stopped_steps += int((v1 < STOPPED_SPEED).sum())
-        self._grow(int(vid.max()) + 1)
-        np.add.at(self._n, vid, 1)
-        np.add.at(self._s1, vid, v1)
-        np.add.at(self._s2, vid, v1 * v1)
-
-    def per_vehicle_std(self) -> np.ndarray:
-        ok = self._n >= 2
-        n = self._n[ok].astype(np.float64)
-        mean = self._s1[ok] / n
-        return np.sqrt(np.maximum(self._s2[ok] / n - mean * mean, 0.0))
-
-    def summary(self) -> dict:
-        n = max(self.vehicle_steps, 1)
-        std = self.per_vehicle_std()
-        return {
-            "mean_speed": self.speed_sum / n,
-            "speed_fluctuation": self.realised_abs_accel_sum / n,
-            "speed_std": float(std.mean()) if len(std) else 0.0,
-            "stopped_share": self.stopped_steps / n,
-            "commanded_abs_accel": self.commanded_abs_accel_sum / n,
-        }
 
 
 class ConflictAreas:
