@@ -144,6 +144,11 @@ def compare_intersection(methods, throughputs, seeds, seconds: float, out, backe
     results.sort(key=lambda r: (order.index(r["method"]), r["throughput"], r["seed"]))
     for r in results:
         (out / "runs" / f"{_tag(r['method'], r['throughput'], r['seed'])}.json").write_text(json.dumps(r))
+    return _write_outputs(results, out)
+
+
+def _write_outputs(results: list, out: Path) -> dict:
+    """``results.csv``, the summary (``summary.json``) and the plots of a sweep in ``out``."""
     with open(out / "results.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
         w.writeheader()
@@ -168,15 +173,7 @@ def collect_runs(parts, out) -> dict:
             raise ValueError(f"no runs/*.json in {d!r}")
         results += [json.loads(fp.read_text()) for fp in files]
     results.sort(key=lambda r: (METHODS.index(r["method"]), r["throughput"], r["seed"]))
-    with open(out / "results.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
-        w.writeheader()
-        for r in results:
-            w.writerow({k: r.get(k) for k in CSV_COLUMNS})
-    summary = summarise(results)
-    summary["plots"] = plot_results(results, out)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    return summary
+    return _write_outputs(results, out)
 
 
 def mean_ci(values) -> tuple[float | None, float | None]:
