@@ -1,9 +1,11 @@
 """The virtual platoon cannot lock up (issue 8): a property test of the tree
 and its references over random arrivals, and the seed sweep (slow)."""
 
+import os
+
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from icv_envs.envs.intersection import IntersectionEnv
@@ -61,11 +63,18 @@ def assert_bounds_come_from_ahead(core):
             assert rs.dist[b] <= rs.dist[r] + 1e-6, (f.vid[r], f.vid[b])
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# derandomized so that CI is reproducible; ICV_EXPLORE=1 draws fresh random
+# examples, ICV_DEADLOCK_EXAMPLES=N sets how many (e.g. 200 for a long search).
+# The explicit examples are regressions found by earlier random runs.
+@settings(max_examples=int(os.environ.get("ICV_DEADLOCK_EXAMPLES", "6")), deadline=None,
+          derandomize=os.environ.get("ICV_EXPLORE") != "1", suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), throughput=st.sampled_from([1500.0, 2500.0, 3500.0, 4500.0]),
        method=st.sampled_from(["multi-vp", "single-vp"]),
        shares=st.sampled_from([[1, 1, 1], [2, 1, 1], [1, 2, 1], [1, 1, 2]]),
        lane_use=st.sampled_from(["paper", "exclusive"]))
+# a cleared single-vp member re-entered the order as a phantom node each step and
+# pushed a node already in the box behind a conflicting one: 2 collisions
+@example(seed=2761, throughput=2500.0, method="single-vp", shares=[2, 1, 1], lane_use="exclusive")
 def test_tree_never_holds_a_node_behind_a_vehicle_behind_it(seed, throughput, method, shares, lane_use):
     # small zones so that vehicles reach the coordinating zone within seconds
     env = IntersectionEnv({"method": method, "throughput": throughput, "turn_shares": shares, "lane_use": lane_use,

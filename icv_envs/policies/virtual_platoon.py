@@ -67,12 +67,17 @@ class VirtualPlatoon:
             rows = f.rows(S["members"])
             self._keep_lane_inside(world, rs, rows)
             if single:
-                cand = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0)]
+                # a member whose node already left (it cleared the box) is
+                # done: it must not become a node again (a phantom node would
+                # be re-inserted into the order at every step and, through the
+                # yield rule of _insert_node, reshuffle the nodes still waiting)
+                done = f.cleared[rows] | (rs.phase[rows] == 2)
+                cand = rows[(rs.dist[rows] <= R1) & (f.node[rows] < 0) & ~done]
                 # one vehicle per node: no slot to keep, only the lane
                 new = cand[((f.klane[cand] == f.tlane[cand]) & (f.lc_lane[cand] < 0)) | (rs.phase[cand] > 0)]
                 for r in new:
                     self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
-                if np.all(f.node[rows] >= 0):
+                if np.all((f.node[rows] >= 0) | done):
                     del self.subs[sid]
                 continue
             first = rows[np.argmin(rs.dist[rows])]
@@ -185,7 +190,8 @@ class VirtualPlatoon:
         comfortably (``comfort[0]``) before ``X_rear + D_t``; nodes of its
         own leg that it passes this way and that are physically behind it
         (further from the centre) move along right behind it, so no node is
-        ever ordered before a node it physically follows in its own leg."""
+        ever ordered before a node it physically follows in its own leg.  A
+        node with a vehicle already in the box is never moved back."""
         f = world.fleet
         rs = world.route()
         lay = world.layout
@@ -199,7 +205,7 @@ class VirtualPlatoon:
             r = f.rows(self.nodes[k]["members"])
             r = r[r >= 0]
             i0 = r[np.argmin(rs.dist[r])]
-            info[k] = (float(rs.dist[i0]), float(rs.X[i0]), float(f.speed[i0]), float(rs.dist[r].max()))
+            info[k] = (float(rs.dist[i0]), float(rs.X[i0]), float(f.speed[i0]), bool((rs.phase[r] > 0).any()))
         pos = next((i for i, k in enumerate(order) if info[k][0] > d_new), len(order))
         b = abs(self.p.comfort[0])
         j = pos
@@ -211,7 +217,9 @@ class VirtualPlatoon:
                 if x_k - v_k * v_k / (2.0 * b) < xr_new + self.p.D_t:
                     # N goes behind k; same-leg nodes physically behind N that it passes come along
                     mid = order[pos:j]
-                    follow = [m for m in mid if int(lay.leg_of[self.nodes[m]["mv"]]) == leg and info[m][0] > d_new]
+                    # (a node with a vehicle already in the box keeps its place)
+                    follow = [m for m in mid if int(lay.leg_of[self.nodes[m]["mv"]]) == leg and info[m][0] > d_new
+                              and not info[m][3]]
                     rest = [m for m in mid if m not in follow]
                     order = order[:pos] + rest + [k] + follow + order[j + 1:]
                     pos = pos + len(rest) + 1
