@@ -74,6 +74,8 @@ def test_expert_is_the_default_method_and_references_match_the_env():
     b = evaluate("intersection_v0", "multi-vp", episodes=1, seed=3, config=INTER)
     assert a["episode_return"] == b["episode_return"] and a["mean_speed"] == b["mean_speed"]
     assert policy_names("intersection_v0") == ["expert", "zero", "random", *REFERENCE_POLICIES["intersection"]]
+    # every method the env has is a reference policy (the envs' own lists)
+    assert set(REFERENCE_POLICIES["intersection"]) == {"multi-vp", "single-vp", "fcfs", "fcfs-tight"}
     assert policy_names("highway_formation_v0") == ["expert", "zero", "random"]
 
 

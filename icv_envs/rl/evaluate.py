@@ -74,6 +74,8 @@ from pathlib import Path
 
 import numpy as np
 
+from icv_envs.envs.highway_ramps import METHODS as _RAMP_METHODS
+from icv_envs.envs.intersection import METHODS as _INTERSECTION_METHODS
 from icv_envs.rl.envs import (EnvSpec, episode_finished, make_gym_env, make_parallel_env, parse_config,
                               resolve_env)
 from icv_envs.rl.models import json_safe
@@ -83,10 +85,11 @@ __all__ = ["evaluate", "main", "build_parser", "add_arguments", "run", "NAMED_PO
 
 NAMED_POLICIES = ("expert", "zero", "random")
 # env family -> the reference methods that can be named as a policy (each sets config["method"])
+# (the envs' own method lists, so a method added to an env is a policy here too)
 REFERENCE_POLICIES = {
     "highway_formation": (),
-    "highway_ramps": ("formation", "lane-lp", "idm"),
-    "intersection": ("multi-vp", "single-vp", "fcfs"),
+    "highway_ramps": tuple(_RAMP_METHODS),
+    "intersection": tuple(_INTERSECTION_METHODS),
 }
 # env family -> the method "expert" stands for (None: the env has no method key)
 EXPERT_METHODS = {"highway_formation": None, "highway_ramps": "formation", "intersection": "multi-vp"}
