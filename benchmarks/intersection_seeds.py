@@ -41,6 +41,9 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", default="0-19", help="a count N or a list/range such as 0-19 or 5,7,10-12")
     p.add_argument("--seconds", type=float, default=600.0)
     p.add_argument("--lane-use", dest="lane_use", default=None)
+    p.add_argument("--warmup", type=float, default=0.0,
+                   help="seconds run before the clock and the statistics start (collisions and jams of the "
+                        "warm-up are counted in the table too); default 0: from an empty intersection")
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--out", default="intersection_seed_sweep")
     p.add_argument("--collect", nargs="*", default=None, help="only merge these earlier output directories into --out")
@@ -51,6 +54,8 @@ def main(argv=None) -> int:
         tps = parse_throughputs(a.throughput)
         validate_grid(methods, tps, a.seeds, a.seconds)
         config = {"lane_use": a.lane_use} if a.lane_use else {}
+        if a.warmup:
+            config["warmup"] = a.warmup
         jobs = [(m, v, s, a.seconds, config) for m in methods for v in tps for s in parse_seeds(a.seeds)]
         (out / "runs").mkdir(parents=True, exist_ok=True)
         with ProcessPoolExecutor(max(1, a.workers)) as ex:

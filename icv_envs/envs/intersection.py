@@ -400,6 +400,7 @@ class IntersectionEnv(IcvAgentsEnv):
         self._ego_vid = 0
         self._ego_done = False
         self.warmup_collisions = 0
+        self.warmup_jammed = 0
         self._last_obs: dict = {}
         self._series: list[dict] = []
         self._spawn_due()
@@ -427,6 +428,7 @@ class IntersectionEnv(IcvAgentsEnv):
         for q in self._queues.values():
             q[:] = [(a[0] - shift,) + tuple(a[1:]) for a in q]
         self.warmup_collisions = int(w.stats["collisions"])
+        self.warmup_jammed = int(w.jams.summary()["jammed"])
         for k in w.stats:
             w.stats[k] = math.inf if k == "min_speed_in_box" else (0.0 if isinstance(w.stats[k], float) else 0)
         w.stats["spawned"] = int(f.n)
@@ -704,6 +706,9 @@ class IntersectionEnv(IcvAgentsEnv):
             "lane_use": self.layout.lane_use_name,
             "throughput": float(self.config["throughput"]),
             "collisions": int(st["collisions"]),
+            # during the warm-up (not in the statistics above, never hidden)
+            "warmup_collisions": int(self.warmup_collisions),
+            "warmup_jammed": int(self.warmup_jammed),
             "spawned": int(st["spawned"]),
             "cleared": int(st["cleared"]),
             "exited": int(st["removed"]),

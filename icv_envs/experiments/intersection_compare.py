@@ -56,7 +56,8 @@ __all__ = ["CSV_COLUMNS", "METHODS", "DEFAULT_DEMANDS", "SERVED_SHARE", "validat
            "compare_intersection", "collect_runs", "summarise", "capacity", "mean_ci", "plot_results"]
 
 CSV_COLUMNS = [
-    "method", "throughput", "seed", "seconds", "warmup", "lane_use", "collisions", "jammed",
+    "method", "throughput", "seed", "seconds", "warmup", "lane_use", "collisions", "warmup_collisions", "jammed",
+    "warmup_jammed",
     "jammed_vehicle_seconds", "lost", "achieved_throughput", "mean_speed", "speed_fluctuation", "speed_std",
     "stopped_share", "commanded_abs_accel", "mean_delay", "pet_min", "pet_p05", "pet_samples", "spawned",
     "cleared", "remaining", "queued", "not_spawned", "envelope_box_binding", "virtual_cap_binding",
@@ -204,6 +205,14 @@ def capacity(rows) -> dict:
     return {"capacity": cap, "saturated_at": sat, "max_achieved": max(ach) if ach else None}
 
 
+def _all_collisions(r) -> int:
+    return int(r["collisions"]) + int(r.get("warmup_collisions", 0))
+
+
+def _all_jammed(r) -> int:
+    return int(r.get("jammed", 0)) + int(r.get("warmup_jammed", 0))
+
+
 def summarise(results) -> dict:
     rows = {}
     for r in results:
@@ -217,17 +226,18 @@ def summarise(results) -> dict:
         row["pet_min"] = float(min(pm)) if pm else None  # the minimum over all runs
         row["pet_min_mean"], row["pet_min_ci95"] = mean_ci(pm)
         row.update({
-            "collisions": int(sum(x["collisions"] for x in rs)),
-            "jammed": int(sum(x.get("jammed", 0) for x in rs)),
-            "runs_with_jams": int(sum(1 for x in rs if x.get("jammed", 0))),
+            # collisions and jams of the warm-up count too (they are not in the run's statistics)
+            "collisions": int(sum(_all_collisions(x) for x in rs)),
+            "jammed": int(sum(_all_jammed(x) for x in rs)),
+            "runs_with_jams": int(sum(1 for x in rs if _all_jammed(x))),
             "lost": int(sum(x["lost"] for x in rs)),
             "envelope_box_binding": int(sum(x.get("envelope_box_binding", 0) for x in rs)),
         })
         table.append(row)
     caps = {m: capacity([r for r in table if r["method"] == m]) for m in dict.fromkeys(r["method"] for r in table)}
     return {"runs": len(results), "table": table, "capacity": caps, "served_share": SERVED_SHARE,
-            "collisions": int(sum(r["collisions"] for r in results)),
-            "jammed": int(sum(r.get("jammed", 0) for r in results)),
+            "collisions": int(sum(_all_collisions(r) for r in results)),
+            "jammed": int(sum(_all_jammed(r) for r in results)),
             "lost": int(sum(r["lost"] for r in results))}
 
 
