@@ -26,7 +26,8 @@ import numpy as np
 
 __all__ = [
     "MAX_DURATION", "MAX_AGENTS", "MAX_ACCEL", "MAX_SCREEN", "num", "section", "check_keys", "flag",
-    "accel_range", "speed_range", "check_render", "check_unused", "check_possible_agents",
+    "accel_range", "speed_range", "check_render", "check_unused", "check_possible_agents", "typed_options",
+    "pick_type",
 ]
 
 MAX_DURATION = 86400.0  # s
@@ -148,3 +149,24 @@ def check_possible_agents(n: int, what: str) -> int:
         raise ValueError(f"{what} gives {n} possible agents; allowed: at most {MAX_AGENTS} (MAX_AGENTS of "
                          f"icv_envs.envs._config: every possible agent holds a slot in the spaces and in state())")
     return n
+
+
+def pick_type(kind: str, config, types: dict, default: str):
+    """The class of a highway-env style ``{"type": ..., **options}`` section
+    ``config[kind]`` (``kind`` = ``"action"`` / ``"observation"``)."""
+    if not isinstance(config, dict):
+        raise ValueError(f"config[{kind!r}] = {config!r}; allowed: a dict {{'type': one of {list(types)}, ...}}")
+    t = config.get("type", default)
+    if t not in types:
+        raise ValueError(f"unknown {kind} type {t!r}; allowed: {list(types)}")
+    return types[t]
+
+
+def typed_options(kind: str, name: str, defaults: dict, config: dict) -> dict:
+    """``defaults`` updated with ``config`` (without ``type``); an option the
+    type ``name`` does not have is an error naming it and the allowed ones."""
+    unknown = set(config) - set(defaults) - {"type"}
+    if unknown:
+        raise ValueError(f"{kind} option(s) {sorted(unknown)} do not apply to type {name!r}; "
+                         f"allowed: {sorted(defaults) or 'none'}")
+    return {**defaults, **{k: v for k, v in config.items() if k != "type"}}

@@ -51,6 +51,8 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
+from icv_envs.envs._config import pick_type, typed_options
+
 __all__ = ["ACTION_TYPES", "check_actions", "ActionType", "ContinuousAction", "DiscreteMetaAction", "FormationResidual",
            "action_factory"]
 
@@ -105,11 +107,7 @@ class ActionType:
 
     def __init__(self, env, config: dict) -> None:
         self.env = env
-        unknown = set(config) - set(self.OPTIONS) - {"type"}
-        if unknown:
-            raise ValueError(f"action option(s) {sorted(unknown)} do not apply to type {self.name!r}; "
-                             f"allowed: {sorted(self.OPTIONS) or 'none'}")
-        self.options = {**self.OPTIONS, **{k: v for k, v in config.items() if k != "type"}}
+        self.options = typed_options("action", self.name, self.OPTIONS, config)
         self.space = self._space()
 
     def _space(self) -> spaces.Space:
@@ -249,9 +247,4 @@ ACTION_TYPES = {c.name: c for c in (ContinuousAction, DiscreteMetaAction, Format
 
 def action_factory(env, config: dict) -> ActionType:
     """The action type of ``config`` (``config["type"]``, default ContinuousAction)."""
-    if not isinstance(config, dict):
-        raise ValueError(f"config['action'] = {config!r}; allowed: a dict {{'type': one of {list(ACTION_TYPES)}, ...}}")
-    t = config.get("type", "ContinuousAction")
-    if t not in ACTION_TYPES:
-        raise ValueError(f"unknown action type {t!r}; allowed: {list(ACTION_TYPES)}")
-    return ACTION_TYPES[t](env, config)
+    return pick_type("action", config, ACTION_TYPES, "ContinuousAction")(env, config)

@@ -51,6 +51,8 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
+from icv_envs.envs._config import pick_type, typed_options
+
 __all__ = ["OBSERVATION_TYPES", "Kinematics", "OccupancyGrid", "observation_factory", "merge_observation_config"]
 
 
@@ -66,11 +68,7 @@ class ObservationType:
 
     def __init__(self, env, config: dict) -> None:
         self.env = env
-        unknown = set(config) - set(self.OPTIONS) - {"type"}
-        if unknown:
-            raise ValueError(f"observation option(s) {sorted(unknown)} do not apply to type {self.name!r}; "
-                             f"allowed: {sorted(self.OPTIONS)}")
-        self.options = {**self.OPTIONS, **{k: v for k, v in config.items() if k != "type"}}
+        self.options = typed_options("observation", self.name, self.OPTIONS, config)
 
     def _features(self, allowed, default) -> np.ndarray:
         feats = self.options["features"]
@@ -215,13 +213,7 @@ OBSERVATION_TYPES = {c.name: c for c in (Kinematics, OccupancyGrid)}
 
 
 def observation_factory(env, config: dict) -> ObservationType:
-    if not isinstance(config, dict):
-        raise ValueError(f"config['observation'] = {config!r}; allowed: a dict {{'type': one of "
-                         f"{list(OBSERVATION_TYPES)}, ...}}")
-    t = config.get("type", "Kinematics")
-    if t not in OBSERVATION_TYPES:
-        raise ValueError(f"unknown observation type {t!r}; allowed: {list(OBSERVATION_TYPES)}")
-    return OBSERVATION_TYPES[t](env, config)
+    return pick_type("observation", config, OBSERVATION_TYPES, "Kinematics")(env, config)
 
 
 def merge_observation_config(old: dict | None, new: dict) -> dict:
