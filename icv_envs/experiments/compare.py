@@ -298,7 +298,9 @@ def plot_heatmaps(results, out, methods) -> list[str]:
         return im
 
     files = []
-    fig, axes = plt.subplots(len(picked), 2, figsize=(13, 1.9 * len(picked) + 0.9), squeeze=False)
+    # constrained layout keeps each panel's title clear of the tick labels above it
+    fig, axes = plt.subplots(len(picked), 2, figsize=(13, 2.3 * len(picked) + 0.9), squeeze=False,
+                             layout="constrained")
     for row, (m, r) in enumerate(picked.items()):
         t_end = r["timeseries"][-1]["t"] if r.get("timeseries") else r["sim_seconds"]
         im = panel(axes[row][0], r["heatmap_final"], r, f"{m}: snapshot at t = {t_end:g} s, VGR {r['vgr']:g}")
@@ -311,7 +313,7 @@ def plot_heatmaps(results, out, methods) -> list[str]:
     plt.close(fig)
     files.append(str(path))
     for m, r in picked.items():
-        fig, axes = plt.subplots(2, 1, figsize=(9, 4.2), squeeze=False)
+        fig, axes = plt.subplots(2, 1, figsize=(9, 4.6), squeeze=False, layout="constrained")
         t_end = r["timeseries"][-1]["t"] if r.get("timeseries") else r["sim_seconds"]
         im = panel(axes[0][0], r["heatmap_final"], r, f"{m}: snapshot at t = {t_end:g} s, VGR {r['vgr']:g}")
         panel(axes[1][0], r["heatmap_mean"], r, f"{m}: time average")
