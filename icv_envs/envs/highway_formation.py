@@ -69,6 +69,7 @@ _FORMATION_DEFAULTS = {
     "lookahead": 200.0,
     "join_distance": 60.0,
     "exit_lookahead": 400.0,
+    "exit_lookahead_per_lane": 0.0,
     "max_anchor_lead": 15.0,
 }
 #: body length of every vehicle [m] (paper Table 1) and the IDM jam distance s0 [m]
@@ -255,7 +256,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         _num(f, "w1", 0.0, 1e6, allowed="a number in [0, 1e6]", where="['formation']")
         _num(f, "w2", 0.0, 1e6, allowed="a number in [0, 1e6]", where="['formation']")
         _num(f, "speed", sr[0], sr[1], allowed=f"a number within speed_range {list(sr)}", where="['formation']")
-        for k in ("lookahead", "join_distance", "exit_lookahead", "max_anchor_lead"):
+        for k in ("lookahead", "join_distance", "exit_lookahead", "exit_lookahead_per_lane", "max_anchor_lead"):
             _num(f, k, 0.0, 1e5, allowed="a number in [0, 100000] metres", where="['formation']")
         r = c["reward"]
         check_keys(r, "reward", _REWARD_DEFAULTS)
@@ -428,6 +429,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             desired_speed=float(c["formation"]["speed"]),
             ramp_speed=float(c["ramp_speed"]),
             exit_lookahead=float(c["formation"]["exit_lookahead"]),
+            exit_lookahead_per_lane=float(c["formation"]["exit_lookahead_per_lane"]),
             lane_width=float(c["lane_width"]),
         )
 
@@ -438,7 +440,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         manager = FormationManager(
             spacing=f["spacing"], geometry=f["geometry"], w1=f["w1"], w2=f["w2"], speed=f["speed"],
             lookahead=f["lookahead"], join_distance=f["join_distance"], exit_lookahead=f["exit_lookahead"],
-            max_size=max(int(c["formation_size"]), 1) + 4, max_anchor_lead=f["max_anchor_lead"],
+            exit_lookahead_per_lane=f["exit_lookahead_per_lane"], max_size=max(int(c["formation_size"]), 1) + 4, max_anchor_lead=f["max_anchor_lead"],
         )
         world = World(road, manager, dt=1.0 / c["simulation_frequency"], wheelbase=c["wheelbase"],
                       v_max=float(c["speed_range"][1]))

@@ -144,7 +144,7 @@ the road. Use it for centralised critics.
 | `vehicles_count` | 8 | ICVs at the start, split into formations of at most `formation_size` (12) |
 | `spawns` | [] | `[{"time", "position", "lane" (int or "ramp")[, "speed", "exit"]}]` vehicles appearing later |
 | `exits` | {} | `{vehicle_index: exit_index}`: which initial vehicles leave at which off-ramp |
-| `formation` | see below | `geometry` (`interlaced`/`parallel`), `spacing` L_s (20 m), `w1` (1), `w2` (10), `speed` (25 m/s), `lookahead` (200 m), `join_distance`, `exit_lookahead`, `max_anchor_lead` |
+| `formation` | see below | `geometry` (`interlaced`/`parallel`), `spacing` L_s (20 m), `w1` (1), `w2` (10), `speed` (25 m/s), `lookahead` (200 m), `join_distance`, `exit_lookahead`, `exit_lookahead_per_lane` (0; HighwayRamps 300 m: added per further lane to cross), `max_anchor_lead` |
 | `speed_range` | [10, 30] | m/s; the lower bound is a control floor, vehicles may brake below it to avoid a collision |
 | `simulation_frequency` / `policy_frequency` | 25 / 5 | Hz |
 | `duration` | 60 | seconds |

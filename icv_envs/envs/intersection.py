@@ -718,6 +718,7 @@ class IntersectionEnv(IcvAgentsEnv):
             "crashed_removed": int(st["crashed_removed"]),
             "left_road": int(st["left_road"]),
             "wrong_exits": int(st["wrong_exits"]),
+            "rerouted": int(st["rerouted"]),
             "lost": int(st["spawned"] - st["removed"] - st["left_road"] - remaining - st["crashed_removed"]),
             "achieved_throughput": st["cleared"] * 3600.0 / sim,
             **w.motion.summary(),

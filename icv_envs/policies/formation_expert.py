@@ -93,6 +93,7 @@ class ExpertParams:
     preview_min: float = 8.0
     replan_tolerance: float = 1.0  # [m]
     exit_lookahead: float = 400.0
+    exit_lookahead_per_lane: float = 0.0  # [m] added per further lane to cross (Road.exit_lookahead)
     # desired speed of free vehicles per lane index (main lanes, then the ramp
     # lane); None: ``desired_speed`` on main lanes, ``ramp_speed`` on the ramp
     lane_speeds: tuple | None = None
@@ -176,7 +177,8 @@ class FormationExpert:
                 ds = road.diverge_start(tr.exit[has])
                 past_ds = road.wrap(cx[has] - ds)
                 on_its_off_ramp = (lane[has] == ramp) & (past_ds >= 0) & (past_ds <= road.exit_position(tr.exit[has]) - ds)
-                exiting[has] |= ((dist < p.exit_lookahead) & (dist >= -dlen)) | on_its_off_ramp
+                la = road.exit_lookahead(lane[has], p.exit_lookahead, p.exit_lookahead_per_lane)
+                exiting[has] |= ((dist < la) & (dist >= -dlen)) | on_its_off_ramp
             desired = np.where(exiting, ramp, desired)
             # free vehicles on the ramp lane of an on-ramp move onto the main road
             on_ramp = (lane == ramp) & ~exiting & ~member

@@ -37,7 +37,7 @@ class Corridors:
         lay = world.layout
         w = lay.lane_width
         n = f.n
-        rows, corr, coord = [], [], []
+        rows, corr, coord, sigflag = [], [], [], []
         appr = rs.phase == 0
         idx = np.arange(n)
         reach = 0.5 * (w + f.width) - 0.3
@@ -47,40 +47,50 @@ class Corridors:
             rows.append(idx[ok])
             corr.append((3 * f.leg + ln)[ok])
             coord.append(rs.s[ok])
+            sigflag.append(np.zeros(int(ok.sum()), dtype=bool))
         sig = appr & (signal_lane >= 0)
         if sig.any():
             rows.append(idx[sig])
             corr.append((3 * f.leg + signal_lane)[sig])
             coord.append(rs.s[sig])
+            sigflag.append(np.ones(int(sig.sum()), dtype=bool))
         box = rs.phase == 1
         if box.any():
             rows.append(idx[box])
             corr.append(24 + rs.pid[box])
             coord.append(rs.s[box])
+            sigflag.append(np.zeros(int(box.sum()), dtype=bool))
             early = box & (rs.s < diverge)
             rows.append(idx[early])
             corr.append((3 * f.leg + np.maximum(f.plane, 0))[early])
             coord.append(rs.s[early])
+            sigflag.append(np.zeros(int(early.sum()), dtype=bool))
         dep = (rs.phase == 2) | (box & (rs.s > rs.L - diverge))
         if dep.any():
             ex = np.where(f.exit_leg >= 0, f.exit_leg, lay.exit_of[f.mv])
             rows.append(idx[dep])
             corr.append((12 + 3 * ex + lay.dlane[rs.pid])[dep])
             coord.append((rs.s - rs.L)[dep])
+            sigflag.append(np.zeros(int(dep.sum()), dtype=bool))
         rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
         corr = np.concatenate(corr) if corr else np.zeros(0, dtype=np.int64)
         coord = np.concatenate(coord) if coord else np.zeros(0)
+        sigflag = np.concatenate(sigflag) if sigflag else np.zeros(0, dtype=bool)
         if len(rows):
+            # first occurrence wins: a vehicle whose body covers its signal
+            # lane is listed there physically, not as a signal only
             pair = rows * 64 + corr
             _, first = np.unique(pair, return_index=True)
             first = np.sort(first)
-            rows, corr, coord = rows[first], corr[first], coord[first]
+            rows, corr, coord, sigflag = rows[first], corr[first], coord[first], sigflag[first]
         keys = corr * self.BIG + coord
         order = np.lexsort((rows, keys))
         self.rows = rows[order].astype(np.int64)
         self.corr = corr[order].astype(np.int64)
         self.coord = coord[order]
         self.keys = keys[order]
+        #: the entry exists only because the vehicle waits to change into that lane
+        self.signal_only = sigflag[order]
         m = len(self.rows)
         lead = np.full(m, -1, dtype=np.int64)
         if m > 1:

@@ -294,10 +294,65 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         self._approach_and_division(world, rs)
         self._adjusting(world, rs)
         self._merging(world, rs)
+        rs = self._reroute_stuck(world, rs)
         self._coordinate(world, rs)
         self._start_lane_changes(world, rs)
         self._references(world, rs)
         self._stamp = (world.step_count, f.n, f.next_vid)
+
+    def _reroute_stuck(self, world, rs):
+        """A vehicle before the stop line that is not in its expected lane,
+        with no lane change under way and too little room left for one
+        (``room < 0.75 lc_min_length``, the shortest lane change
+        :meth:`_start_lane_changes` starts), would wait at the line for
+        ever and block its lane (single-vp, 3000 veh/h, seed 0: gridlock
+        from t = 10 s; fcfs, same demand and seed: from t = 150 s).  If its
+        lane serves its movement it keeps that lane; otherwise its driver
+        takes a movement its lane serves (straight first, then the others),
+        as a driver who missed the turn lane does
+        (:meth:`IntersectionWorld.reroute` counts it)."""
+        f = world.fleet
+        lay = world.layout
+        p = self.p
+        stuck = ((rs.phase == 0) & (f.lc_lane < 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
+                 & (f.klane != f.tlane) & (-rs.u - p.lc_stop_room < 0.75 * p.lc_min_length))
+        if not stuck.any():
+            return rs
+        served = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
+        # in a lane that serves its movement (not the expected one): it keeps it
+        keep = np.flatnonzero(stuck & served)
+        if len(keep):
+            f.tlane[keep] = f.klane[keep]
+            f.want[keep] = -1
+            self.stats["kept_lane_at_line"] = self.stats.get("kept_lane_at_line", 0) + len(keep)
+        k = np.flatnonzero(stuck & ~served)
+        if not len(k):
+            return rs
+        lane = np.clip(f.klane[k], 0, 2)
+        new = np.full(len(k), -1, dtype=np.int64)
+        for turn in (1, 0, 2):
+            m = 3 * f.leg[k] + turn
+            ok = (new < 0) & lay.allowed[m, lane]
+            new[ok] = m[ok]
+        k, new = k[new >= 0], new[new >= 0]
+        if len(k):
+            world.reroute(k, new)
+            f.tlane[k] = f.klane[k]
+            f.want[k] = -1
+            # it leaves its group (whose movement it no longer shares) and is
+            # coordinated on its own (an orphan node / reservation request)
+            gone = set(f.vid[k].tolist())
+            for store in (self.formations, self.subs):
+                for key in list(store):
+                    store[key]["members"] = [v for v in store[key]["members"] if v not in gone]
+                    if not store[key]["members"]:
+                        del store[key]
+            f.sub[k] = -1
+            f.ref[k] = -1
+            f.xg[k] = 0.0
+            self.stats["rerouted"] = self.stats.get("rerouted", 0) + len(k)
+            rs = world.route()
+        return rs
 
     def _prune(self, f) -> None:
         alive = set(f.vid.tolist())
@@ -379,10 +434,28 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         cap = np.full(n, np.inf)
         cap_other = np.full(n, np.inf)
         e = np.flatnonzero(cor.lead >= 0)
+        le = cor.lead[e]
+        if len(e):
+            # a vehicle waiting to change into this lane holds back only the
+            # vehicles behind it: one already alongside (bumper gap < 0) goes
+            # on, or it would stand beside the waiting vehicle, whose lane
+            # change it blocks, for ever (single-vp, 3000 veh/h, seed 0:
+            # gridlock from t = 215 s); its leader is then the next one ahead
+            for _ in range(3):
+                gap0 = cor.coord[le] - cor.coord[e] - 0.5 * (f.length[cor.rows[e]] + f.length[cor.rows[le]])
+                skip = cor.signal_only[le] & (gap0 < 0.0)
+                if not skip.any():
+                    break
+                nxt = cor.lead[le[skip]]
+                le = le.copy()
+                le[skip] = nxt
+                keep = le >= 0
+                e, le = e[keep], le[keep]
+                self.stats["signal_alongside_passed"] = self.stats.get("signal_alongside_passed", 0) + int(skip.sum())
         if len(e):
             me = cor.rows[e]
-            ld = cor.rows[cor.lead[e]]
-            gap = cor.coord[cor.lead[e]] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
+            ld = cor.rows[le]
+            gap = cor.coord[le] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
             grp = self._group(f)
             member = (grp[me] == grp[ld]) & (grp[me] >= 0)
             # a coordinated vehicle (tree / reservation, or one that has left

@@ -79,6 +79,7 @@ class FormationManager:
         lookahead: float = 200.0,
         join_distance: float = 60.0,
         exit_lookahead: float = 400.0,
+        exit_lookahead_per_lane: float = 0.0,
         max_size: int = 16,
         max_anchor_lead: float = 15.0,
         stall_error: float = 30.0,
@@ -102,6 +103,7 @@ class FormationManager:
         self.lookahead = float(lookahead)
         self.join_distance = float(join_distance)
         self.exit_lookahead = float(exit_lookahead)
+        self.exit_lookahead_per_lane = float(exit_lookahead_per_lane)
         self.max_size = int(max_size)
         self.max_anchor_lead = float(max_anchor_lead)
         self.stall_error = float(stall_error)
@@ -257,10 +259,10 @@ class FormationManager:
         """Rows of free vehicles that may join or found a formation: not
         crashed, not heading for an exit within ``exit_lookahead + 100 m``."""
         free = np.flatnonzero((traffic.group < 0) & ~traffic.crashed)
+        _, cy = traffic.center()
         if len(free) and road.has_ramp_lane:
             # vehicles still on a ramp merge first, as free vehicles, and join
             # from the main road (a formation cannot help them merge)
-            _, cy = traffic.center()
             # ... and so do vehicles changing lanes into the ramp lane (an exit
             # taken late: the centre crosses after the diverge segment ends)
             free = free[(road.lane_of(cy[free]) < road.n_lanes) & (traffic.lc_lane[free] != road.ramp_lane)]
@@ -271,7 +273,9 @@ class FormationManager:
             if has.any():
                 d = road.exit_ahead(ex[has], cx[free[has]])
                 dlen = road.diverge_end(ex[has]) - road.diverge_start(ex[has])
-                soon[has] = (d < self.exit_lookahead + 100.0) & (d >= -dlen)
+                la = road.exit_lookahead(road.lane_of(cy[free[has]]), self.exit_lookahead,
+                                         self.exit_lookahead_per_lane)
+                soon[has] = (d < la + 100.0) & (d >= -dlen)
                 if not road.periodic:
                     soon[has] |= d < -dlen  # exit passed on a straight road: never rejoin
             free = free[~soon]
@@ -301,12 +305,13 @@ class FormationManager:
             rows = np.flatnonzero((traffic.exit >= 0) & (traffic.group >= 0))
             if len(rows):
                 d = road.exit_ahead(traffic.exit[rows], cx[rows])
-                leave = rows[d < self.exit_lookahead]
+                lane_r = road.lane_of(cy[rows])
+                la = road.exit_lookahead(lane_r, self.exit_lookahead, self.exit_lookahead_per_lane)
+                leave = rows[d < la]
                 if road.has_ramp_lane:
                     # a member on (or moving to) the ramp lane cannot hold a main-lane target
-                    _, cy_r = traffic.center()
-                    on_ramp = (road.lane_of(cy_r[rows]) == road.ramp_lane) | (traffic.lc_lane[rows] == road.ramp_lane)
-                    leave = rows[(d < self.exit_lookahead) | on_ramp]
+                    on_ramp = (lane_r == road.ramp_lane) | (traffic.lc_lane[rows] == road.ramp_lane)
+                    leave = rows[(d < la) | on_ramp]
                 for gid in np.unique(traffic.group[leave]):
                     changed.add(int(gid))
                 traffic.group[leave] = -1

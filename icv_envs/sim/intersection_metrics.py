@@ -226,10 +226,12 @@ class JamWatch:
         self._stopped_for = np.zeros(0)
         self.ever: set[int] = set()
         self.jammed_seconds = 0.0
-        self.log: list[tuple[float, int]] = []  # (time, vid) when a vehicle is first counted as jammed
+        # (time, vid, distance to the centre) when a vehicle is first counted as jammed
+        self.log: list[tuple[float, int, float]] = []
 
-    def record(self, t: float, dt: float, vid, speed, in_queue_fn) -> None:
-        """``in_queue_fn(rows)`` -> bool per row: is the stopped vehicle in a queue at the box."""
+    def record(self, t: float, dt: float, vid, speed, in_queue_fn, dist=None) -> None:
+        """``in_queue_fn(rows)`` -> bool per row: is the stopped vehicle in a queue at the box;
+        ``dist`` (optional, per row): its distance to the centre, kept in the log."""
         vid = np.asarray(vid, dtype=np.int64)
         if not len(vid):
             return
@@ -246,10 +248,11 @@ class JamWatch:
             return
         jam = rows[~np.asarray(in_queue_fn(rows), dtype=bool)]
         self.jammed_seconds += dt * len(jam)
-        for v in vid[jam].tolist():
+        where = np.full(len(jam), np.nan) if dist is None else np.asarray(dist, dtype=np.float64)[jam]
+        for v, d in zip(vid[jam].tolist(), where.tolist()):
             if v not in self.ever:
                 self.ever.add(v)
-                self.log.append((round(t, 3), v))
+                self.log.append((round(t, 3), v, round(d, 1)))
 
     def summary(self) -> dict:
         return {"jammed": len(self.ever), "jammed_vehicle_seconds": float(self.jammed_seconds)}

@@ -452,6 +452,7 @@ class IntersectionWorld:
             "crashed_removed": 0,
             "left_road": 0,
             "wrong_exits": 0,
+            "rerouted": 0,
             "travel_time_sum": 0.0,
             "delay_sum": 0.0,
             "min_speed_in_box": math.inf,
@@ -606,7 +607,8 @@ class IntersectionWorld:
             stt["min_speed_in_box"] = min(stt["min_speed_in_box"], float(f.speed[in_box].min()))
         left = appr & (u < -(lay.R3 - b + 50.0))
         self._record_pet(cx, cy, u)
-        self.jams.record(self.time, self.dt, f.vid, f.speed, lambda rows: self._in_queue(rows, u, lat_leg))
+        self.jams.record(self.time, self.dt, f.vid, f.speed, lambda rows: self._in_queue(rows, u, lat_leg),
+                         dist=self.layout.box_half - u)
         # collisions
         i, j = self.collision_pairs(cx, cy)
         if len(i):
@@ -707,6 +709,23 @@ class IntersectionWorld:
         lo, hi = np.minimum(i, j), np.maximum(i, j)
         key = np.unique(lo * (f.n + 1) + hi)
         return key // (f.n + 1), key % (f.n + 1)
+
+    def reroute(self, rows, movements) -> None:
+        """The drivers of ``rows`` (before the box) take ``movements`` (of their
+        own leg) instead of their planned ones: a driver who reaches the stop
+        line in a lane that does not serve its turn takes a turn that lane
+        serves (counted in ``stats["rerouted"]``; the vehicle then leaves by
+        the exit of its new movement, which is not a wrong exit)."""
+        f = self.fleet
+        rows = np.asarray(rows, dtype=np.int64)
+        movements = np.asarray(movements, dtype=np.int64)
+        if not len(rows):
+            return
+        if np.any(f.entered[rows]) or np.any(self.layout.leg_of[movements] != f.leg[rows]):
+            raise ValueError("reroute: only vehicles before the box, to a movement of their own leg")
+        f.mv[rows] = movements
+        self.stats["rerouted"] += len(rows)
+        self._route = None
 
     def remove_crashed_vehicles(self) -> np.ndarray:
         f = self.fleet

@@ -135,6 +135,14 @@ class RoadLayout:
         """Index of the ramp lane (right of the main lanes)."""
         return self.n_lanes
 
+    def exit_lookahead(self, lane, base: float, per_lane: float) -> np.ndarray:
+        """Distance before its exit at which a vehicle in ``lane`` heads for
+        the ramp lane: ``base`` for the last lane change (from the outermost
+        main lane) plus ``per_lane`` for every further lane it has to cross
+        (a vehicle further left needs more road for the same manoeuvre)."""
+        extra = np.maximum(self.ramp_lane - np.asarray(lane) - 1, 0)
+        return base + per_lane * extra
+
     @property
     def total_lanes(self) -> int:
         return self.n_lanes + (1 if self.has_ramp_lane else 0)
