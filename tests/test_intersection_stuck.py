@@ -1,0 +1,93 @@
+"""The two gridlock mechanisms the seed sweep found (issue 8), on hand-built scenes.
+
+1. A vehicle at the stop line that is not in its expected lane and has no
+   room left for a lane change waited there for ever.  It now keeps its lane
+   if that lane serves its movement, and otherwise takes a movement its lane
+   serves (``rerouted``).
+2. A vehicle waiting to change into a lane held back the vehicle already
+   alongside it in that lane, whose presence blocked the lane change.
+"""
+
+import numpy as np
+import pytest
+
+from icv_envs.envs.intersection import IntersectionEnv
+from icv_envs.policies.platoon_common import ST_ADJUSTED
+
+
+def empty_env(method):
+    env = IntersectionEnv({"method": method, "throughput": 100.0, "duration": 60.0, "expert_in_info": False})
+    env.ma_reset(seed=0)
+    w = env.world
+    w.fleet.crashed[:] = True
+    w.remove_crashed_vehicles()
+    env._pending = []
+    for q in env._queues.values():
+        q.clear()
+    return env
+
+
+def put(env, leg, lane, mv, s, speed, tlane):
+    w = env.world
+    vid = w.spawn(leg, lane, mv, speed, s, tlane=tlane)
+    env.expert.on_spawn(w, vid, None, 0.0, lane)
+    return vid
+
+
+def run(env, seconds):
+    w = env.world
+    t_end = w.time + seconds
+    while w.time < t_end - 1e-9:
+        env.expert.update(w)
+        env._advance(env.expert.compute(w))
+        w.remove_crashed_vehicles()
+
+
+@pytest.mark.parametrize("method", ["multi-vp", "single-vp", "fcfs"])
+def test_a_vehicle_stuck_at_the_line_in_a_lane_not_serving_its_turn_is_rerouted(method):
+    env = empty_env(method)
+    lay = env.layout
+    # leg 0: movement 0 only from lane 0, movement 1 (straight) from lane 1
+    assert lay.allowed[0, 0] and not lay.allowed[0, 1] and lay.allowed[1, 1]
+    vid = put(env, 0, 1, 0, -8.0, 2.0, tlane=0)  # 8 m before the line: no room to change lanes
+    run(env, 15.0)
+    w = env.world
+    f = w.fleet
+    r = f.rows([vid])[0]
+    assert w.stats["rerouted"] == 1
+    assert r < 0 or (f.mv[r] == 1 and f.entered[r])  # through the box (or already gone)
+    assert w.stats["collisions"] == 0 and w.stats["wrong_exits"] == 0
+
+
+@pytest.mark.parametrize("method", ["multi-vp", "single-vp", "fcfs"])
+def test_a_vehicle_stuck_in_a_lane_serving_its_turn_keeps_it(method):
+    env = empty_env(method)
+    lay = env.layout
+    assert lay.allowed[2, 1] and lay.allowed[2, 2]
+    vid = put(env, 0, 2, 2, -8.0, 2.0, tlane=1)
+    run(env, 15.0)
+    w = env.world
+    f = w.fleet
+    r = f.rows([vid])[0]
+    assert w.stats["rerouted"] == 0
+    assert r < 0 or (f.mv[r] == 2 and f.entered[r])
+    assert w.stats["collisions"] == 0
+
+
+@pytest.mark.parametrize("method", ["multi-vp", "single-vp", "fcfs"])
+def test_the_vehicle_alongside_a_waiting_lane_changer_goes_on(method):
+    env = empty_env(method)
+    w = env.world
+    f = w.fleet
+    # A in lane 0 wants lane 1 (its movement's only lane); B stands alongside in lane 1
+    a = put(env, 0, 0, 1, -60.0, 0.0, tlane=1)
+    b = put(env, 0, 1, 1, -60.5, 0.0, tlane=1)
+    f.stage[f.rows([a, b])] = ST_ADJUSTED
+    x0 = float(w.route().s[f.rows([b])[0]])
+    run(env, 8.0)
+    rb = f.rows([b])[0]
+    assert rb >= 0
+    moved = float(w.route().s[rb]) - x0
+    assert moved > 10.0, moved  # before: B stood beside A, A could never change lanes
+    assert env.expert.stats.get("signal_alongside_passed", 0) > 0
+    assert w.stats["collisions"] == 0
