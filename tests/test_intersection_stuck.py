@@ -1,9 +1,10 @@
 """The two gridlock mechanisms the seed sweep found (issue 8), on hand-built scenes.
 
-1. A vehicle at the stop line that is not in its expected lane and has no
-   room left for a lane change waited there for ever.  It now keeps its lane
-   if that lane serves its movement, and otherwise takes a movement its lane
-   serves (``rerouted``).
+1. A vehicle inside the coordinating zone that is not in its expected lane
+   kept trying to change lanes among coordinated vehicles (at the stop line
+   with no room left, it waited there for ever).  It now commits to its lane
+   (no lane change inside R1, paper Sec. 4): it keeps it if that lane serves
+   its movement, and otherwise takes a movement its lane serves (``rerouted``).
 2. A vehicle waiting to change into a lane held back the vehicle already
    alongside it in that lane, whose presence blocked the lane change.
 """
@@ -79,9 +80,11 @@ def test_the_vehicle_alongside_a_waiting_lane_changer_goes_on(method):
     env = empty_env(method)
     w = env.world
     f = w.fleet
-    # A in lane 0 wants lane 1 (its movement's only lane); B stands alongside in lane 1
-    a = put(env, 0, 0, 1, -60.0, 0.0, tlane=1)
-    b = put(env, 0, 1, 1, -60.5, 0.0, tlane=1)
+    # A in lane 0 wants lane 1 (its movement's only lane); B stands alongside in
+    # lane 1; both in the adjusting zone (inside R1 nobody changes lanes)
+    s0 = -(env.layout.R1 + 20.0 - env.layout.box_half)
+    a = put(env, 0, 0, 1, s0, 0.0, tlane=1)
+    b = put(env, 0, 1, 1, s0 - 0.5, 0.0, tlane=1)
     f.stage[f.rows([a, b])] = ST_ADJUSTED
     x0 = float(w.route().s[f.rows([b])[0]])
     run(env, 8.0)

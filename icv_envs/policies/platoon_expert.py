@@ -301,21 +301,24 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         self._stamp = (world.step_count, f.n, f.next_vid)
 
     def _reroute_stuck(self, world, rs):
-        """A vehicle before the stop line that is not in its expected lane,
-        with no lane change under way and too little room left for one
-        (``room < 0.75 lc_min_length``, the shortest lane change
-        :meth:`_start_lane_changes` starts), would wait at the line for
-        ever and block its lane (single-vp, 3000 veh/h, seed 0: gridlock
-        from t = 10 s; fcfs, same demand and seed: from t = 150 s).  If its
-        lane serves its movement it keeps that lane; otherwise its driver
-        takes a movement its lane serves (straight first, then the others),
-        as a driver who missed the turn lane does
-        (:meth:`IntersectionWorld.reroute` counts it)."""
+        """No lane change inside the coordinating zone (paper Sec. 4): a
+        vehicle inside ``R1``, not yet coordinated, not in its expected lane
+        and with no lane change under way commits to the lane it is in.  If
+        that lane serves its movement it keeps it; otherwise its driver takes
+        a movement its lane serves (straight first, then the others), as a
+        driver who missed the turn lane does
+        (:meth:`IntersectionWorld.reroute` counts it).
+
+        Before, such a vehicle kept trying to change lanes among coordinated
+        vehicles and locked the intersection up: at the stop line with no
+        room left (single-vp, 3000 veh/h, seed 0: gridlock from t = 10 s;
+        fcfs, same demand and seed: from t = 150 s), or 18 m before it beside
+        a node member held by the bound of a node stuck behind it (multi-vp,
+        2000 veh/h, seed 0: 229 jammed)."""
         f = world.fleet
         lay = world.layout
-        p = self.p
         stuck = ((rs.phase == 0) & (f.lc_lane < 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
-                 & (f.klane != f.tlane) & (-rs.u - p.lc_stop_room < 0.75 * p.lc_min_length))
+                 & (f.klane != f.tlane))
         if not stuck.any():
             return rs
         served = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
