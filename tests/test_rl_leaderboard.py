@@ -83,7 +83,7 @@ def test_tiny_leaderboard_end_to_end(tmp_path, monkeypatch):
         rows = list(csv.DictReader(f))
     by = {(r["task"], r["policy"]): r for r in rows}
     assert set(by) == {("on-ramp", p) for p in ("expert", "zero", "random", "ppo_tiny")} | {
-        ("intersection-1500", p) for p in ("expert", "single-vp", "fcfs", "zero", "random")}
+        ("intersection-1500", p) for p in ("expert", "single-vp", "fcfs", "fcfs-tight", "zero", "random")}
     ex, rnd = by[("on-ramp", "expert")], by[("on-ramp", "random")]
     assert float(ex["collisions_per_100_mean"]) == 0.0
     assert float(ex["return_mean"]) > float(rnd["return_mean"])

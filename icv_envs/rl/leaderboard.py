@@ -14,7 +14,7 @@ Tasks (:data:`TASKS`; env, config, default episodes):
 | ``highway-ramps`` | ``icv_envs/highway_ramps-v0`` | one on-ramp and one off-ramp, 3 km, 120 s | 2 |
 
 Policies on each task: ``expert``, the env's reference methods (``idm``,
-``lane-lp`` on the highway-ramps env; ``single-vp``, ``fcfs`` at the
+``lane-lp`` on the highway-ramps env; ``single-vp``, ``fcfs``, ``fcfs-tight`` at the
 intersection), ``zero``, ``random``, and every saved model under
 ``--models`` (a directory holding ``model.zip`` + ``run.json``, from
 ``baselines/``) that was trained on the task: same env family and, for each
