@@ -20,22 +20,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
-import numpy as np
-from scipy.stats import t as student_t
+from icv_envs.experiments.intersection_compare import mean_ci as ci
 
 CLAIMS = (("remaining", -1, "about 30% fewer"), ("mean_speed", +1, "about 30% higher"),
           ("speed_fluctuation", -1, "about 60% lower"))
-
-
-def ci(x):
-    x = np.asarray(x, dtype=np.float64)
-    if len(x) < 2:
-        return float(x.mean()), None
-    return float(x.mean()), float(student_t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / math.sqrt(len(x)))
 
 
 def main(argv=None) -> int:

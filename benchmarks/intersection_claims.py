@@ -21,12 +21,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
-import numpy as np
-from scipy.stats import t as student_t
+from icv_envs.experiments.intersection_compare import mean_ci as ci
 
 VP = ("multi-vp", "single-vp")
 NEAR = 0.5  # m/s: "near 10 m/s"
@@ -47,14 +45,6 @@ def load(dirs) -> list[dict]:
             raise SystemExit(f"run {key} appears twice in {list(map(str, dirs))}")
         seen[key] = r
     return list(seen.values())
-
-
-def ci(x) -> tuple[float, float | None]:
-    x = np.asarray(x, dtype=np.float64)
-    if len(x) < 2:
-        return float(x.mean()), None
-    h = float(student_t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / math.sqrt(len(x)))
-    return float(x.mean()), h
 
 
 def by(runs, method, demand, key) -> dict[int, float]:
@@ -108,32 +98,24 @@ def main(argv=None) -> int:
             ok = abs(mm - V_FREE) <= NEAR
             out["claims"].append({"claim": 1, "method": m, "demand": v, "mean_speed": mm, "ci95": h, "ok": ok})
             lines.append(f"| 1. {m} near 10 m/s | {v:g} | {fmt(mm, h)} m/s | {len(s)} | {'yes' if ok else 'no'} |")
+    def add(claim, label, a_, b_, v, key, unit, nd):
+        p = paired(runs, a_, b_, v, key)
+        if p is not None:
+            out["claims"].append({"claim": claim, **p})
+            lines.append(f"| {claim}. {label} | {v:g} | {fmt(p['diff'], p['ci95'], nd)} {unit} | {p['seeds']} | "
+                         f"{p['verdict']} |")
+
     # 2. above the split: multi-vp > single-vp > reservation in mean speed
     for v in high:
         for x, y in (("multi-vp", "single-vp"), ("single-vp", res)):
-            p = paired(runs, x, y, v, "mean_speed")
-            if p is None:
-                continue
-            out["claims"].append({"claim": 2, **p})
-            lines.append(f"| 2. speed {x} > {y} | {v:g} | {fmt(p['diff'], p['ci95'])} m/s | {p['seeds']} | "
-                         f"{p['verdict']} |")
+            add(2, f"speed {x} > {y}", x, y, v, "mean_speed", "m/s", 2)
     # 3. reservation has the lowest speed fluctuation
     for v in demands:
         for m in VP:
-            p = paired(runs, m, res, v, "speed_fluctuation")
-            if p is None:
-                continue
-            out["claims"].append({"claim": 3, **p})
-            lines.append(f"| 3. fluctuation {m} > {res} | {v:g} | {fmt(p['diff'], p['ci95'], 3)} m/s^2 | "
-                         f"{p['seeds']} | {p['verdict']} |")
+            add(3, f"fluctuation {m} > {res}", m, res, v, "speed_fluctuation", "m/s^2", 3)
     # 4. multi-vp smoother than single-vp
     for v in demands:
-        p = paired(runs, "single-vp", "multi-vp", v, "speed_fluctuation")
-        if p is None:
-            continue
-        out["claims"].append({"claim": 4, **p})
-        lines.append(f"| 4. fluctuation single-vp > multi-vp | {v:g} | {fmt(p['diff'], p['ci95'], 3)} m/s^2 | "
-                     f"{p['seeds']} | {p['verdict']} |")
+        add(4, "fluctuation single-vp > multi-vp", "single-vp", "multi-vp", v, "speed_fluctuation", "m/s^2", 3)
     md = "\n".join(lines)
     print(md)
     dest = Path(a.out or a.dirs[0])
