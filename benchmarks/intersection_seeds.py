@@ -70,26 +70,11 @@ def main(argv=None) -> int:
     else:
         parts = a.collect
     s = collect_runs(parts, out)
-    # where the jammed vehicles stood when first counted: at the entry of the
-    # coordinating zone (within 30 m inside R1, or queued behind such a vehicle
-    # outside it: waiting for a slot in the coordination) or elsewhere
-    from icv_envs.envs.intersection import IntersectionEnv
-
-    R1 = float(IntersectionEnv.default_config()["R1"])
-    at_entry = {}
-    runs = []
-    for d in parts:
-        runs += [json.loads(fp.read_text()) for fp in sorted(Path(d, "runs").glob("*.json"))]
-    for r in runs:
-        key = (r["method"], float(r["throughput"]))
-        n = sum(1 for j in r.get("jam_log", []) if len(j) > 2 and j[2] is not None and j[2] >= R1 - 30.0)
-        at_entry[key] = at_entry.get(key, 0) + n
     bad = 0
     print(f"{'method':10s} {'demand':>6s} {'runs':>4s} {'collisions':>10s} {'jammed':>6s} {'at R1':>6s} "
           f"{'jam runs':>8s} {'delay [s]':>9s} {'PET min [s]':>11s}")
     for r in s["table"]:
         bad += r["collisions"] + r["jammed"]
-        r["jammed_at_R1_entry"] = at_entry.get((r["method"], float(r["throughput"])), 0)
         d = "n/a" if r["mean_delay"] is None else f"{r['mean_delay']:.2f}"
         pm = "n/a" if r["pet_min"] is None else f"{r['pet_min']:.2f}"
         print(f"{r['method']:10s} {r['throughput']:6g} {r['seeds']:4d} {r['collisions']:10d} {r['jammed']:6d} "

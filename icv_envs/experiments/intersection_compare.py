@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from icv_envs.envs.intersection import MAX_THROUGHPUT, METHODS
+from icv_envs.envs.intersection import MAX_THROUGHPUT, METHODS, IntersectionEnv
 from icv_envs.experiments.compare import check_backend, run_jobs
 from icv_envs.experiments.seeds import parse_seeds
 
@@ -69,6 +69,7 @@ DEFAULT_DEMANDS = [float(v) for v in range(500, 5001, 500)]
 SERVED_SHARE = 0.95
 _FIGURES = ("achieved_throughput", "mean_speed", "speed_fluctuation", "speed_std", "stopped_share",
             "commanded_abs_accel", "mean_delay", "pet_p05", "remaining", "queued")
+_R1 = float(IntersectionEnv.default_config()["R1"])  # the sweeps run the default zones
 _COLOURS = {"multi-vp": "tab:red", "single-vp": "tab:blue", "fcfs": "tab:grey", "fcfs-tight": "tab:green"}
 
 
@@ -213,6 +214,13 @@ def _all_jammed(r) -> int:
     return int(r.get("jammed", 0)) + int(r.get("warmup_jammed", 0))
 
 
+def _jammed_at_R1_entry(r, R1: float) -> int:
+    """Logged jammed vehicles that stood at the entry of the coordinating zone
+    (within 30 m inside ``R1`` or queued outside it) when first counted: waiting
+    for a slot in the coordination (only a run's first 50 are logged)."""
+    return sum(1 for j in r.get("jam_log", []) if len(j) > 2 and j[2] is not None and j[2] >= R1 - 30.0)
+
+
 def summarise(results) -> dict:
     rows = {}
     for r in results:
@@ -230,6 +238,7 @@ def summarise(results) -> dict:
             "collisions": int(sum(_all_collisions(x) for x in rs)),
             "jammed": int(sum(_all_jammed(x) for x in rs)),
             "runs_with_jams": int(sum(1 for x in rs if _all_jammed(x))),
+            "jammed_at_R1_entry": int(sum(_jammed_at_R1_entry(x, _R1) for x in rs)),
             "lost": int(sum(x["lost"] for x in rs)),
             "envelope_box_binding": int(sum(x.get("envelope_box_binding", 0) for x in rs)),
         })
