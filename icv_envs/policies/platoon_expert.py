@@ -236,7 +236,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         self._vcap = np.zeros(0)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
-                      "path_obstacle_binding": 0, "node_yielded": 0,
+                      "path_obstacle_binding": 0, "node_yielded": 0, "signal_alongside_passed": 0,
                       "held_at_line": 0}
 
     # ---------------------------------------------------------------- fields
@@ -327,7 +327,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         if len(keep):
             f.tlane[keep] = f.klane[keep]
             f.want[keep] = -1
-            self.stats["kept_lane_at_line"] = self.stats.get("kept_lane_at_line", 0) + len(keep)
+            self.stats["kept_lane_in_R1"] += len(keep)
         k = np.flatnonzero(stuck & ~served)
         if not len(k):
             return rs
@@ -345,25 +345,25 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
             # it leaves its group (whose movement it no longer shares) and is
             # coordinated on its own (an orphan node / reservation request)
             gone = set(f.vid[k].tolist())
-            for store in (self.formations, self.subs):
-                for key in list(store):
-                    store[key]["members"] = [v for v in store[key]["members"] if v not in gone]
-                    if not store[key]["members"]:
-                        del store[key]
+            self._keep_members(lambda v: v not in gone, (self.formations, self.subs))
             f.sub[k] = -1
             f.ref[k] = -1
             f.xg[k] = 0.0
-            self.stats["rerouted"] = self.stats.get("rerouted", 0) + len(k)
             rs = world.route()
         return rs
 
-    def _prune(self, f) -> None:
-        alive = set(f.vid.tolist())
-        for store in (self.formations, self.subs, self.nodes):
+    @staticmethod
+    def _keep_members(keep, stores) -> None:
+        """Members ``v`` of every group in ``stores`` with ``keep(v)`` false leave; empty groups go."""
+        for store in stores:
             for k in list(store):
-                store[k]["members"] = [v for v in store[k]["members"] if v in alive]
+                store[k]["members"] = [v for v in store[k]["members"] if keep(v)]
                 if not store[k]["members"]:
                     del store[k]
+
+    def _prune(self, f) -> None:
+        alive = set(f.vid.tolist())
+        self._keep_members(alive.__contains__, (self.formations, self.subs, self.nodes))
         self.vp_order = [k for k in self.vp_order if k in self.nodes]
 
     # ------------------------------------------------------------------ actions
@@ -454,7 +454,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
                 le[skip] = nxt
                 keep = le >= 0
                 e, le = e[keep], le[keep]
-                self.stats["signal_alongside_passed"] = self.stats.get("signal_alongside_passed", 0) + int(skip.sum())
+                self.stats["signal_alongside_passed"] += int(skip.sum())
         if len(e):
             me = cor.rows[e]
             ld = cor.rows[le]

@@ -35,20 +35,6 @@ class VirtualPlatoon:
         err = self._slot_error(world, rs, rows)
         return ok & (-err <= self.p.settle_tolerance)
 
-    def _keep_lane_inside(self, world, rs, rows) -> None:
-        """No lane change is required inside the coordinating zone: a vehicle
-        there that is not yet in its expected lane but in a lane the lane-use
-        table allows for its movement keeps that lane (and has a finished
-        lane change count as done)."""
-        f = world.fleet
-        lay = world.layout
-        k = rows[(rs.dist[rows] <= lay.R1) & (rs.phase[rows] == 0) & (f.lc_lane[rows] < 0)
-                 & (f.klane[rows] != f.tlane[rows])]
-        if len(k):
-            ok = lay.allowed[f.mv[k], np.clip(f.klane[k], 0, 2)]
-            f.tlane[k[ok]] = f.klane[k[ok]]
-            self.stats["kept_lane_in_R1"] += int(ok.sum())
-
     def _coordinate(self, world, rs) -> None:
         """Nodes enter the virtual platoon; nodes that cleared the box leave.
 
@@ -65,7 +51,6 @@ class VirtualPlatoon:
         single = self.method == "single-vp"
         for sid, S in list(self.subs.items()):
             rows = f.rows(S["members"])
-            self._keep_lane_inside(world, rs, rows)
             if single:
                 # a member whose node already left (it cleared the box) is
                 # done: it must not become a node again (a phantom node would
