@@ -11,7 +11,7 @@ import numpy as np
 from icv_envs.formation.assignment import assign_targets
 from icv_envs.formation.bezier import lane_change_lateral
 from icv_envs.formation.targets import interlaced_targets
-from icv_envs.policies.platoon_common import ST_ADJUSTED, ST_LC, Corridors
+from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors
 from icv_envs.sim.traffic import idm_acceleration
 
 __all__ = ["Regrouping"]
@@ -44,19 +44,29 @@ class Regrouping:
         lay = world.layout
         f.want[:] = -1
         need = (f.klane != f.tlane) & (f.lc_lane < 0) & (rs.phase == 0) & (f.stage >= ST_LC)
+        if self._yield:
+            # yields end when the change started or is no longer needed, in
+            # R1, when either vehicle left, or when both (nearly) stand: the
+            # slot then moves the yielding one forward to open the gap
+            alive = set(f.vid[need & (rs.dist > lay.R1) & (f.speed >= 0.5)].tolist())
+            moving = set(f.vid[f.speed >= 0.5].tolist())
+            for vid in [v for v, b in self._yield.items() if v not in alive or b not in moving]:
+                del self._yield[vid]
         if not need.any():
             return
         rows = np.flatnonzero(need)
-        # vehicles in division start only near their slot
+        # vehicles in division start only near their slot; one that is
+        # yielding (below) may be any distance behind it
+        yielding = np.isin(f.vid[rows], np.fromiter(self._yield, dtype=np.int64, count=len(self._yield)))
         ready = np.ones(len(rows), dtype=bool)
         dv = f.stage[rows] == ST_LC
         if dv.any():
             err = self._slot_error(world, rs, rows[dv])
-            ready[dv] = np.abs(err) < p.slot_tolerance
+            ready[dv] = (np.abs(err) < p.slot_tolerance) | (yielding[dv] & (err < p.slot_tolerance))
         nxt = f.klane[rows] + np.sign(f.tlane[rows] - f.klane[rows])
         # courtesy signal: a ready vehicle in the coordinating zone (or queued)
         # is listed in the lane it needs, so the vehicle behind there makes room
-        sig = ready & ((rs.dist[rows] <= lay.R1) | (f.speed[rows] < 2.0))
+        sig = ready & ((rs.dist[rows] <= lay.R1) | (f.speed[rows] < 2.0)) & ~yielding
         f.want[rows[sig]] = nxt[sig]
         rows, nxt = rows[ready], nxt[ready]
         if not len(rows):
@@ -77,7 +87,9 @@ class Regrouping:
         own = idm_acceleration(v, p.v_max, gap_f, v - vl, p.a_max, p.idm_b, p.member_T, p.member_s0, free_term=False)
         fol = idm_acceleration(vf, p.v_max, gap_r, vf - v, p.a_max, p.idm_b, p.member_T, p.member_s0,
                                free_term=False)
+        possible = ok.copy()  # the manoeuvre fits here; only the gaps may refuse it
         ok &= (gap_f > p.lc_min_gap) & (gap_r > p.lc_min_gap) & (own > -p.b_safe) & (fol > -p.b_safe)
+        self._note_yields(world, rs, rows, possible & ~ok, lr, gap_f, fr, gap_r)
         # two vehicles must not start into the same lane side by side in one step
         cand = np.flatnonzero(ok)
         if len(cand) > 1:
@@ -98,6 +110,65 @@ class Regrouping:
             f.lc_lat1[start] = (nxt[ok] + 0.5) * lay.lane_width
             f.lc_len[start] = length[ok]
             self.stats["lane_changes"] += len(start)
+
+    def _note_yields(self, world, rs, rows, refused, lr, gap_f, fr, gap_r) -> None:
+        """Yield to a vehicle beside the gap (our rule; the paper is silent).
+
+        A ready vehicle in the adjusting zone whose lane change is refused
+        because a vehicle in the target lane is beside it (bumper gap to the
+        target lane's follower or leader at most ``lc_min_gap``) would stay
+        beside that vehicle for ever when both drive at the same speed: its
+        slot holds it there and the other one is not asked to make room (a
+        signal from a moving vehicle holds back only the vehicles behind it,
+        :meth:`PlatoonExpert._envelope`). Seen at 2000 veh/h (multi-vp, seed
+        2): side by side at 10 m/s from 500 m to ``R1``, then rerouted there
+        and held as a late node. So the vehicle yields: until its change
+        starts, its longitudinal reference is ``lc_min_gap + 1 m`` (bumper)
+        behind that vehicle at that vehicle's speed (:meth:`_apply_yields`),
+        it may start the change any distance behind its slot, and it sends
+        no courtesy signal (which would hold the other one back: both would
+        stop). It never yields to a vehicle that yields itself (two vehicles
+        swapping lanes would both drop back to a standstill). Yields start
+        only above 2 m/s (slower, the courtesy signal makes room) and end
+        when both vehicles (nearly) stand; inside ``R1``
+        :meth:`PlatoonExpert._reroute_stuck` decides."""
+        f = world.fleet
+        lay = world.layout
+        side_r = refused & (fr >= 0) & (gap_r <= self.p.lc_min_gap)
+        side_f = refused & (lr >= 0) & (gap_f <= self.p.lc_min_gap) & ~side_r
+        moving = (rs.dist[rows] > lay.R1) & (f.speed[rows] >= 2.0)
+        for k in np.flatnonzero((side_r | side_f) & moving):
+            me = int(f.vid[rows[k]])
+            other = int(f.vid[int(fr[k]) if side_r[k] else int(lr[k])])
+            if other in self._yield:
+                # never yield to a vehicle that yields itself: two vehicles
+                # swapping lanes would each drop back behind the other to a
+                # standstill (the one that yielded first keeps yielding)
+                continue
+            if me not in self._yield:
+                self.stats["lane_change_yields"] += 1
+            self._yield[me] = other
+
+    def _apply_yields(self, world, rs) -> None:
+        """Longitudinal references of the yielding vehicles (:meth:`_note_yields`):
+        ``lc_min_gap + 1 m`` (bumper) behind the vehicle they yield to, at its
+        speed (the nearer of that and a formation reference they already follow)."""
+        if not self._yield:
+            return
+        f = world.fleet
+        me = f.rows(np.fromiter(self._yield, dtype=np.int64, count=len(self._yield)))
+        bl = f.rows(np.fromiter(self._yield.values(), dtype=np.int64, count=len(self._yield)))
+        ok = (me >= 0) & (bl >= 0)
+        me, bl = me[ok], bl[ok]
+        if not len(me):
+            return
+        free = self._mode[me] == MODE_FREE
+        fol = (self._mode[me] == MODE_FOLLOW) | free
+        me, bl, free = me[fol], bl[fol], free[fol]
+        back = rs.u[bl] - 0.5 * (f.length[bl] + f.length[me]) - self.p.lc_min_gap - 1.0
+        self._xref[me] = np.where(free, back, np.minimum(self._xref[me], back))
+        self._vref[me] = np.where(free, f.speed[bl], np.minimum(self._vref[me], f.speed[bl]))
+        self._mode[me] = MODE_FOLLOW
 
     # ----------------------------------------------------- approach, division
     def _approach_and_division(self, world, rs) -> None:

@@ -366,6 +366,7 @@ class VirtualPlatoon:
             vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
             tight[rows_all] = bind
         self._mode, self._xref, self._vref, self._tight = mode, xref, vref, tight
+        self._apply_yields(world, rs)
         self._vcap = self._virtual_cap(world, rs)
         # may a vehicle enter the box? only from an allowed lane, lane change finished
         allowed = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
