@@ -204,3 +204,29 @@ def test_ring_formation_runs_without_a_jam():
     _drive(env, 900.0)
     m = env.metrics()
     assert m["jammed"] == 0 and m["collisions"] == 0
+
+
+def test_two_vehicles_starting_into_one_lane_in_one_step_pass_the_gap_acceptance():
+    """idm on the ring (VGR 1/3, seed 0, t = 659 s): a vehicle from lane 1 at
+    25 m/s and one from lane 3 at 7.9 m/s, 27 m ahead, started into lane 2 in
+    the same step; the same-step filter looked at their distance only (25.5 m
+    at that speed) and let both go: collision at 661 s. Now the rear one needs
+    the gap acceptance towards the front one."""
+    from icv_envs.policies.reference import IdmMobilPolicy
+
+    class IntoLaneTwo(IdmMobilPolicy):
+        def _desired_lanes(self, world, desired, lane, member, exiting, cx, v, index):
+            return np.full_like(desired, 2)
+
+    def world(x_rear, v_rear, x_front, v_front):
+        w = World(RoadLayout(4, 3000.0), FormationManager())
+        w.traffic.add([x_rear, x_front], [4.0, 12.0], [v_rear, v_front])
+        return w
+
+    w = world(1000.0, 25.0, 1027.0, 7.9)
+    IntoLaneTwo().compute(w)
+    assert w.traffic.lc_lane.tolist() == [-1, 2]  # the front one goes, the fast rear one waits
+    # at equal speeds the same 27 m are enough for both
+    w = world(1000.0, 8.0, 1027.0, 8.0)
+    IntoLaneTwo().compute(w)
+    assert w.traffic.lc_lane.tolist() == [2, 2]
