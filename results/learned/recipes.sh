@@ -23,3 +23,13 @@ t ppo_meta_lane-drop python baselines/ppo_recipe.py --config '{"scenario": "lane
 #    of BC -> PPO give) BC -> PPO, lane-drop, from the 5-scenario clone:
 # t ppo_bc_lane-drop python baselines/ppo_recipe.py --config '{"scenario": "lane-drop"}' \
 #     --init "$OUT/bc_expert_highway" --max-minutes 12 --eval-every 25000 --seed 0 --out "$OUT/ppo_bc_lane-drop"
+
+# --- 2026-12-02: imitation at scale (issue 9, item 4), one run at a time on a free core ---
+# 4. BC + DAgger specialised on on-ramp: 6000 expert env steps, 15 DAgger iterations x 3000 env steps, 5 epochs/fit
+t bc_onramp python baselines/bc_expert.py --config '{"scenario": "on-ramp"}' --expert-steps 6000 \
+    --dagger-iters 15 --dagger-steps 3000 --epochs 5 --seed 0 --eval-episodes 8 --out "$OUT/bc_onramp"
+# 5. BC + DAgger on the intersection (1500 veh/h, 120 s after an 80 s warm-up): 3000 expert env steps,
+#    15 DAgger iterations x 1800 env steps, 2 epochs/fit (the network is refitted warm; 2 epochs bound the cost)
+t bc_dagger_intersection python baselines/bc_expert.py --env intersection_v0 \
+    --config '{"throughput": 1500, "duration": 120, "warmup": 80}' --expert-steps 3000 --dagger-iters 15 \
+    --dagger-steps 1800 --epochs 2 --seed 0 --eval-episodes 4 --out "$OUT/bc_dagger_intersection"
