@@ -207,3 +207,27 @@ def test_gym_seeded_reset_repeats():
         o, r, *_ = env.step(np.array([0.2, 0.0], dtype=np.float32))
         np.testing.assert_array_equal(o, o_prev)
         assert r == r_prev
+
+
+@pytest.mark.parametrize("action", [[1.0, 1.0], [1.0, -1.0], [0.3, 1.0]])
+def test_full_lock_cannot_circle_at_the_intersection(action):
+    """Issue 11, item 6 at the intersection: the highway's exploit (full lock
+    at speed, circling for ever) is not available here. The world applies no
+    lateral-acceleration limit (the experts take the turns at the design
+    speed, see docs/model.md#limits), but the drivable surface is the approach and
+    departure lanes of the vehicle's own route: a vehicle that steers off it
+    (more than 0.5 m) crashes and its agent's episode ends within seconds,
+    whether it starts turning on the approach or in the box."""
+    import gymnasium as gym
+
+    env = gym.make("icv_envs/Intersection-v0")
+    for switch in (0, 400):  # from the start, or once the expert has driven it near the box
+        obs, info = env.reset(seed=0)
+        for t in range(switch + 50):
+            act = info["expert_action"] if t < switch else np.asarray(action, dtype=np.float32)
+            obs, r, term, trunc, info = env.step(act)
+            if term or trunc:
+                break
+        assert term and info["crashed"], (switch, t)
+        assert t - switch <= 20, (switch, t)
+    env.close()
