@@ -49,7 +49,10 @@ Writes into ``--out``: ``leaderboard.csv`` (one row per task x policy, every
 estimate), ``leaderboard.md`` (the Markdown table), ``leaderboard.png``
 (per task: learning curves of the ``baselines/ppo_recipe.py`` runs, the
 validation return as a share of the expert's leaderboard return and the
-collisions per 100 vehicles, with the targets 90% and 1 drawn; and each
+collisions per 100 vehicles, with the targets 90% and 1 drawn; dashed, the
+DAgger rounds of ``baselines/bc_expert.py`` runs: each learner rollout's
+return per episode as a share of the expert's rollout of round 0 (each
+round on its own training seeds); and each
 policy's mean return, at the intersection its throughput, as a share of the
 expert's with its interval, red where it has more than 1 collision per 100
 vehicles), ``evals/<task>/<policy>.json``
@@ -350,6 +353,29 @@ def _curves(models_dir) -> dict[str, list[tuple[str, list[dict]]]]:
     return found
 
 
+def _dagger_curves(models_dir) -> dict[str, list[tuple[str, list[float], list[float]]]]:
+    """DAgger curves of ``baselines/bc_expert.py`` runs per task: after each
+    round's env steps (cumulative), the return per episode of the learner's
+    rollout as a share of the expert's rollout of round 0. Every round has
+    its own training seeds: on the highway scenarios the return hardly
+    depends on the seed, at the intersection it moves with the arrivals (a
+    noisy curve, shares above 1 are seeds with more traffic)."""
+    found: dict[str, list] = {}
+    for task in TASKS.values():
+        for label, _d, meta in find_models(models_dir, task):
+            rounds = (meta.get("train") or {}).get("rounds") or []
+            if meta.get("algo") != "bc_expert" or len(rounds) < 2 or rounds[0].get("driver") != "expert":
+                continue
+            r0 = rounds[0]["rollout"]["return_per_episode"]
+            if not r0:
+                continue
+            steps = np.cumsum([r["rollout"]["env_steps"] for r in rounds])
+            x = [float(s) for s in steps[1:]]
+            y = [r["rollout"]["return_per_episode"] / r0 for r in rounds[1:]]
+            found.setdefault(task.name, []).append((label, x, y))
+    return found
+
+
 def plot(path: Path, rows: list[dict], models_dir) -> None:
     import matplotlib
 
@@ -358,6 +384,7 @@ def plot(path: Path, rows: list[dict], models_dir) -> None:
 
     tasks = list(dict.fromkeys(r["task"] for r in rows))
     curves = _curves(models_dir)
+    dagger = _dagger_curves(models_dir)
     fig, axes = plt.subplots(3, len(tasks), figsize=(4.6 * len(tasks), 10), squeeze=False)
     for j, task in enumerate(tasks):
         rs = [r for r in rows if r["task"] == task]
@@ -367,11 +394,13 @@ def plot(path: Path, rows: list[dict], models_dir) -> None:
             x = [float(c["env_steps"]) for c in cr]
             a0.plot(x, [float(c["val_return"]) / ex for c in cr], "o-", ms=3, label=label)
             a1.plot(x, [float(c["val_collisions_per_100"]) for c in cr], "o-", ms=3, label=label)
+        for label, x, y in dagger.get(task, []):
+            a0.plot(x, y, "s--", ms=3, label=f"{label} (DAgger rollouts / expert's)")
         a0.axhline(0.9, color="k", ls="--", lw=0.8)
         a1.axhline(1.0, color="k", ls="--", lw=0.8)
         a0.set(title=f"{task}: learning curves", xlabel="env steps", ylabel="validation return / expert")
         a1.set(xlabel="env steps", ylabel="validation collisions / 100 veh")
-        if curves.get(task):
+        if curves.get(task) or dagger.get(task):
             a0.legend(fontsize=7)
         else:
             a0.text(0.5, 0.5, "no recipe run", ha="center", transform=a0.transAxes)
