@@ -3,9 +3,7 @@ through the harness; ppo_shared is reproducible; the harness rejects bad input."
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,19 +13,16 @@ torch = pytest.importorskip("torch")
 
 from icv_envs.rl.evaluate import evaluate  # noqa: E402
 from icv_envs.rl.evaluate import main as evaluate_main  # noqa: E402
+from baseline_scripts import load_baseline
 
 torch.set_num_threads(1)
 
-ROOT = Path(__file__).resolve().parents[1]
 SHORT = {"duration": 4.0}  # 20 policy steps per episode keeps the tests fast
 METRICS = ("collisions", "mean_speed", "speed_fluctuation", "min_gap", "exited", "episode_return")
 
 
 def _script(name):
-    spec = importlib.util.spec_from_file_location(f"baseline_{name}", ROOT / "baselines" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_baseline(name)
 
 
 @pytest.fixture(scope="module")

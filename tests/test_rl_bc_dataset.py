@@ -2,26 +2,21 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
+from baseline_scripts import load_baseline
 
 torch = pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("minari")
 torch.set_num_threads(1)
 
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def _bc():
-    spec = importlib.util.spec_from_file_location("bc_expert", ROOT / "baselines" / "bc_expert.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_baseline("bc_expert")
 
 
 def test_bc_from_dataset(tmp_path, monkeypatch):

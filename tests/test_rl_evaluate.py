@@ -7,9 +7,7 @@ intersection env (tiny budgets)."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +15,8 @@ import pytest
 from icv_envs.rl.envs import env_family, episode_finished, make_parallel_env, resolve_env, step_until_agents
 from icv_envs.rl.evaluate import EXPERT_METHODS, REFERENCE_POLICIES, evaluate, policy_names
 from icv_envs.rl.evaluate import main as evaluate_main
+from baseline_scripts import load_baseline
 
-ROOT = Path(__file__).resolve().parents[1]
 RAMPS = {"duration": 4.0}
 INTER = {"duration": 4.0}
 COMMON = ("collisions", "mean_speed", "speed_fluctuation", "exited", "episode_return", "episode_length")
@@ -133,10 +131,7 @@ def _script(name):
     pytest.importorskip("stable_baselines3")
     torch = pytest.importorskip("torch")
     torch.set_num_threads(1)
-    spec = importlib.util.spec_from_file_location(f"baseline_{name}", ROOT / "baselines" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_baseline(name)
 
 
 @pytest.fixture(scope="module")

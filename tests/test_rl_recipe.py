@@ -3,25 +3,20 @@
 from __future__ import annotations
 
 import csv
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
+from baseline_scripts import load_baseline
 
 torch = pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 torch.set_num_threads(1)
 
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def _recipe():
-    spec = importlib.util.spec_from_file_location("ppo_recipe", ROOT / "baselines" / "ppo_recipe.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_baseline("ppo_recipe")
 
 
 TINY = ["--total-timesteps", "96", "--n-steps", "8", "--batch-size", "32", "--n-epochs", "1", "--eval-every", "48",

@@ -6,7 +6,6 @@ run.json, and its checkpoint evaluates. Skipped without ``ray[rllib]``
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -19,17 +18,14 @@ pytest.importorskip("torch")
 
 from icv_envs import highway_formation_v0  # noqa: E402
 from icv_envs.rl.rllib_compat import IcvParallelPettingZooEnv, evaluate_checkpoint, make_rllib_env  # noqa: E402
+from baseline_scripts import load_baseline
 
-ROOT = Path(__file__).resolve().parents[1]
 METRICS = ("collisions", "mean_speed", "speed_fluctuation", "min_gap", "episode_return")
 LATE_SPAWN = [{"time": 2.0, "position": 320.0, "lane": "ramp", "speed": 15.0}]
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("baseline_rllib_shared", ROOT / "baselines" / "rllib_shared.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_baseline("rllib_shared")
 
 
 def test_wrapper_agents_spaces_and_episode_end():
