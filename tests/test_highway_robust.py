@@ -230,3 +230,9 @@ def test_two_vehicles_starting_into_one_lane_in_one_step_pass_the_gap_acceptance
     w = world(1000.0, 8.0, 1027.0, 8.0)
     IntoLaneTwo().compute(w)
     assert w.traffic.lc_lane.tolist() == [2, 2]
+    # a third candidate between them, dropped because of the front one, must not
+    # shield the rear one from the check against the front one (ring, t = 2299 s)
+    w = World(RoadLayout(4, 3000.0), FormationManager())
+    w.traffic.add([1000.0, 1012.0, 1017.7], [4.0, 4.0, 12.0], [25.0, 25.0, 10.4])
+    IntoLaneTwo().compute(w)
+    assert w.traffic.lc_lane.tolist() == [-1, -1, 2]

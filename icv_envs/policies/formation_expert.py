@@ -311,6 +311,27 @@ class FormationExpert:
                 for k in np.flatnonzero(same):
                     if not drop[k]:
                         drop[k + 1] = True
+                # a dropped vehicle between two others no longer separates them:
+                # check each kept one against the previous kept one in its lane
+                # (idm ring, t = 2299 s: the one in between was dropped and the
+                # rear one, 17.7 m behind the front one at 25 vs 10.4 m/s, went)
+                if drop.any():
+                    last = {}
+                    for i in range(len(o)):
+                        if drop[i]:
+                            continue
+                        j = last.get(int(nxt[o[i]]))
+                        if j is not None:
+                            d = road.wrap(xw[o[j]] - xw[o[i]])
+                            g = d - 0.5 * (lw[o[j]] + lw[o[i]])
+                            Ti = p.member_time_gap if member[w_rows[o[i]]] else p.idm_T
+                            a_i = idm_acceleration(vw[o[i]], p.v_max, max(g, 1e-3), vw[o[i]] - vw[o[j]], p.a_max,
+                                                   p.idm_b, Ti, p.idm_s0, free_term=False)
+                            if (d < lw[o[i]] + p.lc_min_gap + 2.0 * p.idm_s0 + vw[o[i]] * p.member_time_gap
+                                    or g <= p.lc_min_gap or a_i <= -p.b_safe):
+                                drop[i] = True
+                                continue
+                        last[int(nxt[o[i]])] = i
                 ok[o[drop]] = False
             start = w_rows[ok]
             blocked = np.zeros(n, dtype=bool)
