@@ -164,3 +164,23 @@ def test_a_ready_vehicle_beside_another_in_its_target_lane_yields_and_changes_be
     assert changed_before_R1, "vehicle 24 reached R1 outside lane 1 or rerouted"
     assert env.core.expert.stats["lane_change_yields"] >= 1
     assert m["rerouted"] == 0 and m["jammed"] == 0 and m["collisions"] == 0
+
+
+def test_a_waiting_lane_changer_is_not_held_by_a_member_alongside_it_in_the_lane_it_wants():
+    """5. multi-vp, 2000 veh/h, seed 7: vehicle 187 (lane 1, wanting lane 0)
+    stopped 306 m out, its turn signal listing it in lane 0, where member 190
+    stood 0.6 m ahead of it keeping its slot 9 m *behind* 187. The envelope
+    held 187 behind 190 (its 'leader' in the wanted lane) and 190 behind its
+    slot: both stood from 268 s to the end of the run (39 vehicles jammed
+    behind them). A vehicle alongside in the wanted lane no longer holds the
+    waiting vehicle back."""
+    from icv_envs.envs.intersection_v0 import parallel_env
+
+    env = parallel_env(method="multi-vp", throughput=2000.0, duration=300.0, expert_in_info=False)
+    env.reset(seed=7)
+    while not env.episode_over:
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+    jammed = {int(j[1]) for j in env.core.world.jams.log}
+    assert not jammed & {187, 190}, jammed
+    assert env.metrics()["collisions"] == 0
