@@ -445,14 +445,9 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
             # on, or it would stand beside the waiting vehicle, whose lane
             # change it blocks, for ever (single-vp, 3000 veh/h, seed 0:
             # gridlock from t = 215 s); its leader is then the next one ahead
-            # likewise the waiting vehicle itself, listed in the lane it wants,
-            # is not held by a vehicle already alongside it there: that one is
-            # not ahead of it, and when it is a member keeping its slot
-            # behind the waiting vehicle both would stand for ever (multi-vp,
-            # 2000 veh/h, seed 7: 190 s beside each other 306 m out)
             for _ in range(3):
                 gap0 = cor.coord[le] - cor.coord[e] - 0.5 * (f.length[cor.rows[e]] + f.length[cor.rows[le]])
-                skip = (cor.signal_only[le] | cor.signal_only[e]) & (gap0 < 0.0)
+                skip = cor.signal_only[le] & (gap0 < 0.0)
                 if not skip.any():
                     break
                 nxt = cor.lead[le[skip]]
