@@ -340,29 +340,24 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def _curves(models_dir) -> dict[str, list[tuple[str, list[dict]]]]:
-    """Learning curves (``curve.csv`` of ``baselines/ppo_recipe.py`` runs) per task."""
-    found: dict[str, list] = {}
+def _curves(models_dir) -> tuple[dict, dict]:
+    """Learning curves per task, from one pass over the models: ``curve.csv``
+    of ``baselines/ppo_recipe.py`` runs, and the DAgger rounds of
+    ``baselines/bc_expert.py`` runs (after each round's env steps,
+    cumulative, the return per episode of the learner's rollout as a share
+    of the expert's rollout of round 0). Every DAgger round has its own
+    training seeds: on the highway scenarios the return hardly depends on
+    the seed, at the intersection it moves with the arrivals (a noisy curve,
+    shares above 1 are seeds with more traffic)."""
+    ppo: dict[str, list] = {}
+    dagger: dict[str, list] = {}
     for task in TASKS.values():
-        for label, d, _meta in find_models(models_dir, task):
+        for label, d, meta in find_models(models_dir, task):
             p = d / "curve.csv"
             if p.is_file():
                 with open(p) as f:
                     rows = [r for r in csv.DictReader(f) if r.get("val_return")]
-                found.setdefault(task.name, []).append((label, rows))
-    return found
-
-
-def _dagger_curves(models_dir) -> dict[str, list[tuple[str, list[float], list[float]]]]:
-    """DAgger curves of ``baselines/bc_expert.py`` runs per task: after each
-    round's env steps (cumulative), the return per episode of the learner's
-    rollout as a share of the expert's rollout of round 0. Every round has
-    its own training seeds: on the highway scenarios the return hardly
-    depends on the seed, at the intersection it moves with the arrivals (a
-    noisy curve, shares above 1 are seeds with more traffic)."""
-    found: dict[str, list] = {}
-    for task in TASKS.values():
-        for label, _d, meta in find_models(models_dir, task):
+                ppo.setdefault(task.name, []).append((label, rows))
             rounds = (meta.get("train") or {}).get("rounds") or []
             if meta.get("algo") != "bc_expert" or len(rounds) < 2 or rounds[0].get("driver") != "expert":
                 continue
@@ -372,8 +367,8 @@ def _dagger_curves(models_dir) -> dict[str, list[tuple[str, list[float], list[fl
             steps = np.cumsum([r["rollout"]["env_steps"] for r in rounds])
             x = [float(s) for s in steps[1:]]
             y = [r["rollout"]["return_per_episode"] / r0 for r in rounds[1:]]
-            found.setdefault(task.name, []).append((label, x, y))
-    return found
+            dagger.setdefault(task.name, []).append((label, x, y))
+    return ppo, dagger
 
 
 def plot(path: Path, rows: list[dict], models_dir) -> None:
@@ -383,8 +378,7 @@ def plot(path: Path, rows: list[dict], models_dir) -> None:
     import matplotlib.pyplot as plt
 
     tasks = list(dict.fromkeys(r["task"] for r in rows))
-    curves = _curves(models_dir)
-    dagger = _dagger_curves(models_dir)
+    curves, dagger = _curves(models_dir)
     fig, axes = plt.subplots(3, len(tasks), figsize=(4.6 * len(tasks), 10), squeeze=False)
     for j, task in enumerate(tasks):
         rs = [r for r in rows if r["task"] == task]
