@@ -10,12 +10,25 @@ bit of any of them changes the hash.
 Re-record (only when a change of trajectories is intended and explained)::
 
     PYTHONPATH=$PWD python tests/trajectory_hash.py --record
+
+NumPy picks its SIMD kernels (sin, cos, exp, power, ...) at import time by
+the CPU, and the AVX-512 kernels (dispatch level ``X86_V4`` and above) may
+round the last bit differently from the AVX2 ones (``X86_V3``): the same
+seed gives the same trajectory bit for bit on one kind of CPU, not across
+kinds. The fingerprints are therefore computed, and recorded, in a
+subprocess whose NumPy dispatch is capped at ``X86_V3``
+(``NPY_DISABLE_CPU_FEATURES`` names every higher target the machine has),
+so they are the same on every x86-64 machine with AVX2 (seen: an AVX2-only
+machine and an AVX-512 one give the same hashes this way, and different
+ones without the cap).
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -86,10 +99,56 @@ def all_fingerprints(names=None) -> dict:
     return {name: fingerprint(m, c, s, n) for name, m, c, s, n in CASES if names is None or name in names}
 
 
+PINNED_LEVEL = "X86_V3"  # NumPy's AVX2 dispatch level: the fingerprints' reference CPU
+
+
+def pinned_environment() -> dict | None:
+    """Environment variables that cap NumPy's SIMD dispatch at
+    :data:`PINNED_LEVEL` in a new process, or ``None`` where the machine
+    cannot run that level (not x86-64, or no AVX2)."""
+    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+
+    if not __cpu_features__.get(PINNED_LEVEL, False):
+        return None
+    order = list(__cpu_dispatch__)
+    above = order[order.index(PINNED_LEVEL) + 1:] if PINNED_LEVEL in order else []
+    env = dict(os.environ)
+    env.pop("NPY_ENABLE_CPU_FEATURES", None)
+    env["NPY_DISABLE_CPU_FEATURES"] = " ".join(f for f in above if __cpu_features__.get(f, False))
+    env["PYTHONPATH"] = os.pathsep.join([str(Path(__file__).resolve().parents[1]), env.get("PYTHONPATH", "")])
+    return env
+
+
+def pinned_fingerprints(names=None) -> dict:
+    """:func:`all_fingerprints` computed in a subprocess with NumPy's
+    dispatch capped at :data:`PINNED_LEVEL` (module docstring)."""
+    env = pinned_environment()
+    if env is None:
+        raise RuntimeError(f"this machine has no {PINNED_LEVEL} (AVX2) SIMD level; the fingerprints need it")
+    args = [sys.executable, str(Path(__file__).resolve()), "--in-process"] + list(names or [])
+    out = subprocess.run(args, env=env, capture_output=True, text=True, check=False)
+    if out.returncode != 0:
+        raise RuntimeError(f"fingerprint subprocess failed ({out.returncode}):\n{out.stderr[-4000:]}")
+    return json.loads(out.stdout)
+
+
+def _dispatch_capped() -> bool:
+    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+
+    order = list(__cpu_dispatch__)
+    above = order[order.index(PINNED_LEVEL) + 1:] if PINNED_LEVEL in order else []
+    return not any(__cpu_features__.get(f, False) for f in above)
+
+
 if __name__ == "__main__":
-    if "--record" in sys.argv:
+    if "--in-process" in sys.argv:
+        if not _dispatch_capped():
+            sys.exit(f"NumPy's dispatch is not capped at {PINNED_LEVEL}; run through pinned_fingerprints()")
+        names = [a for a in sys.argv[1:] if not a.startswith("--")] or None
+        print(json.dumps(all_fingerprints(names)))
+    elif "--record" in sys.argv:
         REFERENCE.parent.mkdir(exist_ok=True)
-        REFERENCE.write_text(json.dumps(all_fingerprints(), indent=1) + "\n")
+        REFERENCE.write_text(json.dumps(pinned_fingerprints(), indent=1) + "\n")
         print(REFERENCE.read_text())
     else:
-        print(json.dumps(all_fingerprints(), indent=1))
+        print(json.dumps(pinned_fingerprints(), indent=1))
