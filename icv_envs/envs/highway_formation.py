@@ -645,7 +645,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         c = self.config
         ex = self.expert_actions() if c["expert_in_info"] and len(rows) else None
         tr = self.world.traffic
-        _, lane_ref, _, _ = self.world.manager.references(tr)
+        lane_ref = np.where(tr.group >= 0, tr.tgt_lane, -1)  # references()' lane_ref, without the profiles
         rows = np.asarray(rows, dtype=np.int64)
         cols = {
             "speed": tr.speed[rows].tolist(),

@@ -32,6 +32,7 @@ import numbers
 
 import numpy as np
 
+from icv_envs.formation._kernels import quintic_feasible
 from icv_envs.formation._validate import finite
 
 __all__ = [
@@ -212,18 +213,17 @@ def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFI
         raise ValueError(f"grow must be > 1, got {grow!r}")
     d0, v0, a0 = np.broadcast_arrays(*(np.atleast_1d(_finite(n, x)) for n, x in
                                        (("d0", d0), ("v0", v0), ("a0", a0))))
+    d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
     hi_a = np.maximum(accel, a0)
     lo_a = np.minimum(-decel, a0)
     vhi = np.maximum(np.broadcast_to(np.asarray(v_hi, dtype=np.float64), d0.shape), v0)
     vlo = np.minimum(np.broadcast_to(np.asarray(v_lo, dtype=np.float64), d0.shape), v0)
+    hi_a, lo_a = np.asarray(hi_a, dtype=np.float64), np.asarray(lo_a, dtype=np.float64)
     tau = np.linspace(0.0, 1.0, 201)
 
-    def feasible(T, idx):
-        Ti = T[:, None]
-        _, v, a, j = _quintic(tau[None, :] * Ti, Ti, d0[idx][:, None], v0[idx][:, None], a0[idx][:, None])
-        return ((a.max(axis=1) <= hi_a[idx] + 1e-9) & (a.min(axis=1) >= lo_a[idx] - 1e-9)
-                & (np.abs(j).max(axis=1) <= jerk + 1e-9) & (v.max(axis=1) <= vhi[idx] + 1e-9)
-                & (v.min(axis=1) >= vlo[idx] - 1e-9)) | (T >= max_duration)
+    def feasible(T, idx):  # compiled: the limits checked on every sample of _quintic(tau * T, T, ...)
+        return quintic_feasible(np.ascontiguousarray(T, dtype=np.float64), d0[idx], v0[idx], a0[idx], hi_a[idx],
+                                lo_a[idx], vhi[idx], vlo[idx], float(jerk), float(max_duration), tau)
 
     # start from (0.7 x) the rest-to-rest estimate of the minimum-jerk move
     # (peak acceleration 5.77 d / T^2, jerk 60 d / T^3), double until

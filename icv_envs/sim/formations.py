@@ -126,6 +126,8 @@ class FormationManager:
         self.profile_speeds = (float(profile_speeds[0]), float(profile_speeds[1]))
         self.time = 0.0
         self.plans = 0
+        self._plan_version = 0  # bumped by every plan: the key of the profile cache
+        self._profile_cache = None
         # per vehicle id: the slot a plan was made for (group, metres behind
         # the front), the plan (start time, duration, initial offset, relative
         # speed, acceleration) and when the first plan for that slot ends
@@ -154,8 +156,11 @@ class FormationManager:
         self._cap = new
 
     def _slot_x(self, traffic, rows) -> np.ndarray:
-        anchors = np.array([self.anchor.get(int(k), np.nan) for k in range(self.next_gid)])
-        return anchors[traffic.group[rows]] - traffic.tgt_behind[rows]
+        # front targets of the formations these rows belong to only (next_gid
+        # grows without bound over a long ring run)
+        g, inv = np.unique(traffic.group[rows], return_inverse=True)
+        anchors = np.array([self.anchor.get(int(k), np.nan) for k in g.tolist()], dtype=np.float64)
+        return anchors[inv.reshape(-1)] - traffic.tgt_behind[rows]
 
     def _plan(self, traffic, road, rows, cx) -> np.ndarray:
         """Plan references for members ``rows`` from their current state;
@@ -181,15 +186,27 @@ class FormationManager:
         if np.any(stuck):
             T = np.asarray(T, dtype=np.float64).copy()
             T[stuck] = join_duration(d0[stuck], v0[stuck], a0[stuck], **lim)
+        self._plan_version += 1
         self._p_t0[vid], self._p_T[vid] = self.time, T
         self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
         self.plans += len(rows)
         return T
 
     def _profile(self, traffic, rows):
+        """``join_profile`` of the members at ``rows`` now. Several callers
+        ask for the same rows within one step (the expert, the observations,
+        the manager's own update); the last answer is kept, keyed on the
+        clock, the plan counter and the vehicle ids (the only inputs)."""
         vid = traffic.vid[rows]
-        return join_profile(self.time - self._p_t0[vid], self._p_T[vid], self._p_d0[vid], self._p_v0[vid],
-                            self._p_a0[vid])
+        key = (self.time, self._plan_version, vid.tobytes())
+        if self._profile_cache is not None and self._profile_cache[0] == key:
+            return self._profile_cache[1]
+        out = join_profile(self.time - self._p_t0[vid], self._p_T[vid], self._p_d0[vid], self._p_v0[vid],
+                           self._p_a0[vid])
+        for arr in out:
+            arr.flags.writeable = False
+        self._profile_cache = (key, out)
+        return out
 
     def create(self, traffic, rows, road, anchor: float | None = None) -> int:
         """Make a new formation of vehicles ``rows`` and assign them targets."""
