@@ -32,7 +32,7 @@ import numbers
 
 import numpy as np
 
-from icv_envs.formation._kernels import quintic_feasible
+from icv_envs.formation._kernels import join_search
 from icv_envs.formation._validate import finite
 
 __all__ = [
@@ -221,39 +221,18 @@ def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFI
     hi_a, lo_a = np.asarray(hi_a, dtype=np.float64), np.asarray(lo_a, dtype=np.float64)
     tau = np.linspace(0.0, 1.0, 201)
 
-    def feasible(T, idx):  # compiled: the limits checked on every sample of _quintic(tau * T, T, ...)
-        return quintic_feasible(np.ascontiguousarray(T, dtype=np.float64), d0[idx], v0[idx], a0[idx], hi_a[idx],
-                                lo_a[idx], vhi[idx], vlo[idx], float(jerk), float(max_duration), tau)
-
     # start from (0.7 x) the rest-to-rest estimate of the minimum-jerk move
     # (peak acceleration 5.77 d / T^2, jerk 60 d / T^3), double until
     # feasible, then bisect (in log T) between the last infeasible and the
-    # first feasible duration to a ratio of ``grow``
+    # first feasible duration to a ratio of ``grow`` (compiled, per member:
+    # formation/_kernels.py, the limits checked on every sample of
+    # _quintic(tau * T, T, ...))
     ad = np.abs(d0)
     est = np.maximum.reduce([np.sqrt(5.7735 * ad / max(accel, decel)), np.cbrt(60.0 * ad / jerk),
                              np.abs(v0) / max(accel, decel)])
-    lo = np.maximum(float(t_min), 0.7 * est)
-    idx_all = np.arange(d0.size)
-    ok = feasible(lo, idx_all)
-    T = lo.copy()
-    bad = np.flatnonzero(~ok)
-    if len(bad):
-        lo_b = lo[bad]
-        hi_b = np.minimum(2.0 * lo_b, max_duration)
-        todo = np.ones(len(bad), dtype=bool)
-        while todo.any():
-            k = np.flatnonzero(todo)
-            fk = feasible(hi_b[k], bad[k])
-            lo_b[k[~fk]] = hi_b[k[~fk]]
-            hi_b[k[~fk]] = np.minimum(2.0 * hi_b[k[~fk]], max_duration)
-            todo[k[fk]] = False
-        while True:
-            k = np.flatnonzero(hi_b > lo_b * grow)
-            if not len(k):
-                break
-            mid = np.sqrt(lo_b[k] * hi_b[k])
-            fm = feasible(mid, bad[k])
-            hi_b[k[fm]] = mid[fm]
-            lo_b[k[~fm]] = mid[~fm]
-        T[bad] = hi_b
-    return T
+    lo = np.ascontiguousarray(np.maximum(float(t_min), 0.7 * est), dtype=np.float64)
+    T = join_search(lo.reshape(-1), d0.reshape(-1), v0.reshape(-1), a0.reshape(-1), hi_a.reshape(-1),
+                    lo_a.reshape(-1), np.ascontiguousarray(vhi, dtype=np.float64).reshape(-1),
+                    np.ascontiguousarray(vlo, dtype=np.float64).reshape(-1), float(jerk), float(max_duration),
+                    float(grow), tau)
+    return T.reshape(lo.shape)
