@@ -38,3 +38,24 @@ def test_sumo_ring_bad_count():
 
     with pytest.raises(ValueError, match="vehicles = 0"):
         SumoRing(0)
+
+
+def test_ramps_vs_sumo_runs_end_to_end():
+    """The whole --vs-sumo path on a short run (it once read a statistics key
+    the world no longer had and failed after its warm-up)."""
+    pytest.importorskip("libsumo")
+    pytest.importorskip("sumo")
+    from icv_envs.experiments.sumo_bench import ramps_vs_sumo
+
+    res = ramps_vs_sumo(seconds=6.0, measure=2.0, chunks=2, sumo_warmup=1.0, echo=lambda s: None)
+    assert res["bench"] == "highway-ramps-vs-sumo"
+    assert res["icv_vehicle_steps_per_cpu_s"] > 0 and res["sumo_vehicle_steps_per_cpu_s"] > 0
+    assert res["ratio_cpu"] == pytest.approx(res["icv_vehicle_steps_per_cpu_s"] / res["sumo_vehicle_steps_per_cpu_s"])
+
+
+def test_time_icv_formation_counts_vehicle_steps():
+    from icv_envs.experiments.sumo_bench import time_icv_formation
+
+    r = time_icv_formation(12, seconds=0.4, warmup=0.2)
+    # 12 vehicles, 0.4 s at 25 Hz physics: 10 physics steps each
+    assert r["vehicle_steps_per_s"] > 0 and r["ms_per_sim_s"] > 0

@@ -42,15 +42,21 @@ def _rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def _vehicle_steps(env) -> int:
+    """Vehicle-steps (one vehicle, one physics step) the env's world has simulated so far."""
+    w = env.core.world
+    motion = getattr(w, "motion", None)  # the highway worlds count them in their motion statistics
+    return int(motion.vehicle_steps) if motion is not None else int(w.stats["vehicle_steps"])
+
+
 def _icv_chunk(env, policy_steps: int) -> dict:
-    st = env.core.world.stats
-    vs0 = st["vehicle_steps"]
+    vs0 = _vehicle_steps(env)
     c0, t0 = time.process_time(), time.perf_counter()
     for _ in range(policy_steps):
         ex = env.expert_actions()
         env.step({a: ex[a] for a in env.agents})
     return {"cpu": time.process_time() - c0, "wall": time.perf_counter() - t0,
-            "vehicle_steps": st["vehicle_steps"] - vs0}
+            "vehicle_steps": _vehicle_steps(env) - vs0}
 
 
 def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1.0 / 3.0, seed: int = 0,
