@@ -291,6 +291,25 @@ class IcvAgentsEnv(AbstractEnv):
             out[ok] = values[pos[ok]]
         return out
 
+    def _fill_expert_labels(self, infos: dict) -> None:
+        """``infos[a]["expert_action"]`` for every agent of a step's infos,
+        from the state the next action is taken in: after the step's
+        removals and spawns, so each label is exactly what
+        :meth:`expert_actions` returns for the next step, and the expert is
+        computed once per step. Agents no longer on the road get zeros."""
+        if not self.config["expert_in_info"] or not infos:
+            return
+        veh = self._vehicles()
+        if veh.n:
+            ex = np.array(self.expert_actions(), copy=True)
+            for a, row in zip([f"icv_{v}" for v in veh.vid.tolist()], ex):
+                info = infos.get(a)
+                if info is not None:
+                    info["expert_action"] = row
+        for info in infos.values():
+            if "expert_action" not in info:
+                info["expert_action"] = np.zeros(2, dtype=np.float32)
+
     # ------------------------------------------------------------------ expert
     def _expert_key(self) -> tuple:
         """What the expert's actions depend on: the world, its clock and the

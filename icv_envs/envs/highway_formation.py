@@ -641,9 +641,9 @@ class HighwayFormationEnv(IcvAgentsEnv):
         self._last_obs = {a: obs[i] for i, a in enumerate(agents)}
         return {a: obs[i] for i, a in enumerate(agents)}, infos
 
-    def _ma_infos(self, agents, rows, parts) -> dict:
+    def _ma_infos(self, agents, rows, parts, expert: bool = True) -> dict:
         c = self.config
-        ex = self.expert_actions() if c["expert_in_info"] and len(rows) else None
+        ex = self.expert_actions() if expert and c["expert_in_info"] and len(rows) else None
         tr = self.world.traffic
         lane_ref = np.where(tr.group >= 0, tr.tgt_lane, -1)  # references()' lane_ref, without the profiles
         rows = np.asarray(rows, dtype=np.int64)
@@ -680,7 +680,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         obs = self._observe_rows(rows, F)
         truncated_all = w.time >= float(c["duration"]) - 1e-9
         observations, rewards, terms, truncs = self._agent_dicts(agents, obs, rew, crashed_now, truncated_all)
-        infos = self._ma_infos(agents, rows, parts)
+        infos = self._ma_infos(agents, rows, parts, expert=False)  # labels at the end of the step
         for i in np.flatnonzero(crashed_now).tolist():
             infos[agents[i]]["crashed"] = True
         # vehicles that left the simulation during the step: exits are
@@ -695,8 +695,6 @@ class HighwayFormationEnv(IcvAgentsEnv):
             terms[a] = vid in events.exited
             truncs[a] = vid in events.left_road
             infos[a] = {"exited": vid in events.exited, "left_road": vid in events.left_road, "crashed": False}
-            if c["expert_in_info"]:
-                infos[a]["expert_action"] = np.zeros(2, dtype=np.float32)
         # crashed vehicles leave the road after reporting
         if len(crashed_rows):
             w.remove_crashed_vehicles()
@@ -705,13 +703,14 @@ class HighwayFormationEnv(IcvAgentsEnv):
             rows2 = np.searchsorted(tr.vid, new)
             o2 = self._observe_rows(rows2)
             a2 = [f"icv_{v}" for v in new]
-            inf2 = self._ma_infos(a2, rows2, {})
+            inf2 = self._ma_infos(a2, rows2, {}, expert=False)
             for i, a in enumerate(a2):
                 observations[a] = o2[i]
                 rewards[a] = 0.0
                 terms[a] = False
                 truncs[a] = bool(truncated_all)
                 infos[a] = inf2[a]
+        self._fill_expert_labels(infos)
         self._last_obs = {a: o for a, o in observations.items() if not (terms[a] or truncs[a])}
         self._on_step_end(events)
         if self.render_mode == "human":

@@ -15,7 +15,7 @@
 
 The overlay helpers (:func:`draw_title`, :func:`draw_legend`,
 :func:`draw_vehicle_markers`) are shared with the intersection's viewer
-(``icv_envs.envs.intersection._viewer_class``). What every colour means is
+(``icv_envs.envs.intersection_viewer.viewer_class``). What every colour means is
 listed in ``docs/rendering.md``.
 4. leaves the process's SIGTERM/SIGINT handling alone: SDL's initialisation
    (``pygame.init()``) installs its own handlers, which turn SIGTERM into a

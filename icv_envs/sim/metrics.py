@@ -112,9 +112,14 @@ class MotionStats:
         self.commanded_abs_accel_sum += float(np.abs(a).sum())
         self.stopped_steps += int((v1 < STOPPED_SPEED).sum())
         self._grow(int(vid.max()) + 1)
-        np.add.at(self._n, vid, 1)
-        np.add.at(self._s1, vid, v1)
-        np.add.at(self._s2, vid, v1 * v1)
+        if len(vid) == 1 or bool((vid[1:] > vid[:-1]).all()):  # a world's rows: distinct, sorted ids
+            self._n[vid] += 1
+            self._s1[vid] += v1
+            self._s2[vid] += v1 * v1
+        else:
+            np.add.at(self._n, vid, 1)
+            np.add.at(self._s1, vid, v1)
+            np.add.at(self._s2, vid, v1 * v1)
 
     def per_vehicle_std(self) -> np.ndarray:
         """Speed standard deviation of every vehicle with >= 2 samples."""
@@ -162,7 +167,7 @@ class HeadwayStats:
         th = np.maximum(gap[moving], 0.0) / v[moving]
         self.min_time_headway = min(self.min_time_headway, float(th.min()))
         b = np.minimum((th / HEADWAY_BIN).astype(np.int64), len(self._hist) - 1)
-        np.add.at(self._hist, b, 1)
+        self._hist += np.bincount(b, minlength=len(self._hist)).astype(self._hist.dtype)
         self.samples += int(moving.sum())
 
     def percentile(self, q: float) -> float | None:

@@ -200,7 +200,7 @@ class World:
         step (the others follow a given, e.g. learned, action), for the
         at-fault attribution of :meth:`classify_collisions`."""
         vids = np.asarray(vids)
-        self._expert_vids = set(int(v) for v in vids[np.asarray(expert_mask, dtype=bool)])
+        self._expert_vids = set(vids[np.asarray(expert_mask, dtype=bool)].tolist())
 
     def classify_collisions(self, i, j, road_rows, new_crash, cx, cy) -> None:
         """Count this substep's new collisions in
