@@ -5,7 +5,8 @@
 HighwayFormation with ``--vehicles`` agents, formation expert through the
 PettingZoo parallel API. The dict layer is the time inside the functions
 that only convert between arrays and the per-agent dicts (the batched
-action check, the observation/reward/termination dicts, the info dicts,
+action check, the observation/reward/termination dicts, the info dicts and
+their expert labels,
 re-aligning actions to rows), garbage collections included where they fall;
 it is reported as a share of ``env.step`` and per agent. Times are
 ``time.perf_counter`` inside one process; compare shares, not absolute
@@ -41,7 +42,7 @@ def main() -> None:
 
         setattr(base.IcvAgentsEnv, name, staticmethod(g) if static else g)
 
-    for name in ("_agent_dicts", "_info_dicts", "_realign_rows"):
+    for name in ("_agent_dicts", "_info_dicts", "_label_infos", "_realign_rows"):
         wrap(name, True)
     wrap("_check_actions", False)
     t_gc = [0.0]
