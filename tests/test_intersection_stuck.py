@@ -166,16 +166,17 @@ def test_a_ready_vehicle_beside_another_in_its_target_lane_yields_and_changes_be
     assert m["rerouted"] == 0 and m["jammed"] == 0 and m["collisions"] == 0
 
 
-@pytest.mark.xfail(strict=True, reason="open (issue 8): the deadlock below is not fixed; the tried fix (the "
-                   "waiting vehicle ignores a vehicle alongside it in the wanted lane) made multi-vp 3000 veh/h "
-                   "seed 7 jam worse (96 jammed, 2598 veh/h) and was reverted")
 def test_a_waiting_lane_changer_is_not_held_by_a_member_alongside_it_in_the_lane_it_wants():
     """5. multi-vp, 2000 veh/h, seed 7: vehicle 187 (lane 1, wanting lane 0)
     stopped 306 m out, its turn signal listing it in lane 0, where member 190
     stood 0.6 m ahead of it keeping its slot 9 m *behind* 187. The envelope
     holds 187 behind 190 (its 'leader' in the wanted lane) and 190 behind its
     slot: both stand from 268 s to the end of the run (39 vehicles jammed
-    behind them). Open: strict xfail, so a fix shows up as XPASS."""
+    behind them). The cause: when its sub-formation's front joined a node,
+    the remaining members were ranked by distance and 187, 0.5 m ahead,
+    became the first, so 190's slot went 9 m behind it. A member waiting to
+    change lanes is now ranked behind a member alongside it in the lane it
+    needs (Regrouping._order_keys); fails on 9bb0cf9."""
     from icv_envs.envs.intersection_v0 import parallel_env
 
     env = parallel_env(method="multi-vp", throughput=2000.0, duration=300.0, expert_in_info=False)
