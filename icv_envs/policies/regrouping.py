@@ -270,7 +270,10 @@ class Regrouping:
         # the member: a circular wait); a member still waiting to change lanes
         # counts as behind a member alongside it in the lane it needs
         # (:meth:`_order_keys`)
-        rank = np.argsort(np.lexsort((tidx, self._order_keys(world, rows, dist))), kind="stable")
+        key = self._order_keys(world, rows, dist)
+        rank = np.argsort(np.lexsort((tidx, key)), kind="stable")
+        if not np.array_equal(rank, np.argsort(np.lexsort((tidx, dist)), kind="stable")):
+            self.stats["lc_ranked_behind"] += 1
         f.tidx[rows] = rank
         first = rows[rank == 0][0]
         f.ref[rows] = f.vid[first]
