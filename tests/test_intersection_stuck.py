@@ -187,3 +187,32 @@ def test_a_waiting_lane_changer_is_not_held_by_a_member_alongside_it_in_the_lane
     jammed = {int(j[1]) for j in env.core.world.jams.log}
     assert not jammed & {187, 190}, jammed
     assert env.metrics()["collisions"] == 0
+
+
+def test_a_member_waiting_to_change_lanes_ranks_behind_a_member_alongside_it_in_that_lane():
+    """The rank rule behind test 5 on a hand-built scene (Regrouping._order_keys):
+    A in lane 1 needs lane 0, B stands in lane 0 0.5 m behind it (bodies
+    overlapping): A ranks behind B. A clear ahead of B keeps its physical
+    rank, and two members that would swap lanes keep theirs."""
+    env = empty_env("multi-vp")
+    w = env.world
+    f = w.fleet
+    ex = env.expert
+
+    def keys(sa, sb, ta, tb, la=1, lb=0):
+        for r in range(f.n):
+            f.crashed[r] = True
+        w.remove_crashed_vehicles()
+        a = put(env, 0, la, 0 if ta == 0 else 1, sa, 0.0, tlane=ta)
+        b = put(env, 0, lb, 0 if tb == 0 else 1, sb, 0.0, tlane=tb)
+        w._route = None
+        rows = f.rows([a, b])
+        k = ex._order_keys(w, rows, w.route().dist[rows])
+        return k[0], k[1]
+
+    ka, kb = keys(-290.0, -290.5, ta=0, tb=0)
+    assert ka > kb  # A (0.5 m ahead) ranks behind B
+    ka, kb = keys(-280.0, -290.5, ta=0, tb=0)
+    assert ka < kb  # A clear ahead of B (bumper gap > 0) keeps its rank
+    ka, kb = keys(-290.0, -290.5, ta=0, tb=1)
+    assert ka < kb  # swapping lanes: physical order
