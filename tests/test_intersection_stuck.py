@@ -166,16 +166,17 @@ def test_a_ready_vehicle_beside_another_in_its_target_lane_yields_and_changes_be
     assert m["rerouted"] == 0 and m["jammed"] == 0 and m["collisions"] == 0
 
 
-@pytest.mark.xfail(strict=True, reason="open (issue 8): the deadlock below is not fixed; the tried fix (the "
-                   "waiting vehicle ignores a vehicle alongside it in the wanted lane) made multi-vp 3000 veh/h "
-                   "seed 7 jam worse (96 jammed, 2598 veh/h) and was reverted")
 def test_a_waiting_lane_changer_is_not_held_by_a_member_alongside_it_in_the_lane_it_wants():
     """5. multi-vp, 2000 veh/h, seed 7: vehicle 187 (lane 1, wanting lane 0)
     stopped 306 m out, its turn signal listing it in lane 0, where member 190
     stood 0.6 m ahead of it keeping its slot 9 m *behind* 187. The envelope
     holds 187 behind 190 (its 'leader' in the wanted lane) and 190 behind its
     slot: both stand from 268 s to the end of the run (39 vehicles jammed
-    behind them). Open: strict xfail, so a fix shows up as XPASS."""
+    behind them). The cause: when its sub-formation's front joined a node,
+    the remaining members were ranked by distance and 187, 0.5 m ahead,
+    became the first, so 190's slot went 9 m behind it. A member waiting to
+    change lanes is now ranked behind a member alongside it in the lane it
+    needs (Regrouping._order_keys); fails on 9bb0cf9."""
     from icv_envs.envs.intersection_v0 import parallel_env
 
     env = parallel_env(method="multi-vp", throughput=2000.0, duration=300.0, expert_in_info=False)
@@ -186,3 +187,32 @@ def test_a_waiting_lane_changer_is_not_held_by_a_member_alongside_it_in_the_lane
     jammed = {int(j[1]) for j in env.core.world.jams.log}
     assert not jammed & {187, 190}, jammed
     assert env.metrics()["collisions"] == 0
+
+
+def test_a_member_waiting_to_change_lanes_ranks_behind_a_member_alongside_it_in_that_lane():
+    """The rank rule behind test 5 on a hand-built scene (Regrouping._order_keys):
+    A in lane 1 needs lane 0, B stands in lane 0 0.5 m behind it (bodies
+    overlapping): A ranks behind B. A clear ahead of B keeps its physical
+    rank, and two members that would swap lanes keep theirs."""
+    env = empty_env("multi-vp")
+    w = env.world
+    f = w.fleet
+    ex = env.expert
+
+    def keys(sa, sb, ta, tb, la=1, lb=0):
+        for r in range(f.n):
+            f.crashed[r] = True
+        w.remove_crashed_vehicles()
+        a = put(env, 0, la, 0 if ta == 0 else 1, sa, 0.0, tlane=ta)
+        b = put(env, 0, lb, 0 if tb == 0 else 1, sb, 0.0, tlane=tb)
+        w._route = None
+        rows = f.rows([a, b])
+        k = ex._order_keys(w, rows, w.route().dist[rows])
+        return k[0], k[1]
+
+    ka, kb = keys(-290.0, -290.5, ta=0, tb=0)
+    assert ka > kb  # A (0.5 m ahead) ranks behind B
+    ka, kb = keys(-280.0, -290.5, ta=0, tb=0)
+    assert ka < kb  # A clear ahead of B (bumper gap > 0) keeps its rank
+    ka, kb = keys(-290.0, -290.5, ta=0, tb=1)
+    assert ka < kb  # swapping lanes: physical order
