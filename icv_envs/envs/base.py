@@ -2,16 +2,22 @@
 :class:`~highway_env.envs.common.abstract.AbstractEnv` whose vehicles are all
 agents, driven through one action space.
 
-Subclasses provide the simulation (``_reset``, ``_ma_advance``,
-``_features``, ``_ma_infos``, ``expert_actions``, ``_sync_render_road``),
-the vehicle arrays (:meth:`_vehicles`, anything with ``n`` and a sorted
-``vid``), the observation columns (``OBS_FEATURES``) and the viewer
+Subclasses provide the simulation (``_reset``, the hooks of the shared step:
+``_new_events``, ``_controls``, ``_before_physics``, ``_after_frames``,
+``_react``, ``_departed``, ``_after_removal``, ``_spawn_late``,
+``_truncations``), the builders of what agents receive (``_features``,
+``_rewards_rows``, ``_ma_infos``), the vehicle arrays (:meth:`_vehicles`,
+anything with ``n``, ``crashed`` and a sorted ``vid``), the observation
+columns (``OBS_FEATURES``), ``_sync_render_road`` and the viewer
 (:meth:`_make_viewer`), and for the observation types the feature scales
 (``_obs_scales``) and neighbour search (``_neighbours``). This class holds the
 parts that are the same for all: the observation / action types and their
 spaces (:mod:`icv_envs.envs.observations`, :mod:`icv_envs.envs.actions`), the
-Gymnasium single-ego ``reset``/``step``, ``ma_step`` (action checks and
-conversion), and rendering.
+Gymnasium single-ego ``reset``/``step``, the multi-agent step (``ma_step``:
+action checks and conversion; ``_ma_advance``: physics, the world's
+reaction, observations, rewards, infos, departures, removals, spawns and the
+expert's labels, in that order), ``ma_reset``, the expert cache and
+rendering.
 """
 
 from __future__ import annotations
@@ -222,6 +228,154 @@ class IcvAgentsEnv(AbstractEnv):
                 vals = [at.check(v, a) for a, v in zip(names, values)]
             acts[given] = at.controls(given, vals)
         return self._ma_advance(acts)
+
+    # ------------------------------------------- the shared multi-agent step
+    # One policy step of every env, in this order: physics (``_advance``),
+    # the world's reaction (``_react``: the formation layer, or the
+    # intersection's arrivals and coordination layer), observations, rewards
+    # and infos of every agent on the road, the agents that left during the
+    # step (``_departed``), crashed vehicles removed (``_after_removal``),
+    # late spawns (``_spawn_late``: the highway's new vehicles appear after
+    # the others have observed), the expert labels from the final state. The
+    # envs supply only these hooks and the builders (``_features``,
+    # ``_rewards_rows``, ``_observe_rows``, ``_ma_infos``).
+    def _frames(self) -> int:
+        """Physics steps per policy step."""
+        c = self.config
+        return int(c["simulation_frequency"] // c["policy_frequency"])
+
+    def _advance(self, actions: np.ndarray):
+        """Apply normalised actions (rows in vehicle order) for one policy
+        period; rows that leave the simulation between frames drop their
+        actions (re-aligned by vehicle id). Returns the world's step events."""
+        w = self.world
+        events = self._new_events()
+        frames = self._frames()
+        acts = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
+        vids = self._vehicles().vid.copy()
+        a, phi = self._controls(acts)
+        for frame in range(frames):
+            veh = self._vehicles()
+            if veh.n != len(vids) or not np.array_equal(veh.vid, vids):
+                keep = np.isin(vids, veh.vid)
+                vids, a, phi = vids[keep], a[keep], phi[keep]
+            w.substep(a, phi, events)
+            if frame < frames - 1:
+                self._automatic_rendering()
+        self._after_frames()
+        return events
+
+    def _new_events(self):
+        raise NotImplementedError
+
+    def _controls(self, acts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Normalised actions -> (acceleration, steering angle)."""
+        raise NotImplementedError
+
+    def _after_frames(self) -> None:
+        """Hook: after the physics frames of a policy step."""
+
+    def _before_physics(self, vids: np.ndarray, acts: np.ndarray) -> None:
+        """Hook: before the physics of a policy step (``vids``: the vehicles
+        the rows of ``acts`` belong to)."""
+
+    def _react(self, events) -> list:
+        """Hook: the world reacts to the physics before anyone observes;
+        returns the ids of vehicles that appeared (they get reward 0)."""
+        return []
+
+    def _departed(self, events) -> dict:
+        """Hook: ``{vid: info}`` of the agents that left the simulation during
+        the step; ``info["exited"]`` is a terminal success,
+        ``info["left_road"]`` a truncation."""
+        return {}
+
+    def _after_removal(self) -> None:
+        """Hook: after crashed vehicles were removed."""
+
+    def _spawn_late(self) -> list:
+        """Hook: vehicles that appear after the others observed; their ids."""
+        return []
+
+    def _truncations(self, truncated_all: bool, crashed_now: np.ndarray):
+        """Per-agent truncation flags (or one bool for all) when the time is up."""
+        return truncated_all
+
+    def _on_step_end(self, events) -> None:
+        """Hook for subclasses (recorders); called once per policy step."""
+
+    def ma_reset(self, seed: int | None = None, options: dict | None = None):
+        self._ma_mode = True
+        self.reset(seed=seed, options=options)
+        veh = self._vehicles()
+        rows = np.arange(veh.n)
+        agents = [f"icv_{v}" for v in veh.vid.tolist()]
+        obs = self._observe_rows(rows, self._features() if veh.n else None)
+        infos = self._ma_infos(agents, rows, {})
+        self._last_obs = {a: obs[i] for i, a in enumerate(agents)}
+        return {a: obs[i] for i, a in enumerate(agents)}, infos
+
+    def _ma_advance(self, acts: np.ndarray):
+        """One policy step of the multi-agent API from normalised action rows
+        (see the comment above for the order); returns the five PettingZoo dicts."""
+        c = self.config
+        w = self.world
+        before = self._vehicles().vid.copy()
+        acts = np.asarray(acts, dtype=np.float64).reshape(-1, 2)
+        self._before_physics(before, acts)
+        events = self._advance(acts)
+        self.time += 1.0 / c["policy_frequency"]
+        self.steps += 1
+        new = self._react(events)
+        veh = self._vehicles()
+        crashed_now = veh.crashed.copy()
+        self._last_actions = self._realign_rows(before, acts, veh.vid)
+        rows = np.arange(veh.n)
+        agents = [f"icv_{v}" for v in veh.vid.tolist()]
+        F = self._features() if veh.n else np.zeros((0, len(self.OBS_FEATURES)))  # once, for rewards and observations
+        rew, parts = self._rewards_rows(rows, crashed_now, F)
+        obs = self._observe_rows(rows, F)
+        truncated_all = w.time >= float(c["duration"]) - 1e-9
+        observations, rewards, terms, truncs = self._agent_dicts(
+            agents, obs, rew, crashed_now, self._truncations(truncated_all, crashed_now))
+        infos = self._ma_infos(agents, rows, parts, expert=False)  # labels at the end of the step
+        for i in np.flatnonzero(crashed_now).tolist():
+            infos[agents[i]]["crashed"] = True
+        for v in new:
+            rewards[f"icv_{v}"] = 0.0
+        # agents that left during the step report their last observation
+        # (their state just before they left)
+        gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        last = getattr(self, "_last_obs", {})
+        for vid, info in sorted(self._departed(events).items()):
+            a = f"icv_{vid}"
+            observations[a] = last.get(a, gone_obs).copy()
+            rewards[a] = 0.0
+            terms[a] = bool(info["exited"])
+            truncs[a] = bool(info["left_road"])
+            infos[a] = info
+        # crashed vehicles leave the road after reporting
+        if crashed_now.any():
+            w.remove_crashed_vehicles()
+            self._after_removal()
+        late = self._spawn_late()
+        if late:
+            rows2 = np.searchsorted(self._vehicles().vid, late)
+            o2 = self._observe_rows(rows2)
+            a2 = [f"icv_{v}" for v in late]
+            inf2 = self._ma_infos(a2, rows2, {}, expert=False)
+            for i, a in enumerate(a2):
+                observations[a] = o2[i]
+                rewards[a] = 0.0
+                terms[a] = False
+                truncs[a] = bool(truncated_all)
+                infos[a] = inf2[a]
+        self._fill_expert_labels(infos)
+        self._last_obs = {a: o for a, o in observations.items() if not (terms[a] or truncs[a])}
+        self._on_step_end(events)
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terms, truncs, infos
 
     def _check_actions(self, names: list, values: list) -> np.ndarray:
         """Continuous actions of all agents checked and converted at once: one

@@ -609,37 +609,38 @@ class HighwayFormationEnv(IcvAgentsEnv):
     # expert_actions(): IcvAgentsEnv's, cached on the vehicle state
 
     # -------------------------------------------------------------- stepping
-    def _advance(self, actions: np.ndarray) -> StepEvents:
-        """Apply normalised actions (rows in traffic order) for one policy
-        period, then update formations and spawns."""
-        c = self.config
-        w = self.world
-        events = StepEvents()
-        frames = int(c["simulation_frequency"] // c["policy_frequency"])
-        acts = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
-        vids = w.traffic.vid.copy()
-        a, phi = action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
-                                    math.radians(c["max_steering_deg"]))
-        for frame in range(frames):
-            # rows may have been removed (exits): re-align by vehicle id
-            if w.traffic.n != len(vids) or not np.array_equal(w.traffic.vid, vids):
-                keep = np.isin(vids, w.traffic.vid)
-                vids, a, phi = vids[keep], a[keep], phi[keep]
-            w.substep(a, phi, events)
-            if frame < frames - 1:
-                self._automatic_rendering()
-        w.record_min_gap()
-        return events
+    # the step itself is IcvAgentsEnv._ma_advance; these are its hooks
+    def _new_events(self) -> StepEvents:
+        return StepEvents()
 
-    def ma_reset(self, seed: int | None = None, options: dict | None = None):
-        self._ma_mode = True
-        self.reset(seed=seed, options=options)
-        rows = np.arange(self.world.traffic.n)
-        agents = [f"icv_{v}" for v in self.world.traffic.vid]
-        obs = self._observe_rows(rows)
-        infos = self._ma_infos(agents, rows, {})
-        self._last_obs = {a: obs[i] for i, a in enumerate(agents)}
-        return {a: obs[i] for i, a in enumerate(agents)}, infos
+    def _controls(self, acts: np.ndarray):
+        c = self.config
+        return action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
+                                  math.radians(c["max_steering_deg"]))
+
+    def _after_frames(self) -> None:
+        self.world.record_min_gap()
+
+    def _before_physics(self, vids: np.ndarray, acts: np.ndarray) -> None:
+        if len(vids):
+            # who drives: an action equal to the expert's (float32) is expert-driven
+            ex = self.expert_actions()
+            self.world.set_expert_driven(vids, np.all(np.abs(acts - ex) <= 1e-6, axis=1))
+
+    def _react(self, events: StepEvents) -> list:
+        # formations react to what happened; new vehicles appear after the
+        # others observed (_spawn_late)
+        w = self.world
+        w.manager.update(w.traffic, w.road, 1.0 / self.config["policy_frequency"])
+        return []
+
+    def _departed(self, events: StepEvents) -> dict:
+        # exits are terminal successes, the end of the road is a truncation
+        return {vid: {"exited": vid in events.exited, "left_road": vid in events.left_road, "crashed": False}
+                for vid in events.exited | events.left_road}
+
+    def _spawn_late(self) -> list:
+        return self._spawn_due()
 
     def _ma_infos(self, agents, rows, parts, expert: bool = True) -> dict:
         c = self.config
@@ -655,70 +656,6 @@ class HighwayFormationEnv(IcvAgentsEnv):
             "crashed": [False] * len(rows),
         }
         return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
-
-    def _ma_advance(self, acts: np.ndarray):
-        c = self.config
-        w = self.world
-        tr = w.traffic
-        before = tr.vid.copy()
-        if tr.n:
-            # who drives: an action equal to the expert's (float32) is expert-driven
-            ex = self.expert_actions()
-            w.set_expert_driven(before, np.all(np.abs(np.asarray(acts, dtype=np.float64) - ex) <= 1e-6, axis=1))
-        events = self._advance(acts)
-        self.time += 1.0 / c["policy_frequency"]
-        self.steps += 1
-        # formations react to what happened, then new vehicles appear
-        w.manager.update(tr, w.road, 1.0 / c["policy_frequency"])
-        crashed_rows = np.flatnonzero(tr.crashed)
-        self._last_actions = self._realign_rows(before, np.asarray(acts, dtype=np.float64).reshape(-1, 2), tr.vid)
-        rows = np.arange(tr.n)
-        agents = [f"icv_{v}" for v in tr.vid.tolist()]
-        crashed_now = tr.crashed.copy()
-        F = self._features()  # once per step, for rewards and observations
-        rew, parts = self._rewards_rows(rows, crashed_now, F)
-        obs = self._observe_rows(rows, F)
-        truncated_all = w.time >= float(c["duration"]) - 1e-9
-        observations, rewards, terms, truncs = self._agent_dicts(agents, obs, rew, crashed_now, truncated_all)
-        infos = self._ma_infos(agents, rows, parts, expert=False)  # labels at the end of the step
-        for i in np.flatnonzero(crashed_now).tolist():
-            infos[agents[i]]["crashed"] = True
-        # vehicles that left the simulation during the step: exits are
-        # terminal successes, the end of the road is a truncation
-        gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
-        last = getattr(self, "_last_obs", {})
-        for vid in sorted(events.exited | events.left_road):
-            a = f"icv_{vid}"
-            # the last observation it had (its state just before it left)
-            observations[a] = last.get(a, gone_obs).copy()
-            rewards[a] = 0.0
-            terms[a] = vid in events.exited
-            truncs[a] = vid in events.left_road
-            infos[a] = {"exited": vid in events.exited, "left_road": vid in events.left_road, "crashed": False}
-        # crashed vehicles leave the road after reporting
-        if len(crashed_rows):
-            w.remove_crashed_vehicles()
-        new = self._spawn_due()
-        if new:
-            rows2 = np.searchsorted(tr.vid, new)
-            o2 = self._observe_rows(rows2)
-            a2 = [f"icv_{v}" for v in new]
-            inf2 = self._ma_infos(a2, rows2, {}, expert=False)
-            for i, a in enumerate(a2):
-                observations[a] = o2[i]
-                rewards[a] = 0.0
-                terms[a] = False
-                truncs[a] = bool(truncated_all)
-                infos[a] = inf2[a]
-        self._fill_expert_labels(infos)
-        self._last_obs = {a: o for a, o in observations.items() if not (terms[a] or truncs[a])}
-        self._on_step_end(events)
-        if self.render_mode == "human":
-            self.render()
-        return observations, rewards, terms, truncs, infos
-
-    def _on_step_end(self, events: StepEvents) -> None:
-        """Hook for subclasses (recorders); called once per policy step."""
 
     # ------------------------------------------------------- gymnasium (ego)
 

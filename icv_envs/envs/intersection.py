@@ -312,10 +312,6 @@ class IntersectionEnv(IcvAgentsEnv):
             cap_tau=1.0 / float(c["policy_frequency"]),
         )
 
-    def _frames(self) -> int:
-        c = self.config
-        return int(c["simulation_frequency"] // c["policy_frequency"])
-
     def _arrivals(self) -> list[tuple]:
         """All vehicle arrivals ``(due_time, leg, lane, movement, formation_key, slot)`` of the episode."""
         c = self.config
@@ -590,36 +586,33 @@ class IntersectionEnv(IcvAgentsEnv):
     # expert_actions(): IcvAgentsEnv's, cached on the vehicle state
 
     # -------------------------------------------------------------- stepping
-    def _advance(self, actions: np.ndarray) -> StepEvents:
-        c = self.config
-        w = self.world
-        events = StepEvents()
-        frames = self._frames()
-        acts = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
-        vids = w.fleet.vid.copy()
-        a, phi = action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
-                                    math.radians(c["max_steering_deg"]))
-        for frame in range(frames):
-            f = w.fleet
-            if f.n != len(vids) or not np.array_equal(f.vid, vids):
-                keep = np.isin(vids, f.vid)
-                vids, a, phi = vids[keep], a[keep], phi[keep]
-            w.substep(a, phi, events)
-            if frame < frames - 1:
-                self._automatic_rendering()
-        return events
+    # the step itself is IcvAgentsEnv._ma_advance; these are its hooks
+    def _new_events(self) -> StepEvents:
+        return StepEvents()
 
-    def ma_reset(self, seed: int | None = None, options: dict | None = None):
-        self._ma_mode = True
-        self.reset(seed=seed, options=options)
-        f = self.world.fleet
-        rows = np.arange(f.n)
-        agents = [f"icv_{v}" for v in f.vid]
-        F = self._features() if f.n else None
-        obs = self._observe_rows(rows, F)
-        infos = self._ma_infos(agents, rows, {})
-        self._last_obs = {a: obs[i] for i, a in enumerate(agents)}
-        return {a: obs[i] for i, a in enumerate(agents)}, infos
+    def _controls(self, acts: np.ndarray):
+        c = self.config
+        return action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
+                                  math.radians(c["max_steering_deg"]))
+
+    def _react(self, events: StepEvents) -> list:
+        # new arrivals appear and the coordination layer reacts, then everyone observes
+        new = self._spawn_due()
+        self.expert.update(self.world)
+        return new
+
+    def _truncations(self, truncated_all: bool, crashed_now: np.ndarray):
+        return bool(truncated_all) & ~crashed_now
+
+    def _departed(self, events: StepEvents) -> dict:
+        # the departure end is a terminal success, driving back out of the
+        # approach road a truncation
+        return {vid: {"exited": vid in events.removed, "left_road": vid in events.left_road, "crashed": False,
+                      "wrong_exit": vid in events.wrong_exit}
+                for vid in events.removed | events.left_road}
+
+    def _after_removal(self) -> None:
+        self.expert.update(self.world)
 
     def _ma_infos(self, agents, rows, parts, expert: bool = True) -> dict:
         c = self.config
@@ -640,54 +633,6 @@ class IntersectionEnv(IcvAgentsEnv):
             "crashed": [False] * len(rows),
         }
         return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
-
-    def _ma_advance(self, acts: np.ndarray):
-        c = self.config
-        w = self.world
-        f = w.fleet
-        before = f.vid.copy()
-        events = self._advance(acts)
-        self.time += 1.0 / c["policy_frequency"]
-        self.steps += 1
-        crashed_now = f.crashed.copy()
-        truncated_all = w.time >= float(c["duration"]) - 1e-9
-        # new arrivals appear, the coordination layer reacts, then everyone observes
-        new = self._spawn_due()
-        self.expert.update(w)
-        f = w.fleet
-        crashed_now = np.concatenate([crashed_now, np.zeros(f.n - len(crashed_now), dtype=bool)])
-        self._last_actions = self._realign_rows(before, np.asarray(acts, dtype=np.float64).reshape(-1, 2), f.vid)
-        rows = np.arange(f.n)
-        agents = [f"icv_{v}" for v in f.vid.tolist()]
-        F = self._features() if f.n else np.zeros((0, len(OBS_FEATURES)))
-        rew, parts = self._rewards_rows(rows, crashed_now, F)
-        obs = self._observe_rows(rows, F)
-        observations, rewards, terms, truncs = self._agent_dicts(
-            agents, obs, rew, crashed_now, bool(truncated_all) & ~crashed_now)
-        infos = self._ma_infos(agents, rows, parts, expert=False)  # labels at the end of the step
-        for i in np.flatnonzero(crashed_now).tolist():
-            infos[agents[i]]["crashed"] = True
-        for v in new:
-            rewards[f"icv_{v}"] = 0.0
-        # vehicles that left during the step: the departure end is a terminal
-        # success, driving back out of the approach road a truncation
-        gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
-        for vid in sorted(events.removed | events.left_road):
-            a = f"icv_{vid}"
-            observations[a] = self._last_obs.get(a, gone_obs).copy()
-            rewards[a] = 0.0
-            terms[a] = vid in events.removed
-            truncs[a] = vid in events.left_road
-            infos[a] = {"exited": vid in events.removed, "left_road": vid in events.left_road, "crashed": False,
-                        "wrong_exit": vid in events.wrong_exit}
-        if crashed_now.any():
-            w.remove_crashed_vehicles()
-            self.expert.update(w)
-        self._fill_expert_labels(infos)
-        self._last_obs = {a: o for a, o in observations.items() if not (terms[a] or truncs[a])}
-        if self.render_mode == "human":
-            self.render()
-        return observations, rewards, terms, truncs, infos
 
     # ------------------------------------------------------- gymnasium (ego)
 
