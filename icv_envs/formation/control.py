@@ -197,6 +197,10 @@ def join_profile(t, T, d0, v0, a0):
     return d, v, a
 
 
+_PROFILE_SAMPLES = np.linspace(0.0, 1.0, 201)  # where join_duration checks a profile (fractions of T)
+_PROFILE_SAMPLES.flags.writeable = False
+
+
 def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFILE_DECEL,
                   jerk: float = PROFILE_JERK, t_min: float = PROFILE_MIN_DURATION, grow: float = 1.05,
                   max_duration: float = 600.0, v_lo=-np.inf, v_hi=np.inf) -> np.ndarray:
@@ -219,7 +223,7 @@ def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFI
     vhi = np.maximum(np.broadcast_to(np.asarray(v_hi, dtype=np.float64), d0.shape), v0)
     vlo = np.minimum(np.broadcast_to(np.asarray(v_lo, dtype=np.float64), d0.shape), v0)
     hi_a, lo_a = np.asarray(hi_a, dtype=np.float64), np.asarray(lo_a, dtype=np.float64)
-    tau = np.linspace(0.0, 1.0, 201)
+    tau = _PROFILE_SAMPLES
 
     # start from (0.7 x) the rest-to-rest estimate of the minimum-jerk move
     # (peak acceleration 5.77 d / T^2, jerk 60 d / T^3), double until
