@@ -49,7 +49,9 @@ unknown type or an option the type does not have raises `ValueError`):
 | `FormationResidual` | `Box(-1, 1, (2,), float32)` | a correction `r`; the vehicle applies `clip(expert + bound * r, -1, 1)` (`bound` 0.25, or `[bound_accel, bound_steer]`); `r = 0` is the expert |
 
 `infos[agent]["expert_action"]` is always the expert's `[u_a, u_s]` (the
-`ContinuousAction` form). Details: `icv_envs.envs.actions`.
+`ContinuousAction` form), taken in the state the next action is taken in (after the
+step's removals and spawns), so it equals `expert_actions()[agent]` at the
+next step; agents that left get zeros. Details: `icv_envs.envs.actions`.
 
 ## Observation types
 
