@@ -33,3 +33,7 @@ t bc_onramp python baselines/bc_expert.py --config '{"scenario": "on-ramp"}' --e
 t bc_dagger_intersection python baselines/bc_expert.py --env intersection_v0 \
     --config '{"throughput": 1500, "duration": 120, "warmup": 80}' --expert-steps 3000 --dagger-iters 15 \
     --dagger-steps 1800 --epochs 2 --seed 0 --eval-episodes 4 --out "$OUT/bc_dagger_intersection"
+# 6. PPO from scratch on DiscreteMetaAction, lane-drop, a 50-minute budget on one core (2026-12-02; the
+#    machine ran two intersection sweeps, the test suite and HighwayRamps runs beside it: 403,560 env steps)
+t ppo_meta_lane-drop_50min python baselines/ppo_recipe.py --config '{"scenario": "lane-drop"}' \
+    --action-type DiscreteMetaAction --max-minutes 50 --eval-every 25000 --seed 0 --out "$OUT/ppo_meta_lane-drop_50min"
