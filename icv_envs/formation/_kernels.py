@@ -19,11 +19,15 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["quintic_feasible", "join_search"]
+__all__ = ["join_search"]
 
 
 @nb.njit(cache=True)
 def _feasible1(Ti, d, v, a, hi_a, lo_a, v_hi, v_lo, jerk, max_duration, tau):
+    """The quintic from ``(d, v, a)`` to rest at ``Ti`` keeps, on the samples
+    ``tau * Ti``, its acceleration within ``[lo_a, hi_a]``, its jerk within
+    ``+-jerk`` and its speed within ``[v_lo, v_hi]`` (1e-9 slack each), or
+    ``Ti >= max_duration``."""
     if Ti >= max_duration:
         return True
     c3 = -(20.0 * d + 12.0 * v * Ti + 3.0 * a * Ti ** 2) / (2.0 * Ti ** 3.0)
@@ -44,19 +48,6 @@ def _feasible1(Ti, d, v, a, hi_a, lo_a, v_hi, v_lo, jerk, max_duration, tau):
         if not (ak <= a_hi and ak >= a_lo and abs(jk) <= j_hi and vk <= s_hi and vk >= s_lo):
             return False
     return True
-
-
-@nb.njit(cache=True)
-def quintic_feasible(T, d0, v0, a0, hi_a, lo_a, v_hi, v_lo, jerk, max_duration, tau):
-    """``ok[i]``: the quintic from ``(d0, v0, a0)[i]`` to rest at ``T[i]``
-    keeps, on the samples ``tau * T[i]``, its acceleration within
-    ``[lo_a, hi_a]``, its jerk within ``+-jerk`` and its speed within
-    ``[v_lo, v_hi]`` (each with 1e-9 slack), or ``T[i] >= max_duration``."""
-    m = T.shape[0]
-    out = np.empty(m, dtype=np.bool_)
-    for i in range(m):
-        out[i] = _feasible1(T[i], d0[i], v0[i], a0[i], hi_a[i], lo_a[i], v_hi[i], v_lo[i], jerk, max_duration, tau)
-    return out
 
 
 @nb.njit(cache=True)
