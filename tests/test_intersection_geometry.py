@@ -118,3 +118,25 @@ def test_radii_validation():
             validate_radii(r1, r2, r3)
     with pytest.raises(ValueError, match="R2 must be a finite number"):
         validate_radii(300, float("nan"), 800)
+
+
+def test_fleet_rows_small_and_large_requests_agree_after_adds_and_removals():
+    """Fleet.rows answers small requests from an id -> row dict (rebuilt when
+    the fleet changes) and large ones by binary search: the same rows, -1
+    for absent ids, through adds and removals."""
+    import numpy as np
+
+    from icv_envs.sim.intersection_world import Fleet
+
+    f = Fleet()
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        f.add(int(rng.integers(0, 6)))
+        if f.n:
+            f.remove(rng.random(f.n) < 0.3)
+        probe = rng.integers(-2, f.next_vid + 3, size=40)
+        big = f.rows(probe)  # > 16 ids: binary search
+        small = np.concatenate([f.rows(probe[i:i + 4]) for i in range(0, 40, 4)])  # the dict
+        assert np.array_equal(big, small)
+        assert all((r == -1) == (v not in set(f.vid.tolist())) for v, r in zip(probe.tolist(), big.tolist()))
+        assert all(f.vid[r] == v for v, r in zip(probe.tolist(), big.tolist()) if r >= 0)

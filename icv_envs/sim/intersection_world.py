@@ -360,6 +360,8 @@ class Fleet:
         self._fields: dict[str, tuple[type, object]] = {}
         self.next_vid = 0
         self.vid = np.zeros(0, dtype=np.int64)
+        self._row_of: dict[int, int] = {}
+        self._row_of_key = (None,)  # (the vid array _row_of was built for,); a tuple, not state
 
     def define(self, name: str, dtype, default) -> None:
         if name in self._fields:
@@ -390,8 +392,18 @@ class Fleet:
             setattr(self, name, getattr(self, name)[keep])
 
     def rows(self, vids) -> np.ndarray:
-        """Rows of ``vids`` (-1 for vehicles not present)."""
+        """Rows of ``vids`` (-1 for vehicles not present). The coordination
+        layer asks this for a handful of ids at a time, about a hundred
+        times per step: small requests use an id -> row dict rebuilt when
+        the fleet changes (``add``/``remove`` replace ``vid``), large ones a
+        binary search; both give the same rows."""
         vids = np.asarray(vids, dtype=np.int64)
+        if vids.ndim == 1 and len(vids) <= 16:
+            if self._row_of_key[0] is not self.vid:
+                self._row_of = dict(zip(self.vid.tolist(), range(len(self.vid))))
+                self._row_of_key = (self.vid,)
+            get = self._row_of.get
+            return np.fromiter((get(v, -1) for v in vids.tolist()), dtype=np.int64, count=len(vids))
         r = np.searchsorted(self.vid, vids)
         r = np.minimum(r, max(self.n - 1, 0))
         ok = (self.n > 0) & (self.vid[r] == vids) if self.n else np.zeros(len(vids), dtype=bool)
