@@ -126,8 +126,7 @@ class FormationManager:
         self.profile_speeds = (float(profile_speeds[0]), float(profile_speeds[1]))
         self.time = 0.0
         self.plans = 0
-        self._plan_version = 0  # bumped by every plan: the key of the profile cache
-        self._profile_cache = None
+        self._profile_cache = None  # (key, profiles): see _profile
         # per vehicle id: the slot a plan was made for (group, metres behind
         # the front), the plan (start time, duration, initial offset, relative
         # speed, acceleration) and when the first plan for that slot ends
@@ -186,7 +185,6 @@ class FormationManager:
         if np.any(stuck):
             T = np.asarray(T, dtype=np.float64).copy()
             T[stuck] = join_duration(d0[stuck], v0[stuck], a0[stuck], **lim)
-        self._plan_version += 1
         self._p_t0[vid], self._p_T[vid] = self.time, T
         self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
         self.plans += len(rows)
@@ -196,9 +194,10 @@ class FormationManager:
         """``join_profile`` of the members at ``rows`` now. Several callers
         ask for the same rows within one step (the expert, the observations,
         the manager's own update); the last answer is kept, keyed on the
-        clock, the plan counter and the vehicle ids (the only inputs)."""
+        clock, the count of plans made (it grows with every plan that writes
+        the plan arrays) and the vehicle ids: the only inputs."""
         vid = traffic.vid[rows]
-        key = (self.time, self._plan_version, vid.tobytes())
+        key = (self.time, self.plans, vid.tobytes())
         if self._profile_cache is not None and self._profile_cache[0] == key:
             return self._profile_cache[1]
         out = join_profile(self.time - self._p_t0[vid], self._p_T[vid], self._p_d0[vid], self._p_v0[vid],
