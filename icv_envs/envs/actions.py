@@ -3,7 +3,7 @@
 Every env of this package (the Gymnasium ego and every PettingZoo agent)
 takes one of these, chosen with ``config["action"] = {"type": ..., <options>}``;
 whatever the type, the simulation applies normalised ``[u_a, u_s]`` controls
-(:func:`icv_envs.envs.highway_formation.action_to_controls`), held for the
+(:func:`action_to_controls`), held for the
 ``simulation_frequency / policy_frequency`` substeps of one policy step, and
 the comfort reward uses those applied controls.
 
@@ -48,13 +48,35 @@ Anything else, or an option that the type does not have, raises ``ValueError``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from gymnasium import spaces
 
 from icv_envs.envs._config import pick_type, typed_options
 
+
 __all__ = ["ACTION_TYPES", "check_actions", "ActionType", "ContinuousAction", "DiscreteMetaAction", "FormationResidual",
-           "action_factory"]
+           "action_factory", "action_to_controls", "controls_to_action"]
+
+
+def action_to_controls(action: np.ndarray, a_min=-6.0, a_max=3.0, steer_max=math.radians(30.0)):
+    """Map normalised actions ``[u_a, u_s]`` in ``[-1, 1]`` to SI controls.
+
+    Acceleration is piecewise linear so that 0 means coasting: ``u_a >= 0``
+    gives ``u_a * a_max`` and ``u_a < 0`` gives ``-u_a * a_min`` (paper Sec.
+    2.2 limits, [-6, 3] m/s^2). Steering is ``u_s * steer_max`` (30 deg)."""
+    action = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+    ua, us = action[..., 0], action[..., 1]
+    a = np.where(ua >= 0, ua * a_max, -ua * a_min)
+    return a, us * steer_max
+
+
+def controls_to_action(a, phi, a_min=-6.0, a_max=3.0, steer_max=math.radians(30.0)) -> np.ndarray:
+    """Inverse of :func:`action_to_controls` (clipped to the limits)."""
+    a = np.asarray(a, dtype=np.float64)
+    ua = np.where(a >= 0, a / a_max, -a / a_min)
+    return np.clip(np.stack([ua, np.asarray(phi) / steer_max], axis=-1), -1.0, 1.0)
 
 
 def check_actions(actions, agents) -> np.ndarray:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import math
 import operator
 
 import gymnasium as gym
@@ -31,7 +32,7 @@ import numpy as np
 from gymnasium import spaces
 from highway_env.envs.common.abstract import AbstractEnv
 
-from icv_envs.envs.actions import ContinuousAction, action_factory, check_actions
+from icv_envs.envs.actions import ContinuousAction, action_factory, action_to_controls, check_actions
 from icv_envs.envs.observations import observation_factory
 
 __all__ = ["IcvAgentsEnv", "check_actions"]
@@ -269,8 +270,11 @@ class IcvAgentsEnv(AbstractEnv):
         raise NotImplementedError
 
     def _controls(self, acts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Normalised actions -> (acceleration, steering angle)."""
-        raise NotImplementedError
+        """Normalised actions -> (acceleration, steering angle) within the
+        configured limits (:func:`~icv_envs.envs.actions.action_to_controls`)."""
+        c = self.config
+        return action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
+                                  math.radians(c["max_steering_deg"]))
 
     def _after_frames(self) -> None:
         """Hook: after the physics frames of a policy step."""

@@ -32,6 +32,7 @@ from icv_envs.envs._config import (
     section,
     speed_range,
 )
+from icv_envs.envs.actions import action_to_controls, controls_to_action  # noqa: F401  (re-exported)
 from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.observations import merge_observation_config
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
@@ -76,25 +77,6 @@ _FORMATION_DEFAULTS = {
 VEHICLE_LENGTH = 5.0
 JAM_DISTANCE = 2.0
 _REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "formation": 0.5}
-
-
-def action_to_controls(action: np.ndarray, a_min=-6.0, a_max=3.0, steer_max=math.radians(30.0)):
-    """Map normalised actions ``[u_a, u_s]`` in ``[-1, 1]`` to SI controls.
-
-    Acceleration is piecewise linear so that 0 means coasting: ``u_a >= 0``
-    gives ``u_a * a_max`` and ``u_a < 0`` gives ``-u_a * a_min`` (paper Sec.
-    2.2 limits, [-6, 3] m/s^2). Steering is ``u_s * steer_max`` (30 deg)."""
-    action = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
-    ua, us = action[..., 0], action[..., 1]
-    a = np.where(ua >= 0, ua * a_max, -ua * a_min)
-    return a, us * steer_max
-
-
-def controls_to_action(a, phi, a_min=-6.0, a_max=3.0, steer_max=math.radians(30.0)) -> np.ndarray:
-    """Inverse of :func:`action_to_controls` (clipped to the limits)."""
-    a = np.asarray(a, dtype=np.float64)
-    ua = np.where(a >= 0, a / a_max, -a / a_min)
-    return np.clip(np.stack([ua, np.asarray(phi) / steer_max], axis=-1), -1.0, 1.0)
 
 
 _num = num  # the shared check (kept under its old name for the subclasses)
@@ -612,11 +594,6 @@ class HighwayFormationEnv(IcvAgentsEnv):
     # the step itself is IcvAgentsEnv._ma_advance; these are its hooks
     def _new_events(self) -> StepEvents:
         return StepEvents()
-
-    def _controls(self, acts: np.ndarray):
-        c = self.config
-        return action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
-                                  math.radians(c["max_steering_deg"]))
 
     def _after_frames(self) -> None:
         self.world.record_min_gap()

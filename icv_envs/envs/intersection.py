@@ -48,7 +48,7 @@ from icv_envs.envs._config import (
     speed_range,
 )
 from icv_envs.envs.base import IcvAgentsEnv
-from icv_envs.envs.highway_formation import _num, action_to_controls
+from icv_envs.envs.highway_formation import _num
 from icv_envs.envs.observations import merge_observation_config
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon.conflicts import required_layer_gap
@@ -589,11 +589,6 @@ class IntersectionEnv(IcvAgentsEnv):
     # the step itself is IcvAgentsEnv._ma_advance; these are its hooks
     def _new_events(self) -> StepEvents:
         return StepEvents()
-
-    def _controls(self, acts: np.ndarray):
-        c = self.config
-        return action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
-                                  math.radians(c["max_steering_deg"]))
 
     def _react(self, events: StepEvents) -> list:
         # new arrivals appear and the coordination layer reacts, then everyone observes

@@ -9,7 +9,7 @@ targets into controls.
 
 For every ICV it returns an action in the agents' action space
 (``[acceleration, steering]`` scaled to ``[-1, 1]``, see
-:func:`icv_envs.envs.highway_formation.action_to_controls`):
+:func:`icv_envs.envs.actions.action_to_controls`):
 
 * **Lateral** (paper Sec. 2.2 and 3.4): a vehicle whose target lane differs
   from its lane changes lanes one lane at a time along a cubic Bezier curve

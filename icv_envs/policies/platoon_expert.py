@@ -10,7 +10,7 @@ control (references to actions, safety envelope) here.  One class,
 environment every policy step, as V2X infrastructure would) and the
 per-vehicle controller that turns its references into actions in the agents'
 action space (normalised ``[acceleration, steering]``, see
-:func:`icv_envs.envs.highway_formation.controls_to_action`).  Methods:
+:func:`icv_envs.envs.actions.controls_to_action`).  Methods:
 
 * ``multi-vp`` (the paper's method): every sub-formation is a node of the
   virtual platoon;
