@@ -316,8 +316,9 @@ class IcvAgentsEnv(AbstractEnv):
         agents = [f"icv_{v}" for v in veh.vid.tolist()]
         obs = self._observe_rows(rows, self._features() if veh.n else None)
         infos = self._ma_infos(agents, rows, {})
-        self._last_obs = {a: obs[i] for i, a in enumerate(agents)}
-        return {a: obs[i] for i, a in enumerate(agents)}, infos
+        observations = dict(zip(agents, obs))
+        self._last_obs = dict(observations)
+        return observations, infos
 
     def _ma_advance(self, acts: np.ndarray):
         """One policy step of the multi-agent API from normalised action rows
