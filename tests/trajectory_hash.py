@@ -102,19 +102,26 @@ def all_fingerprints(names=None) -> dict:
 PINNED_LEVEL = "X86_V3"  # NumPy's AVX2 dispatch level: the fingerprints' reference CPU
 
 
+def _active_targets_above() -> list[str]:
+    """NumPy dispatch targets above :data:`PINNED_LEVEL` that are active in this process."""
+    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+
+    order = list(__cpu_dispatch__)
+    above = order[order.index(PINNED_LEVEL) + 1:] if PINNED_LEVEL in order else []
+    return [f for f in above if __cpu_features__.get(f, False)]
+
+
 def pinned_environment() -> dict | None:
     """Environment variables that cap NumPy's SIMD dispatch at
     :data:`PINNED_LEVEL` in a new process, or ``None`` where the machine
     cannot run that level (not x86-64, or no AVX2)."""
-    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    from numpy._core._multiarray_umath import __cpu_features__
 
     if not __cpu_features__.get(PINNED_LEVEL, False):
         return None
-    order = list(__cpu_dispatch__)
-    above = order[order.index(PINNED_LEVEL) + 1:] if PINNED_LEVEL in order else []
     env = dict(os.environ)
     env.pop("NPY_ENABLE_CPU_FEATURES", None)
-    env["NPY_DISABLE_CPU_FEATURES"] = " ".join(f for f in above if __cpu_features__.get(f, False))
+    env["NPY_DISABLE_CPU_FEATURES"] = " ".join(_active_targets_above())
     env["PYTHONPATH"] = os.pathsep.join([str(Path(__file__).resolve().parents[1]), env.get("PYTHONPATH", "")])
     return env
 
@@ -132,17 +139,9 @@ def pinned_fingerprints(names=None) -> dict:
     return json.loads(out.stdout)
 
 
-def _dispatch_capped() -> bool:
-    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
-
-    order = list(__cpu_dispatch__)
-    above = order[order.index(PINNED_LEVEL) + 1:] if PINNED_LEVEL in order else []
-    return not any(__cpu_features__.get(f, False) for f in above)
-
-
 if __name__ == "__main__":
     if "--in-process" in sys.argv:
-        if not _dispatch_capped():
+        if _active_targets_above():
             sys.exit(f"NumPy's dispatch is not capped at {PINNED_LEVEL}; run through pinned_fingerprints()")
         names = [a for a in sys.argv[1:] if not a.startswith("--")] or None
         print(json.dumps(all_fingerprints(names)))
