@@ -360,8 +360,7 @@ class Fleet:
         self._fields: dict[str, tuple[type, object]] = {}
         self.next_vid = 0
         self.vid = np.zeros(0, dtype=np.int64)
-        self._row_of: dict[int, int] = {}
-        self._row_of_key = (None,)  # (the vid array _row_of was built for,); a tuple, not state
+        self._row_of: dict[int, int] | None = None  # vid -> row, built on demand, dropped when vid changes
 
     def define(self, name: str, dtype, default) -> None:
         if name in self._fields:
@@ -377,6 +376,7 @@ class Fleet:
         ids = np.arange(self.next_vid, self.next_vid + k, dtype=np.int64)
         self.next_vid += k
         self.vid = np.concatenate([self.vid, ids])
+        self._row_of = None
         for name, (dtype, default) in self._fields.items():
             v = np.broadcast_to(np.asarray(values.get(name, default), dtype=dtype), (k,))
             setattr(self, name, np.concatenate([getattr(self, name), v]))
@@ -388,6 +388,7 @@ class Fleet:
     def remove(self, mask) -> None:
         keep = ~np.asarray(mask, dtype=bool)
         self.vid = self.vid[keep]
+        self._row_of = None
         for name in self._fields:
             setattr(self, name, getattr(self, name)[keep])
 
@@ -395,13 +396,12 @@ class Fleet:
         """Rows of ``vids`` (-1 for vehicles not present). The coordination
         layer asks this for a handful of ids at a time, about a hundred
         times per step: small requests use an id -> row dict rebuilt when
-        the fleet changes (``add``/``remove`` replace ``vid``), large ones a
-        binary search; both give the same rows."""
+        the fleet changes (``add``/``remove``), large ones a binary search;
+        both give the same rows."""
         vids = np.asarray(vids, dtype=np.int64)
         if vids.ndim == 1 and len(vids) <= 16:
-            if self._row_of_key[0] is not self.vid:
+            if self._row_of is None:
                 self._row_of = dict(zip(self.vid.tolist(), range(len(self.vid))))
-                self._row_of_key = (self.vid,)
             get = self._row_of.get
             return np.fromiter((get(v, -1) for v in vids.tolist()), dtype=np.int64, count=len(vids))
         r = np.searchsorted(self.vid, vids)
