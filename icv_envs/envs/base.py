@@ -316,6 +316,7 @@ class IcvAgentsEnv(AbstractEnv):
         agents = [f"icv_{v}" for v in veh.vid.tolist()]
         obs = self._observe_rows(rows, self._features() if veh.n else None)
         infos = self._ma_infos(agents, rows, {})
+        self._fill_expert_labels(infos)
         observations = dict(zip(agents, obs))
         self._last_obs = dict(observations)
         return observations, infos
@@ -343,7 +344,7 @@ class IcvAgentsEnv(AbstractEnv):
         truncated_all = w.time >= float(c["duration"]) - 1e-9
         observations, rewards, terms, truncs = self._agent_dicts(
             agents, obs, rew, crashed_now, self._truncations(truncated_all, crashed_now))
-        infos = self._ma_infos(agents, rows, parts, expert=False)  # labels at the end of the step
+        infos = self._ma_infos(agents, rows, parts)  # expert labels at the end of the step
         for i in np.flatnonzero(crashed_now).tolist():
             infos[agents[i]]["crashed"] = True
         for v in new:
@@ -368,7 +369,7 @@ class IcvAgentsEnv(AbstractEnv):
             rows2 = np.searchsorted(self._vehicles().vid, late)
             o2 = self._observe_rows(rows2)
             a2 = [f"icv_{v}" for v in late]
-            inf2 = self._ma_infos(a2, rows2, {}, expert=False)
+            inf2 = self._ma_infos(a2, rows2, {})
             for i, a in enumerate(a2):
                 observations[a] = o2[i]
                 rewards[a] = 0.0
@@ -427,15 +428,12 @@ class IcvAgentsEnv(AbstractEnv):
         return observations, rewards, terms, truncs
 
     @staticmethod
-    def _info_dicts(agents: list, columns: dict, expert: np.ndarray | None = None, parts: dict | None = None) -> dict:
+    def _info_dicts(agents: list, columns: dict, parts: dict | None = None) -> dict:
         """One info dict per agent from per-agent columns (lists aligned with
-        ``agents``), the expert's action rows (one copy, one row each) and the
-        reward components (``info["rewards"]``)."""
+        ``agents``) and the reward components (``info["rewards"]``); the
+        expert's labels are added by :meth:`_label_infos`."""
         keys = list(columns)
         vals = [columns[k] for k in keys]
-        if expert is not None:
-            keys.append("expert_action")
-            vals.append(list(np.array(expert, copy=True)))
         pk = list(parts) if parts else []
         vals += [np.asarray(parts[k], dtype=np.float64).tolist() for k in pk]
         return _dict_builder(tuple(keys), tuple(pk))(agents, vals)
@@ -530,7 +528,11 @@ class IcvAgentsEnv(AbstractEnv):
         if r < 0:
             return np.zeros(self.observation_space.shape, dtype=np.float32), {}
         obs = self._observe_rows(np.array([r]))[0]
-        info = self._ma_infos([f"icv_{self._ego_vid}"], np.array([r]), {})[f"icv_{self._ego_vid}"]
+        a = f"icv_{self._ego_vid}"
+        infos = self._ma_infos([a], np.array([r]), {})
+        if self.config["expert_in_info"]:
+            self._label_infos(infos, self._vehicles().vid[[r]], self.expert_actions()[[r]])
+        info = infos[a]
         return obs, info
 
     def step(self, action):

@@ -619,9 +619,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
     def _spawn_late(self) -> list:
         return self._spawn_due()
 
-    def _ma_infos(self, agents, rows, parts, expert: bool = True) -> dict:
-        c = self.config
-        ex = self.expert_actions() if expert and c["expert_in_info"] and len(rows) else None
+    def _ma_infos(self, agents, rows, parts) -> dict:
         tr = self.world.traffic
         lane_ref = np.where(tr.group >= 0, tr.tgt_lane, -1)  # references()' lane_ref, without the profiles
         rows = np.asarray(rows, dtype=np.int64)
@@ -632,7 +630,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             "target_lane": lane_ref[rows].tolist(),
             "crashed": [False] * len(rows),
         }
-        return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
+        return self._info_dicts(agents, cols, parts)
 
     # ------------------------------------------------------- gymnasium (ego)
 

@@ -609,11 +609,9 @@ class IntersectionEnv(IcvAgentsEnv):
     def _after_removal(self) -> None:
         self.expert.update(self.world)
 
-    def _ma_infos(self, agents, rows, parts, expert: bool = True) -> dict:
-        c = self.config
+    def _ma_infos(self, agents, rows, parts) -> dict:
         if not len(rows):
             return {}
-        ex = self.expert_actions() if expert and c["expert_in_info"] else None
         f = self.world.fleet
         rs = self.world.route()
         rows = np.asarray(rows, dtype=np.int64)
@@ -627,7 +625,7 @@ class IntersectionEnv(IcvAgentsEnv):
             "tree_layer": [depth.get(nd, -1) for nd in nodes],
             "crashed": [False] * len(rows),
         }
-        return self._info_dicts(agents, cols, None if ex is None else ex[rows], parts)
+        return self._info_dicts(agents, cols, parts)
 
     # ------------------------------------------------------- gymnasium (ego)
 
