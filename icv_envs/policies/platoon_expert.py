@@ -199,6 +199,7 @@ class PlatoonParams:
     D_safe: float = 19.0  # [m] hard virtual-lane spacing to earlier conflicting nodes (required_layer_gap)
     cap_tau: float = 0.2  # [s] reaction time of the virtual-lane safe speed (the policy period)
     envelope_in_box: bool = True
+    anticipate: bool = True  # track the virtual platoon's reference from R2 on (VirtualPlatoon._anticipate)
     extra: dict = field(default_factory=dict)
 
 
@@ -238,7 +239,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
                       "path_obstacle_binding": 0, "node_yielded": 0, "signal_alongside_passed": 0,
-                      "held_at_line": 0, "lane_change_yields": 0, "lc_ranked_behind": 0}
+                      "held_at_line": 0, "lane_change_yields": 0, "lc_ranked_behind": 0, "anticipating": 0}
 
     # ---------------------------------------------------------------- fields
     def attach(self, world) -> None:

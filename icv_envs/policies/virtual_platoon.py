@@ -365,6 +365,8 @@ class VirtualPlatoon:
             xref[rows_all] = np.where(bind, lb, paper)
             vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
             tight[rows_all] = bind
+        if p.anticipate:
+            self._anticipate(world, rs, mode, xref, vref)
         self._mode, self._xref, self._vref, self._tight = mode, xref, vref, tight
         self._apply_yields(world, rs)
         self._vcap = self._virtual_cap(world, rs)
@@ -376,6 +378,66 @@ class VirtualPlatoon:
         self._stop |= (rs.phase == 0) & hold
         self.stats["held_at_line"] += int(((rs.phase == 0) & hold).sum())
         self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
+
+    def _anticipate(self, world, rs, mode, xref, vref) -> None:
+        """Track the virtual platoon's reference from ``R2`` on (our addition;
+        the paper is silent).
+
+        A node is made when its first vehicle crosses ``R1``; if its reference
+        (its tree-layer's ``X_ref``, or ``D_t`` behind the rear of an earlier
+        conflicting node) then lies behind it, it had to brake hard and stand
+        at ``R1`` until the reference passed (issue 8: the virtual platoon's
+        only jams on the 20-seed sweep).  Here every vehicle of the adjusting
+        zone (``R2 >= X > R1``) that drives free (a sub-formation's first
+        vehicle; followers track it) gets, already there, the reference it
+        would get if its node were made now: appended behind the current
+        nodes (every current node is inside ``R1``, hence closer), at depth
+        ``1 + max`` depth of the nodes it conflicts with,
+        ``X_ref = X_0 + m D_t + sum_{i<m} max len`` (:func:`reference_positions`),
+        and never closer than ``D_t`` behind the rear of a conflicting node.
+        When that reference is behind it, it tracks it with the same
+        feedback law as inside ``R1`` but at most the comfortable
+        deceleration (``comfort[0]``): the wait is spread over the 200 m of
+        the adjusting zone instead of spent standing at ``R1``.  It never
+        pulls a vehicle forward.  ``PlatoonParams.anticipate`` (env config
+        ``vp_anticipation``) switches it off.
+        """
+        T = self._tree
+        if T is None:
+            return
+        f = world.fleet
+        lay = world.layout
+        p = self.p
+        cand = np.flatnonzero((mode == MODE_FREE) & (rs.phase == 0) & (f.node < 0) & (rs.dist > lay.R1)
+                              & (rs.dist <= lay.R2) & ~f.cleared)
+        if not len(cand):
+            return
+        ids = self.node_order
+        depths = np.array([self.node_depth[n] for n in ids], dtype=np.int64)
+        lens = np.array([self.nodes[n]["length"] for n in ids])
+        C = lay.conflict[f.mv[cand][:, None], T["mvs"][None, :]]  # (cand, K)
+        # a node of its own leg with a vehicle behind it would be ordered
+        # after it (_repair_order); its bound must not hold it (circular wait)
+        C &= ~((lay.leg_of[T["mvs"]][None, :] == f.leg[cand][:, None])
+               & (rs.dist[T["rear_row"]][None, :] >= rs.dist[cand][:, None]))
+        dnew = 1 + np.where(C, depths[None, :], 0).max(axis=1, initial=0)
+        layer_max = np.zeros(int(max(dnew.max(), depths.max(initial=0))) + 1)
+        np.maximum.at(layer_max, depths, lens)  # layer 0 (the leader) has length 0
+        before = np.concatenate([[0.0], np.cumsum(layer_max)])
+        x0 = float(T["refs"][0])
+        ref = x0 + dnew * p.D_t + before[dnew]
+        lbc = np.where(C, T["rear"][None, :] + p.D_t, -np.inf)
+        lb = lbc.max(axis=1, initial=-np.inf)
+        pred = lbc.argmax(axis=1)
+        R = np.maximum(ref, lb)
+        hold = R > rs.X[cand]
+        if not hold.any():
+            return
+        k = cand[hold]
+        mode[k] = MODE_TREE
+        xref[k] = R[hold]
+        vref[k] = np.where(lb[hold] >= ref[hold], f.speed[T["rear_row"][pred[hold]]], p.v0)
+        self.stats["anticipating"] += len(k)
 
     def _virtual_cap(self, world, rs) -> np.ndarray:
         """Safe-speed cap in the virtual lane (Gipps): every not yet cleared
