@@ -57,6 +57,11 @@ Adjusting zone (regrouping, Sec. 5), when the formation's front crosses ``R2``
        most ``merge_range`` (60 m), the result has at most ``max_node_size``
        members and no sub-formation of that leg whose movement conflicts with
        theirs lies between them.
+    5. *Anticipation* (our addition, ``vp_anticipation``): a free-driving
+       vehicle of the zone whose would-be node reference (appended to the
+       current virtual platoon) lies behind it already tracks it, braking at
+       most ``comfort[0]`` (:meth:`VirtualPlatoon._anticipate`,
+       docs/methods.md#virtual-platoon).
 Coordinating zone (virtual platoon, Sec. 4.2)
     A sub-formation becomes a node when its first vehicle crosses ``R1``
     (``single-vp``: every vehicle when it crosses ``R1``), with only its
@@ -235,6 +240,8 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         self._tree = None
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self._vcap = np.zeros(0)
+        # VirtualPlatoon._anticipate: (rows, reference X, bounding node id or -1)
+        self._anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
         self._yield: dict[int, int] = {}  # vid -> vid of the vehicle it yields to (Regrouping._note_yields)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,

@@ -402,6 +402,7 @@ class VirtualPlatoon:
         pulls a vehicle forward.  ``PlatoonParams.anticipate`` (env config
         ``vp_anticipation``) switches it off.
         """
+        self._anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
         T = self._tree
         if T is None:
             return
@@ -437,6 +438,9 @@ class VirtualPlatoon:
         mode[k] = MODE_TREE
         xref[k] = R[hold]
         vref[k] = np.where(lb[hold] >= ref[hold], f.speed[T["rear_row"][pred[hold]]], p.v0)
+        # for inspection (tests, plots): rows, reference, bounding node id (-1: the layer reference binds)
+        bound = np.where(lb[hold] >= ref[hold], np.asarray(ids, dtype=np.int64)[pred[hold]], -1)
+        self._anticipation = (k, R[hold], bound)
         self.stats["anticipating"] += len(k)
 
     def _virtual_cap(self, world, rs) -> np.ndarray:
