@@ -126,6 +126,9 @@ class ActionType:
 
     name = ""
     OPTIONS: dict = {}
+    #: does a vehicle driven by this type carry out the expert's lane-change
+    #: plan (so that the plan's target lane is reserved for it)?
+    carries_expert_plan = False
 
     def __init__(self, env, config: dict) -> None:
         self.env = env
@@ -172,6 +175,8 @@ class ContinuousAction(ActionType):
 
 class FormationResidual(ContinuousAction):
     name = "FormationResidual"
+    #: the expert's lane-change plan is carried out (its target lane stays reserved, World._reservations)
+    carries_expert_plan = True
     OPTIONS = {"bound": 0.25}
 
     def __init__(self, env, config: dict) -> None:

@@ -602,7 +602,10 @@ class HighwayFormationEnv(IcvAgentsEnv):
         if len(vids):
             # who drives: an action equal to the expert's (float32) is expert-driven
             ex = self.expert_actions()
-            self.world.set_expert_driven(vids, np.all(np.abs(acts - ex) <= 1e-6, axis=1))
+            # a residual policy carries the expert's lane-change plan out
+            carries = bool(getattr(self.action_type, "carries_expert_plan", False))
+            self.world.set_expert_driven(vids, np.all(np.abs(acts - ex) <= 1e-6, axis=1),
+                                         np.full(len(vids), carries))
 
     def _react(self, events: StepEvents) -> list:
         # formations react to what happened; new vehicles appear after the
