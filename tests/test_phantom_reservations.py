@@ -58,3 +58,29 @@ def test_only_vehicles_carrying_the_plan_hold_its_lane(action_type):
     assert planned > 0 and off > 0
     if action_type == "FormationResidual":
         assert carried > 0
+
+
+def test_intersection_signals_only_for_vehicles_carrying_the_plan():
+    from icv_envs.envs.intersection_v0 import parallel_env as intersection
+
+    env = intersection(throughput=3000.0, duration=60.0)
+    env.reset(seed=1)
+    rng = np.random.default_rng(0)
+    off_planned = 0
+    while env.agents:
+        ex = env.expert_actions()
+        acts = {a: ex[a] if i % 2 else np.clip(ex[a] + rng.normal(0, 0.3, 2), -1, 1).astype(np.float32)
+                for i, a in enumerate(env.agents)}
+        env.step(acts)
+        x = env.core.expert
+        f = env.core.world.fleet
+        if x._plan_vids is None:
+            continue
+        sig = x._signals(f)
+        off = ~np.isin(f.vid, np.fromiter(x._plan_vids, dtype=np.int64))
+        off_planned += int((off & ((f.lc_lane >= 0) | (f.want >= 0))).sum())
+        assert np.all(sig[off] == -1)
+        on = ~off
+        assert np.array_equal(sig[on], np.where(f.lc_lane >= 0, f.lc_lane, f.want)[on])
+    env.close()
+    assert off_planned > 0, "no vehicle off the expert had a plan: the test saw nothing"

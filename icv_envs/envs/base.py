@@ -280,8 +280,18 @@ class IcvAgentsEnv(AbstractEnv):
         """Hook: after the physics frames of a policy step."""
 
     def _before_physics(self, vids: np.ndarray, acts: np.ndarray) -> None:
-        """Hook: before the physics of a policy step (``vids``: the vehicles
-        the rows of ``acts`` belong to)."""
+        """Before the physics of a policy step (``vids``: the vehicles the
+        rows of ``acts`` belong to): who drives.  An action equal to the
+        expert's (float32) is expert-driven; a vehicle carries the expert's
+        lane-change plan out when it is expert-driven or its action type
+        says so (``FormationResidual``)."""
+        if len(vids):
+            em = np.all(np.abs(acts - self.expert_actions()) <= 1e-6, axis=1)
+            carries = bool(getattr(self.action_type, "carries_expert_plan", False))
+            self._drivers(vids, em, em | carries)
+
+    def _drivers(self, vids: np.ndarray, expert_mask: np.ndarray, plan_mask: np.ndarray) -> None:
+        """Hook: who drives in the coming step (see :meth:`_before_physics`)."""
 
     def _react(self, events) -> list:
         """Hook: the world reacts to the physics before anyone observes;

@@ -598,14 +598,8 @@ class HighwayFormationEnv(IcvAgentsEnv):
     def _after_frames(self) -> None:
         self.world.record_min_gap()
 
-    def _before_physics(self, vids: np.ndarray, acts: np.ndarray) -> None:
-        if len(vids):
-            # who drives: an action equal to the expert's (float32) is expert-driven
-            ex = self.expert_actions()
-            # a residual policy carries the expert's lane-change plan out
-            carries = bool(getattr(self.action_type, "carries_expert_plan", False))
-            self.world.set_expert_driven(vids, np.all(np.abs(acts - ex) <= 1e-6, axis=1),
-                                         np.full(len(vids), carries))
+    def _drivers(self, vids, expert_mask, plan_mask) -> None:
+        self.world.set_expert_driven(vids, expert_mask, plan_mask)
 
     def _react(self, events: StepEvents) -> list:
         # formations react to what happened; new vehicles appear after the

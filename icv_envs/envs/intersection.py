@@ -588,6 +588,9 @@ class IntersectionEnv(IcvAgentsEnv):
 
     # -------------------------------------------------------------- stepping
     # the step itself is IcvAgentsEnv._ma_advance; these are its hooks
+    def _drivers(self, vids, expert_mask, plan_mask) -> None:
+        self.expert.set_plan_carriers(vids, plan_mask)
+
     def _new_events(self) -> StepEvents:
         return StepEvents()
 

@@ -240,6 +240,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         self._tree = None
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self._vcap = np.zeros(0)
+        self._plan_vids: set | None = None  # set_plan_carriers; None: every vehicle
         # VirtualPlatoon._anticipate: (rows, reference X, bounding node id or -1)
         self._anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
         self._yield: dict[int, int] = {}  # vid -> vid of the vehicle it yields to (Regrouping._note_yields)
@@ -441,8 +442,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         p = self.p
         f = world.fleet
         n = f.n
-        signal = np.where(f.lc_lane >= 0, f.lc_lane, f.want)
-        cor = Corridors(world, rs, signal)
+        cor = Corridors(world, rs, self._signals(f))
         cap = np.full(n, np.inf)
         cap_other = np.full(n, np.inf)
         e = np.flatnonzero(cor.lead >= 0)
@@ -563,6 +563,27 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         tau = p.cap_tau
         vs = -b * tau + np.sqrt((b * tau) ** 2 + v_lead ** 2 + 2.0 * b * np.maximum(room, 0.0))
         return (vs - v) / tau
+
+    def set_plan_carriers(self, vids, mask) -> None:
+        """Which vehicles carry out the lane-change plans and courtesy
+        signals this expert makes for them (the env sets it each step: the
+        expert-driven ones, and residual agents).  The expert plans for every
+        vehicle (the labels need it), but a vehicle a learned policy drives
+        does not follow the plan, and its plan must not hold a lane the
+        others then yield to (a phantom reservation, issue 9)."""
+        vids = np.asarray(vids)
+        mask = np.asarray(mask, dtype=bool)
+        self._plan_vids = None if mask.all() else set(vids[mask].tolist())
+
+    def _signals(self, f, want: bool = True) -> np.ndarray:
+        """Lane each vehicle is listed in besides its own (its lane change's
+        target, or with ``want`` the lane it signals into), -1 for none and
+        for vehicles that do not carry their plan out (:meth:`set_plan_carriers`)."""
+        sig = np.where(f.lc_lane >= 0, f.lc_lane, f.want if want else -1)
+        if self._plan_vids is not None and f.n:
+            keep = np.fromiter((v in self._plan_vids for v in f.vid.tolist()), dtype=bool, count=f.n)
+            sig = np.where(keep, sig, -1)
+        return sig
 
     def _coordinated(self, f) -> np.ndarray:
         return f.node >= 0
