@@ -2,9 +2,10 @@
 
 A vehicle of the adjusting zone (``R2 >= dist > R1``) that drives free
 tracks, with comfortable braking only, the reference it would get if its
-node were made now (``VirtualPlatoon._anticipate``); a node of its own leg
-with a vehicle behind it never bounds it (that bound was a circular wait:
-multi-vp, 3000 veh/h, seed 1 jammed 331 vehicles without the rule).
+node were made now (``VirtualPlatoon._anticipate``); only nodes ordered
+before the first node of its own leg with a vehicle behind it bound it
+(without the rule, circular waits: multi-vp, 3000 veh/h, seed 1, 331 jammed
+vehicles; 2500 veh/h, seed 13, 51).
 """
 
 import numpy as np
@@ -45,10 +46,16 @@ def test_anticipating_vehicles_are_held_back_gently_by_a_node_they_do_not_block(
         assert np.all((rs.phase[rows] == 0) & (f.node[rows] < 0))
         assert np.all(R > rs.X[rows])
         assert np.all(ex._mode[rows] == MODE_TREE) and not ex._tight[rows].any()
-        # the bounding node is never one of its own leg with a vehicle behind it
+        # the bounding node comes before every node of its own leg that has a
+        # vehicle behind it (its node would be ordered before those)
+        pos = {nid: i for i, nid in enumerate(ex.node_order)}
         for r, nid in zip(rows.tolist(), bound.tolist()):
-            if nid >= 0 and lay.leg_of[ex.nodes[nid]["mv"]] == f.leg[r]:
-                assert rs.dist[f.rows(ex.nodes[nid]["members"])].max() < rs.dist[r]
+            if nid < 0:
+                continue
+            for other in ex.node_order:
+                N = ex.nodes[other]
+                if lay.leg_of[N["mv"]] == f.leg[r] and rs.dist[f.rows(N["members"])].max() >= rs.dist[r]:
+                    assert pos[nid] < pos[other]
         # the reference only holds back, and only with comfortable braking
         acc = ex._longitudinal(w, rs)
         assert np.all(acc[rows] >= ex.p.comfort[0] - 1e-9)
@@ -65,3 +72,14 @@ def test_vp_anticipation_false_switches_it_off_and_is_validated():
     assert counts and max(counts) == 0
     with pytest.raises(ValueError, match="vp_anticipation"):
         parallel_env(vp_anticipation="yes")
+
+
+def test_no_circular_wait_through_a_node_of_another_leg():
+    """multi-vp, 2500 veh/h, seed 13: a vehicle of leg 0 anticipating the
+    bound of a leg-1 node that itself waited for a leg-0 node stuck behind
+    that vehicle: 51 jammed vehicles from t = 478 s (after the warm-up) before the rule."""
+    from icv_envs.experiments.intersection_compare import run_intersection
+
+    m = run_intersection("multi-vp", 2500.0, 13, 520.0, {"warmup": 100.0})
+    assert m["collisions"] == 0
+    assert m["jammed"] == 0, m["jam_log"][:5]

@@ -417,10 +417,17 @@ class VirtualPlatoon:
         depths = np.array([self.node_depth[n] for n in ids], dtype=np.int64)
         lens = np.array([self.nodes[n]["length"] for n in ids])
         C = lay.conflict[f.mv[cand][:, None], T["mvs"][None, :]]  # (cand, K)
-        # a node of its own leg with a vehicle behind it would be ordered
-        # after it (_repair_order); its bound must not hold it (circular wait)
-        C &= ~((lay.leg_of[T["mvs"]][None, :] == f.leg[cand][:, None])
-               & (rs.dist[T["rear_row"]][None, :] >= rs.dist[cand][:, None]))
+        # its node would be ordered before the first node of its own leg that
+        # has a vehicle behind it (_repair_order): only the nodes before that
+        # one may bound it.  Bounded by that node, or by a later node that
+        # waits for it, it would hold the vehicle behind it, which that node
+        # waits for: a circular wait (multi-vp, 3000 veh/h, seed 1: 331
+        # jammed with the own-leg node; 2500 veh/h, seed 13: 51 jammed with a
+        # node of another leg bounded by it)
+        behind = ((lay.leg_of[T["mvs"]][None, :] == f.leg[cand][:, None])
+                  & (rs.dist[T["rear_row"]][None, :] >= rs.dist[cand][:, None]))
+        first_behind = np.where(behind.any(axis=1), behind.argmax(axis=1), len(ids))
+        C &= np.arange(len(ids))[None, :] < first_behind[:, None]
         dnew = 1 + np.where(C, depths[None, :], 0).max(axis=1, initial=0)
         layer_max = np.zeros(int(max(dnew.max(), depths.max(initial=0))) + 1)
         np.maximum.at(layer_max, depths, lens)  # layer 0 (the leader) has length 0
