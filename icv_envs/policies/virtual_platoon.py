@@ -394,7 +394,9 @@ class VirtualPlatoon:
         nodes (every current node is inside ``R1``, hence closer), at depth
         ``1 + max`` depth of the nodes it conflicts with,
         ``X_ref = X_0 + m D_t + sum_{i<m} max len`` (:func:`reference_positions`),
-        and never closer than ``D_t`` behind the rear of a conflicting node.
+        and never closer than ``D_t`` behind the rear of a conflicting node;
+        only nodes ordered before the first node of its own leg with a
+        vehicle behind it count (its node would be ordered before that one).
         When that reference is behind it, it tracks it with the same
         feedback law as inside ``R1`` but at most the comfortable
         deceleration (``comfort[0]``): the wait is spread over the 200 m of
