@@ -589,6 +589,7 @@ class IntersectionEnv(IcvAgentsEnv):
     # -------------------------------------------------------------- stepping
     # the step itself is IcvAgentsEnv._ma_advance; these are its hooks
     def _drivers(self, vids, expert_mask, plan_mask) -> None:
+        self.world.set_expert_driven(vids, expert_mask)
         self.expert.set_plan_carriers(vids, plan_mask)
 
     def _new_events(self) -> StepEvents:
@@ -681,6 +682,7 @@ class IntersectionEnv(IcvAgentsEnv):
             **w.motion.summary(),
             **w.pet.summary(),
             **w.jams.summary(),
+            **w.faults.summary(),
             "mean_delay": st["delay_sum"] / st["cleared"] if st["cleared"] else None,
             "mean_travel_time": st["travel_time_sum"] / st["cleared"] if st["cleared"] else None,
             "sim_seconds": float(w.time),

@@ -57,6 +57,23 @@ Jams (:class:`JamWatch`)
     ``jammed_vehicle_seconds`` the time they spent jammed; both must be 0
     for a working controller (stopping at the line to wait for one's turn is
     allowed for as long as it takes).
+
+Collisions by fault (:class:`FaultStats`, :func:`collision_fault`)
+    Every new collision pair is counted once in
+    ``collisions_by_fault[kind][driver]``: ``driver`` is ``expert`` or
+    ``policy`` by who drove the AT-FAULT vehicle in that step (an action
+    equal to the expert's is expert-driven; the env tells the world,
+    ``IntersectionWorld.set_expert_driven``).  Kinds, from the two headings
+    and positions at the moment of contact:
+
+    * rear-end (headings within 30 deg): the rear vehicle (behind along the
+      mean heading) is at fault, ``struck_ahead``, unless the front one was
+      moving sideways towards it faster than ``CUT_IN_SPEED`` (0.2 m/s, the
+      highway's value), ``struck_from_behind`` (the front one at fault);
+    * ``angle`` (crossing or head-on): at fault the vehicle closing on the
+      other faster (its speed component along the line between the two
+      centres), i.e. the one that drove into the other; a vehicle standing
+      still is never at fault against a moving one.
 """
 
 from __future__ import annotations
@@ -68,7 +85,7 @@ import numpy as np
 from icv_envs.sim.metrics import STOPPED_SPEED, MotionStats  # one definition of the motion metrics
 
 __all__ = ["STOPPED_SPEED", "JAM_SECONDS", "QUEUE_GAP", "MotionStats", "ConflictAreas", "PetStats", "JamWatch",
-           "pet_summary", "MOTION_KEYS"]
+           "pet_summary", "MOTION_KEYS", "FAULT_KINDS", "FaultStats", "collision_fault"]
 
 #: [s] stopped longer than this outside a queue at the box = jammed
 JAM_SECONDS: float = 10.0
@@ -76,6 +93,54 @@ JAM_SECONDS: float = 10.0
 QUEUE_GAP: float = 10.0
 #: the motion keys (shared with the highway's metrics)
 MOTION_KEYS = ("mean_speed", "speed_fluctuation", "speed_std", "stopped_share", "commanded_abs_accel")
+#: collision kinds of the intersection (the highway's have ``side_swipe`` and ``road`` instead of ``angle``)
+FAULT_KINDS = ("struck_ahead", "struck_from_behind", "angle")
+#: [m/s] lateral speed above which a front vehicle counts as cutting in (the highway's CUT_IN_SPEED)
+CUT_IN_SPEED: float = 0.2
+#: rear-end when the headings differ by less than this [rad]
+REAR_END_ANGLE: float = math.radians(30.0)
+
+
+def collision_fault(xa, ya, ha, va, xb, yb, hb, vb) -> tuple[str, int]:
+    """``(kind, at_fault)`` of a collision between vehicles ``a`` (0) and
+    ``b`` (1) from their centres, headings and speeds (module docstring)."""
+    dx, dy = xb - xa, yb - ya
+    dh = math.atan2(math.sin(hb - ha), math.cos(hb - ha))
+    if abs(dh) < REAR_END_ANGLE:
+        hm = ha + 0.5 * dh
+        ex, ey = math.cos(hm), math.sin(hm)
+        ahead_b = dx * ex + dy * ey > 0.0  # b is ahead of a
+        rear, front = (0, 1) if ahead_b else (1, 0)
+        xs = ((xa, ya, ha, va), (xb, yb, hb, vb))
+        xf, yf, hf, vf = xs[front]
+        xr, yr = xs[rear][0], xs[rear][1]
+        # the front vehicle's sideways speed towards the rear one's side of its path
+        nx, ny = -ey, ex
+        side = math.copysign(1.0, (xr - xf) * nx + (yr - yf) * ny)
+        towards = side * vf * (math.cos(hf) * nx + math.sin(hf) * ny)
+        if towards > CUT_IN_SPEED:
+            return "struck_from_behind", front
+        return "struck_ahead", rear
+    d = math.hypot(dx, dy) or 1.0
+    ca = va * (math.cos(ha) * dx + math.sin(ha) * dy) / d
+    cb = -vb * (math.cos(hb) * dx + math.sin(hb) * dy) / d
+    return "angle", 0 if ca >= cb else 1
+
+
+class FaultStats:
+    """``collisions_by_fault[kind][driver]`` of the statistics window (module docstring)."""
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self.counts = {k: {"expert": 0, "policy": 0} for k in FAULT_KINDS}
+
+    def record(self, kind: str, expert: bool) -> None:
+        self.counts[kind]["expert" if expert else "policy"] += 1
+
+    def summary(self) -> dict:
+        return {"collisions_by_fault": {k: dict(v) for k, v in self.counts.items()}}
 
 
 class ConflictAreas:

@@ -69,7 +69,15 @@ import numpy as np
 
 from icv_envs.platoon.conflicts import conflict_model
 from icv_envs.platoon.geometry import LEGS, N_LANES, lane_use_table
-from icv_envs.sim.intersection_metrics import QUEUE_GAP, ConflictAreas, JamWatch, MotionStats, PetStats
+from icv_envs.sim.intersection_metrics import (
+    QUEUE_GAP,
+    ConflictAreas,
+    FaultStats,
+    JamWatch,
+    MotionStats,
+    PetStats,
+    collision_fault,
+)
 from icv_envs.sim.traffic import bicycle_step, find_collisions
 
 __all__ = [
@@ -476,12 +484,23 @@ class IntersectionWorld:
             layout._conflict_areas = ConflictAreas(layout)
         self.pet = PetStats(layout._conflict_areas)
         self.jams = JamWatch()
+        self.faults = FaultStats()
+        self._expert_vids: set[int] | None = None  # set_expert_driven; None: all expert-driven
 
     def reset_metrics(self) -> None:
-        """Restart the motion, PET and jam accumulators (after a warm-up)."""
+        """Restart the motion, PET, jam and fault accumulators (after a warm-up)."""
         self.motion.reset()
         self.pet.reset()
         self.jams.reset()
+        self.faults.reset()
+
+    def set_expert_driven(self, vids, expert_mask) -> None:
+        """Which vehicles the expert drives in the coming step (the others
+        follow a given, e.g. learned, action), for the at-fault attribution
+        of collisions (:class:`~icv_envs.sim.intersection_metrics.FaultStats`)."""
+        vids = np.asarray(vids)
+        em = np.asarray(expert_mask, dtype=bool)
+        self._expert_vids = None if em.all() else set(vids[em].tolist())
 
     # the highway env's code calls the fleet "traffic"
     @property
@@ -626,9 +645,16 @@ class IntersectionWorld:
         if len(i):
             crash[i] = True
             crash[j] = True
-            for a_, b_ in zip(f.vid[i].tolist(), f.vid[j].tolist()):
+            ev = self._expert_vids
+            for ra, rb in zip(i.tolist(), j.tolist()):
+                a_, b_ = int(f.vid[ra]), int(f.vid[rb])
                 events.collision_pairs.append((a_, b_))
                 self.collision_log.append((round(self.time, 6), a_, b_))
+                if not (f.crashed[ra] and f.crashed[rb]):  # a new collision of this pair
+                    kind, k = collision_fault(cx[ra], cy[ra], f.heading[ra], f.speed[ra],
+                                              cx[rb], cy[rb], f.heading[rb], f.speed[rb])
+                    guilty = (a_, b_)[k]
+                    self.faults.record(kind, ev is None or guilty in ev)
         new_crash = crash & ~f.crashed
         if new_crash.any():
             f.crashed = f.crashed | new_crash
