@@ -281,7 +281,9 @@ class HighwayFormationEnv(IcvAgentsEnv):
                     and int(k) < c["vehicles_count"]):
                 raise ValueError(f"exits key {k!r} is not a vehicle index in [0, {c['vehicles_count'] - 1}]")
             if not (isinstance(e, (int, np.integer)) and not isinstance(e, bool) and 0 <= e < n_exits):
-                raise ValueError(f"exit {e!r} for vehicle {k} does not exist; allowed exit indices: {list(range(n_exits))}")
+                why = "" if n_exits else " (this road has no off-ramp: set config['off_ramp'] or a scenario with one)"
+                raise ValueError(f"config['exits'][{k!r}] = {e!r}: exit {e!r} for vehicle {k} does not exist; "
+                                 f"allowed exit indices: {list(range(n_exits))}{why}")
         if not isinstance(c["spawns"], (list, tuple)):
             raise ValueError(f"config['spawns'] = {c['spawns']!r}; allowed: a list of dicts")
         if len(c["spawns"]) > MAX_AGENTS:

@@ -23,7 +23,10 @@ reported in the paper's coordinates (0 m = first on-ramp).
 
 Ramp vehicles may drive 5..25 m/s on the ramp (desired 15 m/s); main-road
 speeds are 15..30 m/s with desired 25 m/s on the left three lanes and 20 m/s
-on the fourth (Table 1): ``lane_speeds``.
+on the fourth (Table 1): ``lane_speeds``.  With another ``lanes_count`` the
+same rule gives the defaults (``lane_speeds=None``, ``formation_lanes=None``):
+25 m/s on every main lane but the rightmost, 20 m/s there; formations on
+every main lane but the rightmost (on the only one when there is one).
 """
 
 from __future__ import annotations
@@ -45,6 +48,18 @@ __all__ = ["HighwayRampsEnv", "METHODS"]
 METHODS = ("formation", "lane-lp", "idm")
 MAX_VGR = 1.0  # vehicles/s per ramp: a single ramp lane carries at most ~0.6 veh/s
 
+
+
+def lane_speeds_for(lanes_count: int) -> list[float]:
+    """Default desired speeds per main lane (Table 1's rule: 25 m/s, the rightmost 20 m/s)."""
+    n = int(lanes_count)
+    return [25.0] * (n - 1) + [20.0] if n > 1 else [25.0]
+
+
+def formation_lanes_for(lanes_count: int) -> list[int]:
+    """Default lanes for formations: every main lane but the rightmost (the paper's left three of four)."""
+    n = int(lanes_count)
+    return list(range(n - 1)) if n > 1 else [0]
 
 class HighwayRampsEnv(HighwayFormationEnv):
     """The 10 km ring with five on/off-ramps; see the module docstring and
@@ -85,8 +100,9 @@ class HighwayRampsEnv(HighwayFormationEnv):
                 "duration": 600.0,
                 "speed_range": [15.0, 30.0],
                 "ramp_speed": 15.0,
-                "lane_speeds": [25.0, 25.0, 25.0, 20.0],
-                "formation_lanes": [0, 1, 2],
+                # None: derived from lanes_count (lane_speeds_for / formation_lanes_for)
+                "lane_speeds": None,
+                "formation_lanes": None,
                 "formation_size": 12,
                 "sample_period": 1.0,
                 "heatmap_bin": 500.0,
@@ -117,6 +133,15 @@ class HighwayRampsEnv(HighwayFormationEnv):
 
     def _n_possible_agents(self) -> int:
         return self._max_vehicles()
+
+    def _apply_config(self, config: dict | None) -> None:
+        # HighwayFormation's scenario presets would expand a scenario into
+        # keys this env does not use (and blame those): reject it by name first
+        if isinstance(config, dict) and config.get("scenario") is not None:
+            raise ValueError(f"config['scenario'] = {config['scenario']!r} is not used by HighwayRamps "
+                             f"(HighwayRamps has no scenarios; they are HighwayFormation's); leave it at its "
+                             f"default None")
+        super()._apply_config(config)
 
     def _validate_config(self) -> None:
         c = self.config
@@ -156,16 +181,21 @@ class HighwayRampsEnv(HighwayFormationEnv):
         _num(c, "heatmap_bin", 1.0, L, allowed=f"a number of metres in [1, road_length = {L:g}]")
         sr = speed_range(c)
         ls = c["lane_speeds"]
-        if not (isinstance(ls, (list, tuple)) and len(ls) == c["lanes_count"] and all(
+        if ls is not None and not (isinstance(ls, (list, tuple)) and len(ls) == c["lanes_count"] and all(
                 _is_number(v) and 0 < v <= sr[1] for v in ls)):
-            raise ValueError(f"lane_speeds = {ls!r}; allowed: one speed in (0, v_max = {sr[1]:g}] per main lane "
-                             f"({c['lanes_count']!r} lanes)")
+            raise ValueError(f"lane_speeds = {ls!r}; allowed: None (derived from lanes_count) or one speed in "
+                             f"(0, v_max = {sr[1]:g}] per main lane (lanes_count = {c['lanes_count']!r})")
+        if ls is None and max(lane_speeds_for(c["lanes_count"])) > sr[1]:
+            raise ValueError(f"speed_range = {c['speed_range']!r}: the default lane speeds "
+                             f"{lane_speeds_for(c['lanes_count'])} exceed its v_max; allowed: v_max >= 25, "
+                             f"or give lane_speeds")
         fl = c["formation_lanes"]
-        if not (isinstance(fl, (list, tuple)) and fl and all(
+        if fl is not None and not (isinstance(fl, (list, tuple)) and fl and all(
                 isinstance(v, (int, np.integer)) and not isinstance(v, bool) and 0 <= v < c["lanes_count"]
                 for v in fl)):
-            raise ValueError(f"formation_lanes = {fl!r}; allowed: a non-empty list of lane indices in "
-                             f"[0, {c['lanes_count'] - 1}]")
+            raise ValueError(f"formation_lanes = {fl!r}; allowed: None (derived from lanes_count) or a non-empty "
+                             f"list of lane indices in [0, {c['lanes_count'] - 1}] (lanes_count = "
+                             f"{c['lanes_count']!r})")
         mv = c["max_vehicles"]
         if mv is not None and not (isinstance(mv, (int, np.integer)) and not isinstance(mv, bool)
                                    and 1 <= mv <= MAX_AGENTS):
@@ -203,8 +233,9 @@ class HighwayRampsEnv(HighwayFormationEnv):
     def _expert_params(self):
         p = super()._expert_params()
         c = self.config
-        p.lane_speeds = tuple(float(v) for v in c["lane_speeds"]) + (float(c["ramp_speed"]),)
-        p.exit_speed = float(c["lane_speeds"][-1])
+        speeds = lane_speeds_for(c["lanes_count"]) if c["lane_speeds"] is None else c["lane_speeds"]
+        p.lane_speeds = tuple(float(v) for v in speeds) + (float(c["ramp_speed"]),)
+        p.exit_speed = float(speeds[-1])
         return p
 
     def _max_vehicles(self) -> int:
@@ -261,7 +292,8 @@ class HighwayRampsEnv(HighwayFormationEnv):
             spacing=f["spacing"], geometry=f["geometry"], w1=f["w1"], w2=f["w2"], speed=f["speed"],
             lookahead=f["lookahead"], join_distance=f["join_distance"], exit_lookahead=f["exit_lookahead"],
             exit_lookahead_per_lane=f["exit_lookahead_per_lane"], max_size=int(c["formation_size"]), max_anchor_lead=f["max_anchor_lead"],
-            allowed_lanes=c["formation_lanes"], create=(method == "formation"),
+            allowed_lanes=(formation_lanes_for(c["lanes_count"]) if c["formation_lanes"] is None
+                           else c["formation_lanes"]), create=(method == "formation"),
         )
         self.world = World(road, manager, dt=1.0 / c["simulation_frequency"], wheelbase=c["wheelbase"],
                            v_max=float(c["speed_range"][1]))

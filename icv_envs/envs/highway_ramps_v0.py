@@ -99,9 +99,9 @@ time-averaged and at the end), in the paper's coordinates.
 | `duration` | 600 | seconds |
 | `road_length`, `ramps`, `ramp_spacing`, `first_on_ramp`, `first_off_ramp` | 10000, 5, 2000, 0, 1600 | layout (metres) |
 | `merge_length`, `diverge_length`, `on_ramp_approach`, `off_ramp_length` | 100, 50, 200, 100 | metres |
-| `lane_speeds` | [25, 25, 25, 20] | desired speed per main lane; `ramp_speed` 15 |
+| `lane_speeds` | None = [25, 25, 25, 20] | desired speed per main lane (None: 25 m/s, the rightmost lane 20 m/s, for any `lanes_count`); `ramp_speed` 15 |
 | `speed_range` | [15, 30] | main-road speeds (a control floor, not physics) |
-| `formation_lanes` | [0, 1, 2] | lanes formations may use |
+| `formation_lanes` | None = [0, 1, 2] | lanes formations may use (None: every main lane but the rightmost) |
 | `formation_size` | 12 | most members per formation |
 | `seam` | 1000 | paper position of the ring's seam (keep it off the ramps) |
 | `max_vehicles` | None | possible agents (arrivals beyond are counted in `not_spawned`) |
