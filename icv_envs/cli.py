@@ -136,7 +136,9 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
     def _get_help_string(self, action):
         text = action.help or ""
-        if action.default in (None, False) or "default" in text:
+        # (``0 in (None, False)`` is True in Python: test identity, so a default 0 is shown)
+        if action.default is None or action.default is False or "default" in text \
+                or action.default is argparse.SUPPRESS:
             return text
         return super()._get_help_string(action)
 
@@ -214,10 +216,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     from icv_envs.rl.evaluate import add_arguments as _eval_args
 
-    _eval_args(sub.add_parser("evaluate", help="evaluate expert/zero/random or a model saved by baselines/"))
+    _eval_args(sub.add_parser("evaluate", help="evaluate expert/zero/random or a model saved by baselines/",
+                              formatter_class=fmt))
     from icv_envs.rl.leaderboard import add_arguments as _board_args
 
-    _board_args(sub.add_parser("leaderboard", help="every policy on every task, held-out seeds, IQM + bootstrap CIs"))
+    _board_args(sub.add_parser("leaderboard", help="every policy on every task, held-out seeds, IQM + bootstrap CIs",
+                               formatter_class=fmt))
     k = sub.add_parser("conflicts", help="conflict matrix of the 12 intersection movements (derived from the lane use)",
                        formatter_class=fmt)
     k.add_argument("--lane-use", dest="lane_use", default="paper",  # checked by conflicts_report (exit 2)

@@ -191,3 +191,14 @@ def test_progress_bar_shown_on_a_terminal(tmp_path):
     assert p.returncode == 0
     assert "free/expert" in err  # the tqdm bar, on the terminal (stderr)
     assert len(p.stdout.decode().strip().splitlines()) == 1  # stdout: the JSON line only
+
+
+def test_help_shows_every_default_including_zero():
+    from icv_envs.cli import build_parser
+
+    p = build_parser()
+    sub = next(a for a in p._actions if a.__class__.__name__ == "_SubParsersAction")
+    run_help = sub.choices["run"].format_help()
+    assert "episode seed (default: 0)" in " ".join(run_help.split())
+    board = " ".join(sub.choices["leaderboard"].format_help().split())
+    assert "(default: results/leaderboard)" in board and "(default: 2000)" in board
