@@ -36,7 +36,26 @@ every vehicle with a leader in the lane its body centre is in):
 
 Counts: ``collisions`` (vehicles involved in a collision or that left the
 drivable surface), ``vehicles`` (that took part), ``vehicles_final`` (on the
-road at the end), ``exited``, ``left_road``.
+road at the end), ``exited``, ``left_road``, ``missed_exits`` (vehicles that
+passed their exit without taking it).
+
+``collisions_by_fault[kind][driver]`` (:meth:`icv_envs.sim.world.World.classify_collisions`):
+one count per colliding pair (at least one of the two newly crashed) and one
+per vehicle that left the road or hit an obstacle (``road``, at fault
+itself). A pair whose bodies overlap less along the road than across it is a
+rear-end contact: the rear vehicle is at fault (``struck_ahead``) unless the
+front one was moving sideways towards it faster than 0.2 m/s (a cut-in: the
+front vehicle, ``struck_from_behind``, is at fault); otherwise a
+``side_swipe``, at fault the vehicle moving sideways towards the other
+faster. ``driver`` is ``expert`` or ``policy`` by who drove the at-fault
+vehicle in that step (an action equal to the expert's is expert-driven).
+The intersection counts the same way with ``angle`` instead of
+``side_swipe`` and ``road`` (``icv_envs.sim.intersection_metrics``).
+
+``jammed`` (highway): vehicles that at some time stood (below 0.1 m/s)
+longer than 30 s with at least 32 m of free road ahead (the IDM desired gap
+at the top speed, ``s0 + v_max T``): nothing physical held them, so the
+controller did (:meth:`icv_envs.sim.world.World.record_min_gap`). Must be 0.
 """
 
 from __future__ import annotations
