@@ -45,6 +45,8 @@ def test_anticipating_vehicles_are_held_back_gently_by_a_node_they_do_not_block(
         assert np.all((rs.dist[rows] > lay.R1) & (rs.dist[rows] <= lay.R2))
         assert np.all((rs.phase[rows] == 0) & (f.node[rows] < 0))
         assert np.all(R > rs.X[rows])
+        # only holds that comfortable braking absorbs before standing
+        assert np.all(R - rs.X[rows] <= f.speed[rows] ** 2 / (2 * abs(ex.p.comfort[0])) + 1e-9)
         assert np.all(ex._mode[rows] == MODE_TREE) and not ex._tight[rows].any()
         # the bounding node comes before every node of its own leg that has a
         # vehicle behind it (its node would be ordered before those)
@@ -83,3 +85,15 @@ def test_no_circular_wait_through_a_node_of_another_leg():
     m = run_intersection("multi-vp", 2500.0, 13, 520.0, {"warmup": 100.0})
     assert m["collisions"] == 0
     assert m["jammed"] == 0, m["jam_log"][:5]
+
+
+def test_no_starvation_outside_R1():
+    """multi-vp, 3000 veh/h, seed 12: anticipating a hold deeper than
+    comfortable braking absorbs kept a vehicle outside R1 while nodes of
+    other legs entered first: 19 jammed vehicles from t = 503 s (after the
+    warm-up), 904 vehicle-seconds, before the bound."""
+    from icv_envs.experiments.intersection_compare import run_intersection
+
+    m = run_intersection("multi-vp", 3000.0, 12, 540.0, {"warmup": 100.0})
+    assert m["collisions"] == 0
+    assert m["jammed_vehicle_seconds"] < 10.0, m["jam_log"][:5]

@@ -400,7 +400,11 @@ class VirtualPlatoon:
         When that reference is behind it, it tracks it with the same
         feedback law as inside ``R1`` but at most the comfortable
         deceleration (``comfort[0]``): the wait is spread over the 200 m of
-        the adjusting zone instead of spent standing at ``R1``.  It never
+        the adjusting zone instead of spent standing at ``R1``.  Only holds
+        that such braking absorbs before standing (``X_ref - X <= v^2 /
+        2|comfort[0]|``) are anticipated; a larger one waits at ``R1`` (held
+        outside R1, the vehicle lost its place in the order to nodes of other
+        legs: starvation).  It never
         pulls a vehicle forward.  ``PlatoonParams.anticipate`` (env config
         ``vp_anticipation``) switches it off.
         """
