@@ -49,3 +49,29 @@ def test_the_env_reports_collisions_by_fault_and_blames_the_policy_that_stops_in
     assert 0 < pairs <= m["collisions"]
     assert sum(v["policy"] for v in by.values()) > 0
     env.close()
+
+
+def test_experts_do_not_drive_into_vehicles_crawling_to_rest_behind_a_stopped_one():
+    """fcfs, 2000 veh/h, seed 2: a policy stops the first vehicle in the box
+    at t = 100 s; before the ghost rule, an fcfs vehicle with a reservation
+    drove into a vehicle crawling across its path to its resting place
+    behind the stopped one (t = 113.4 s; 3 such pairs in 240 s)."""
+    from icv_envs.envs.intersection_v0 import parallel_env
+
+    env = parallel_env(method="fcfs", throughput=2000.0, duration=125.0, missing_action="expert")
+    env.reset(seed=2)
+    f = env.core.world.fleet
+    stopper = None
+    while not env.episode_over:
+        ex = env.expert_actions()
+        if stopper is None and env.core.world.time > 100:
+            inbox = [i for i in range(f.n) if abs(f.x[i]) < 10 and abs(f.y[i]) < 10 and not f.cleared[i]
+                     and f.speed[i] > 3]
+            if inbox:
+                stopper = f"icv_{f.vid[inbox[0]]}"
+        acts = {stopper: np.array([-1.0, ex[stopper][1]], dtype=np.float32)} if stopper in env.agents else {}
+        env.step(acts)
+    m = env.metrics()
+    env.close()
+    assert stopper is not None
+    assert m["collisions"] == 0, m["collisions_by_fault"]

@@ -493,10 +493,9 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
             same = (grp[me] == grp[ld]) & (grp[me] >= 0)
             np.minimum.at(cap_other, me[~same], safe[~same])
         # a (nearly) stopped vehicle in the box on this vehicle's path, whatever its own path
-        qi, oj, og = self._path_obstacles(world, rs)
+        qi, oj, og, vo = self._path_obstacles(world, rs)
         if len(qi):
             v = f.speed[qi]
-            vo = f.speed[oj]
             safe = idm_acceleration(v, p.v_max, og, v - vo, p.a_max, p.idm_b, p.idm_T, p.idm_s0, free_term=False)
             safe = np.minimum(safe, self._gipps(v, vo, og - p.member_s0))
             np.minimum.at(cap, qi, safe)
@@ -516,39 +515,79 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         return cap
 
     def _path_obstacles(self, world, rs, v_stopped: float = 1.0, look: float = 60.0):
-        """Pairs ``(vehicle, obstacle, bumper gap)``: a vehicle slower than
-        ``v_stopped`` in the box (or within 10 m past it) whose body covers the
-        path of a vehicle approaching (within 40 m of the stop line) or in the
-        box, ahead of it by at most ``look`` metres.  The corridors only know
-        leaders on one's own lane or path; a vehicle stopped across it (after
-        a crash, or stopped by its own controller) must be seen too.  Lateral
-        test: the obstacle's rectangle, turned by its heading relative to the
-        path, overlaps the vehicle's width plus 0.2 m; gap: along the path,
-        bumper to the obstacle's nearest extent."""
+        """Pairs ``(vehicle, obstacle, bumper gap, obstacle speed)``: a vehicle
+        slower than ``v_stopped`` in the box (or within 10 m past it) whose
+        body covers the path of a vehicle approaching (within 40 m of the
+        stop line) or in the box, ahead of it by at most ``look`` metres.  The
+        corridors only know leaders on one's own lane or path; a vehicle
+        stopped across it (after a crash, or stopped by its own controller)
+        must be seen too.  Lateral test: the obstacle's rectangle, turned by
+        its heading relative to the path, overlaps the vehicle's width plus
+        0.2 m; gap: along the path, bumper to the obstacle's nearest extent.
+
+        A vehicle in the box held by such an obstacle will come to rest
+        behind it, ``member_s0`` short of it on its own path; where that
+        resting place covers another vehicle's path, it is an obstacle (speed
+        0) for that vehicle already (a *ghost*; never for the obstacles that
+        hold it).  Issue 11: with a vehicle held stopped in the box by a
+        policy, fcfs vehicles with reservations drove into vehicles crawling
+        across their path to their resting place behind it (3 pairs in 240
+        s).  Without a stopped vehicle in the box there is no ghost."""
         f = world.fleet
         lay = world.layout
         e = np.zeros(0, dtype=np.int64)
+        empty = (e, e, np.zeros(0), np.zeros(0))
         obs = np.flatnonzero(((rs.phase == 1) | ((rs.phase == 2) & (rs.s - rs.L < 10.0))) & (f.speed < v_stopped))
         if not len(obs):
-            return e, e, np.zeros(0)
+            return empty
         q = np.flatnonzero((((rs.phase == 0) & (rs.u > -40.0)) | (rs.phase == 1)) & ~f.crashed)
         if not len(q):
-            return e, e, np.zeros(0)
-        qi = np.repeat(q, len(obs))
-        oj = np.tile(obs, len(q))
+            return empty
+        qi, oj, gap = self._covering(world, rs, q, obs, rs.cx[obs], rs.cy[obs], f.heading[obs],
+                                     f.length[obs], f.width[obs], look)
+        vo = f.speed[oj]
+        # ghosts: the resting places of in-box vehicles held by those obstacles
+        held = np.flatnonzero(np.isin(np.arange(f.n), qi) & (rs.phase == 1))
+        if len(held):
+            g_min = np.full(f.n, np.inf)
+            np.minimum.at(g_min, qi, gap)
+            s_rest = rs.s[held] + np.maximum(g_min[held] - self.p.member_s0, 0.0)
+            gx, gy, gh = lay.route_points(rs.pid[held], s_rest)
+            gi, gj, gg = self._covering(world, rs, q, held, gx, gy, gh, f.length[held], f.width[held], look)
+            # never for the vehicle itself or for an obstacle that holds it
+            holds = set(zip(qi.tolist(), oj.tolist()))
+            keep = np.array([a != b and (b, a) not in holds for a, b in zip(gi.tolist(), gj.tolist())], dtype=bool)
+            if keep.any():
+                qi = np.concatenate([qi, gi[keep]])
+                oj = np.concatenate([oj, gj[keep]])
+                gap = np.concatenate([gap, gg[keep]])
+                vo = np.concatenate([vo, np.zeros(int(keep.sum()))])
+                self.stats["path_ghost_pairs"] = self.stats.get("path_ghost_pairs", 0) + int(keep.sum())
+        return qi, oj, gap, vo
+
+    def _covering(self, world, rs, q, obs, ox, oy, oh, olen, owid, look):
+        """``(vehicle, obstacle, gap)`` for every vehicle of ``q`` whose path
+        ahead (within ``look`` m) the rectangle of obstacle ``obs[k]``
+        (centre ``ox, oy``, heading ``oh``, size ``olen x owid``) covers."""
+        f = world.fleet
+        lay = world.layout
+        n_o = len(obs)
+        qi = np.repeat(q, n_o)
+        kk = np.tile(np.arange(n_o), len(q))
+        oj = obs[kk]
         k = qi != oj
-        qi, oj = qi[k], oj[k]
+        qi, oj, kk = qi[k], oj[k], kk[k]
         pid = rs.pid[qi]
-        s_o, lat_o = lay.project(pid, rs.cx[oj], rs.cy[oj], np.ones(len(qi), dtype=np.int64))
+        s_o, lat_o = lay.project(pid, ox[kk], oy[kk], np.ones(len(qi), dtype=np.int64))
         past = s_o > lay.L[pid]
         if past.any():
-            s2, l2 = lay.project(pid[past], rs.cx[oj[past]], rs.cy[oj[past]], np.full(int(past.sum()), 2))
+            s2, l2 = lay.project(pid[past], ox[kk[past]], oy[kk[past]], np.full(int(past.sum()), 2))
             s_o[past], lat_o[past] = s2, l2
         _, _, hp = lay.route_points(pid, s_o)
-        dh = f.heading[oj] - hp
+        dh = oh[kk] - hp
         c, sn = np.abs(np.cos(dh)), np.abs(np.sin(dh))
-        across = 0.5 * (f.length[oj] * sn + f.width[oj] * c)
-        along = 0.5 * (f.length[oj] * c + f.width[oj] * sn)
+        across = 0.5 * (olen[kk] * sn + owid[kk] * c)
+        along = 0.5 * (olen[kk] * c + owid[kk] * sn)
         gap = s_o - along - rs.s[qi] - 0.5 * f.length[qi]
         hit = (np.abs(lat_o) < 0.5 * f.width[qi] + across + 0.2) & (s_o > rs.s[qi]) & (gap < look)
         return qi[hit], oj[hit], gap[hit]
