@@ -28,7 +28,8 @@ for seed in parse_seeds(a.seeds):
         w.invalidate()
         idx = w.lane_index(reserved=True)
         pairs = set(zip(idx.rows.tolist(), idx.lanes.tolist()))
-        body = set(zip(w.lane_index(reserved=False).rows.tolist(), w.lane_index(reserved=False).lanes.tolist()))
+        bidx = w.lane_index(reserved=False)
+        body = set(zip(bidx.rows.tolist(), bidx.lanes.tolist()))
         for r in range(tr.n):
             if w._expert_vids is not None and int(tr.vid[r]) not in w._expert_vids:
                 off += 1

@@ -547,7 +547,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
                                      f.length[obs], f.width[obs], look)
         vo = f.speed[oj]
         # ghosts: the resting places of in-box vehicles held by those obstacles
-        held = np.flatnonzero(np.isin(np.arange(f.n), qi) & (rs.phase == 1))
+        held = np.unique(qi[rs.phase[qi] == 1])
         if len(held):
             g_min = np.full(f.n, np.inf)
             np.minimum.at(g_min, qi, gap)
