@@ -19,27 +19,29 @@ p.add_argument("--seeds", default="0-2")
 a = p.parse_args()
 for method in a.methods.split(","):
     tot = {}
-    coll = 0
+    coll = n_random = 0
     for seed in parse_seeds(a.seeds):
         env = parallel_env(method=method, throughput=a.throughput, duration=a.seconds)
         env.reset(seed=seed)
         rng = np.random.default_rng(seed)
-        random_agents = set()
+        random_agents, seen = set(), set()
         while not env.episode_over:
             ex = env.expert_actions()
-            for ag in env.agents:
-                if ag not in random_agents and rng.random() < a.share and ag not in tot.get("_seen", set()):
-                    random_agents.add(ag)
-                tot.setdefault("_seen", set()).add(ag)
+            for ag in env.agents:  # each agent is drawn once, when it appears
+                if ag not in seen:
+                    seen.add(ag)
+                    if rng.random() < a.share:
+                        random_agents.add(ag)
             acts = {ag: (np.array([rng.uniform(-1, 1), ex[ag][1]], dtype=np.float32) if ag in random_agents else ex[ag])
                     for ag in env.agents}
             env.step(acts)
         m = env.metrics()
         coll += m["collisions"]
+        n_random += len(random_agents)
         for k, v in m["collisions_by_fault"].items():
             for d, n in v.items():
                 tot[(k, d)] = tot.get((k, d), 0) + n
         env.close()
-    tot.pop("_seen", None)
     print(json.dumps({"method": method, "seeds": a.seeds, "share": a.share, "collided_vehicles": coll,
+                      "random_agents": n_random,
                       "pairs_by_fault": {f"{k}/{d}": n for (k, d), n in sorted(tot.items())}}))
