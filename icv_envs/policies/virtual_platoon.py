@@ -296,7 +296,7 @@ class VirtualPlatoon:
         lb = cand.max(axis=0) if K else np.zeros(0)
         pred = cand.argmax(axis=0) if K else np.zeros(0, dtype=np.int64)
         return ids, depths, {"xf": xf, "rear": rear, "first": first, "rear_row": rear_row, "refs": refs,
-                             "lb": lb, "pred": pred, "mvs": mvs, "U": U}
+                             "lb": lb, "pred": pred, "mvs": mvs, "U": U, "depths": depths[1:], "lens": lens}
 
     # -------------------------------------------------------------- references
     def _references(self, world, rs) -> None:
@@ -420,8 +420,7 @@ class VirtualPlatoon:
         if not len(cand):
             return
         ids = self.node_order
-        depths = np.array([self.node_depth[n] for n in ids], dtype=np.int64)
-        lens = np.array([self.nodes[n]["length"] for n in ids])
+        depths, lens = T["depths"], T["lens"]
         C = lay.conflict[f.mv[cand][:, None], T["mvs"][None, :]]  # (cand, K)
         # its node would be ordered before the first node of its own leg that
         # has a vehicle behind it (_repair_order): only the nodes before that
