@@ -59,7 +59,8 @@ def main(argv=None) -> int:
         config = {"lane_use": a.lane_use} if a.lane_use else {}
         if a.warmup:
             config["warmup"] = a.warmup
-        jobs = [(m, v, s, a.seconds, config) for m in methods for v in tps for s in parse_seeds(a.seeds)]
+        # seed outermost: an interrupted sweep keeps whole (method x demand) grids for its first seeds
+        jobs = [(m, v, s, a.seconds, config) for s in parse_seeds(a.seeds) for v in tps for m in methods]
         (out / "runs").mkdir(parents=True, exist_ok=True)
         with ProcessPoolExecutor(max(1, a.workers)) as ex:
             futs = [ex.submit(_job, j) for j in jobs]

@@ -75,7 +75,7 @@ from pettingzoo import ParallelEnv
 
 from icv_envs.rl.envs import episode_finished, make_parallel_env, resolve_env
 
-__all__ = ["SlotParallelEnv", "slot_count", "slot_parallel_env", "module"]
+__all__ = ["SlotParallelEnv", "VehicleEpisodes", "slot_count", "slot_parallel_env", "vehicle_slots_env", "module"]
 
 
 def _trip_time_ramps(c: dict) -> float:
@@ -278,6 +278,98 @@ def slot_parallel_env(name, config: dict | None = None, slots: int | None = None
     par = make_parallel_env(spec, dict(cfg, **({"max_cycles": max_cycles} if max_cycles is not None else {})),
                             render_mode=render_mode)
     return SlotParallelEnv(par, slots=slots, z=z)
+
+
+class VehicleEpisodes:
+    """Per-vehicle episodes on the ``K`` slots of a :class:`SlotParallelEnv`,
+    for learners that want one episode per vehicle (SB3 through
+    :class:`icv_envs.rl.ParallelVecEnv`).
+
+    The slot layout keeps every slot in ``agents`` until the env's episode
+    ends and reports a vehicle's departure only in ``info["vehicle_done"]``
+    (PettingZoo forbids agents leaving and coming back). This view is the
+    other reading of the same slots: ``agents`` are the slots that hold a
+    live vehicle; a slot's agent *terminates* or is *truncated* with its
+    vehicle (the env's own flags, ``info["vehicle_terminated"]`` /
+    ``info["vehicle_truncated"]``), leaves ``agents``, and appears again when
+    the next vehicle is given the slot (an episode start). Empty slots are
+    absent, not zeros. So ``ParallelVecEnv(lambda: VehicleEpisodes(...))``
+    has ``K`` VecEnv slots instead of one per possible arrival (the open roads'
+    placeholders fall from 98-99% to the slot layout's share), and no value is
+    bootstrapped across a hand-over from one vehicle to the next.
+
+    Vehicles that find every slot taken are driven by the env's expert (the
+    slot layout's overflow) and are not part of the learner's data. This is a
+    training adapter with the ``ParallelEnv`` calls ParallelVecEnv makes
+    (``reset``, ``step``, ``agents``, ``possible_agents``, the spaces,
+    ``episode_over``, ``core``); it is not a PettingZoo env (an agent that
+    terminated comes back), so PettingZoo's API test does not apply to it.
+    """
+
+    def __init__(self, slot_env: SlotParallelEnv) -> None:
+        if not isinstance(slot_env, SlotParallelEnv):
+            raise TypeError(f"VehicleEpisodes needs a SlotParallelEnv; got {type(slot_env).__name__}")
+        self.slot_env = slot_env
+        self.possible_agents = list(slot_env.possible_agents)
+        self.agents: list[str] = []
+        self.metadata = slot_env.metadata
+        self.render_mode = slot_env.render_mode
+        self._over = True
+
+    def observation_space(self, agent):
+        return self.slot_env.observation_space(agent)
+
+    def action_space(self, agent):
+        return self.slot_env.action_space(agent)
+
+    @property
+    def core(self):
+        return self.slot_env.core
+
+    @property
+    def episode_over(self) -> bool:
+        return self._over
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        obs, infos = self.slot_env.reset(seed=seed, options=options)
+        self._over = False
+        self.agents = [s for s in self.possible_agents if infos[s]["active"]]
+        return {s: obs[s] for s in self.agents}, {s: infos[s] for s in self.agents}
+
+    def step(self, actions: dict):
+        if self._over:
+            raise RuntimeError("the episode is over: call reset()")
+        before = set(self.agents)
+        obs, rew, _te, tr, infos = self.slot_env.step({s: a for s, a in actions.items() if s in before})
+        o, r, te, trn, inf = {}, {}, {}, {}, {}
+        agents = []
+        for s in self.possible_agents:
+            info = infos[s]
+            if s in before:  # the slot's vehicle acted: its transition, maybe its last
+                o[s], r[s], inf[s] = obs[s], float(rew[s]), info
+                te[s] = bool(info["vehicle_terminated"])
+                trn[s] = bool(info["vehicle_truncated"]) or (bool(tr[s]) and not te[s])
+                if not (te[s] or trn[s]):
+                    agents.append(s)
+            elif info["active"]:  # a vehicle was given the empty slot: its first observation
+                o[s], r[s], inf[s] = obs[s], 0.0, info
+                te[s], trn[s] = False, bool(tr[s])
+                if not trn[s]:
+                    agents.append(s)
+        self._over = not self.slot_env.agents
+        self.agents = [] if self._over else agents
+        return o, r, te, trn, inf
+
+    def render(self):
+        return self.slot_env.render()
+
+    def close(self) -> None:
+        self.slot_env.close()
+
+
+def vehicle_slots_env(name, config: dict | None = None, slots: int | None = None, z: float = 1.0) -> VehicleEpisodes:
+    """:class:`VehicleEpisodes` over :func:`slot_parallel_env` ``(name, config, slots, z)``."""
+    return VehicleEpisodes(slot_parallel_env(name, config, slots=slots, z=z))
 
 
 def module(name, config: dict | None = None, slots: int | None = None, z: float = 1.0) -> SimpleNamespace:

@@ -37,3 +37,8 @@ t bc_dagger_intersection python baselines/bc_expert.py --env intersection_v0 \
 #    machine ran two intersection sweeps, the test suite and HighwayRamps runs beside it: 403,560 env steps)
 t ppo_meta_lane-drop_50min python baselines/ppo_recipe.py --config '{"scenario": "lane-drop"}' \
     --action-type DiscreteMetaAction --max-minutes 50 --eval-every 25000 --seed 0 --out "$OUT/ppo_meta_lane-drop_50min"
+# stop 16: PPO from scratch at the intersection, DiscreteMetaAction, on the K reused vehicle slots
+# (--layout auto = slots on the open roads; per-vehicle episodes), open-road checkpoint selection
+t ppo_meta_intersection_50min python baselines/ppo_recipe.py --env intersection_v0 \
+    --config '{"throughput": 1500, "duration": 120, "warmup": 80}' --action-type DiscreteMetaAction \
+    --max-minutes 50 --eval-every 50000 --seed 0 --out "$OUT/ppo_meta_intersection_50min"
