@@ -81,3 +81,23 @@ def test_recipe_bad_arguments(tmp_path):
         rec.parse_args(["--config", '{"action": {"type": "DiscreteMetaAction"}}'])
     with pytest.raises(SystemExit):
         rec.parse_args(["--action-type", "Nope"])
+
+
+def test_recipe_on_the_intersection_trains_on_the_k_vehicle_slots(tmp_path):
+    """--layout auto on an open road: K reused slots (per-vehicle episodes), not one per possible arrival;
+    the validation rows carry the throughput the open-road selection uses."""
+    from icv_envs.rl.slots import slot_parallel_env
+
+    out = tmp_path / "run"
+    cfg = {"throughput": 1500, "duration": 6, "warmup": 20}
+    tiny = ["--total-timesteps", "200", "--n-steps", "4", "--batch-size", "32", "--n-epochs", "1",
+            "--eval-every", "100", "--eval-episodes", "1", "--net-arch", "16,16"]
+    assert _recipe().main(["--env", "intersection_v0", "--config", json.dumps(cfg), "--action-type",
+                           "DiscreteMetaAction", "--out", str(out)] + tiny) == 0
+    run = json.loads((out / "run.json").read_text())
+    K = slot_parallel_env("intersection_v0", dict(cfg, action={"type": "DiscreteMetaAction"})).K
+    assert run["train"]["slots"] == K
+    with open(out / "curve.csv") as f:
+        rows = [r for r in csv.DictReader(f) if r["val_return"] != ""]
+    assert rows and all(r["val_throughput"] != "" for r in rows)
+    assert len(run["train"]["chosen_validation"]) == 5  # (unsafe, -throughput, collisions, -return, steps)
