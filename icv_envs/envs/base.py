@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import itertools
 import math
 import operator
 
@@ -347,7 +348,8 @@ class IcvAgentsEnv(AbstractEnv):
         crashed_now = veh.crashed.copy()
         self._last_actions = self._realign_rows(before, acts, veh.vid)
         rows = np.arange(veh.n)
-        agents = [f"icv_{v}" for v in veh.vid.tolist()]
+        step_vid = veh.vid.copy()
+        agents = [f"icv_{v}" for v in step_vid.tolist()]
         F = self._features() if veh.n else np.zeros((0, len(self.OBS_FEATURES)))  # once, for rewards and observations
         rew, parts = self._rewards_rows(rows, crashed_now, F)
         obs = self._observe_rows(rows, F)
@@ -386,7 +388,7 @@ class IcvAgentsEnv(AbstractEnv):
                 terms[a] = False
                 truncs[a] = bool(truncated_all)
                 infos[a] = inf2[a]
-        self._fill_expert_labels(infos)
+        self._fill_expert_labels(infos, agents, step_vid)
         self._last_obs = {a: o for a, o in observations.items() if not (terms[a] or truncs[a])}
         self._on_step_end(events)
         if self.render_mode == "human":
@@ -460,7 +462,7 @@ class IcvAgentsEnv(AbstractEnv):
             out[ok] = values[pos[ok]]
         return out
 
-    def _fill_expert_labels(self, infos: dict) -> None:
+    def _fill_expert_labels(self, infos: dict, agents: list | None = None, agents_vid: np.ndarray | None = None) -> None:
         """``infos[a]["expert_action"]`` for every agent of a step's infos,
         from the state the next action is taken in: after the step's
         removals and spawns, so each label is exactly what
@@ -470,19 +472,37 @@ class IcvAgentsEnv(AbstractEnv):
             return
         veh = self._vehicles()
         ex = self.expert_actions() if veh.n else np.zeros((0, 2), dtype=np.float32)
-        self._label_infos(infos, veh.vid, ex)
+        self._label_infos(infos, veh.vid, ex, agents, agents_vid)
 
     @staticmethod
-    def _label_infos(infos: dict, vid: np.ndarray, ex: np.ndarray) -> None:
+    def _label_infos(infos: dict, vid: np.ndarray, ex: np.ndarray, agents: list | None = None,
+                     agents_vid: np.ndarray | None = None) -> None:
         """Array -> dict edge of :meth:`_fill_expert_labels`: one row view of
         a copy of ``ex`` per live agent (vehicle ``vid[i]``), zeros for the
-        others."""
+        others. ``agents`` (the first keys of ``infos``, in order) with their sorted vehicle
+        ids ``agents_vid`` are labelled by one aligned array (no agent names
+        are rebuilt: the step's agents are most of the infos); the other infos
+        (vehicles that appeared late in the step, agents that left) by name."""
         rows = np.array(ex, dtype=np.float32, copy=True)
-        for a, row in zip([f"icv_{v}" for v in vid.tolist()], rows):
+        rest, unlabelled = vid, infos.values()
+        if agents is not None and len(agents):
+            # the step builds its infos from ``agents`` first, in order; only the keys after them can lack a label
+            unlabelled = itertools.islice(infos.values(), len(agents), None)
+            lab = np.zeros((len(agents), 2), dtype=np.float32)
+            if len(vid):
+                pos = np.minimum(np.searchsorted(vid, agents_vid), len(vid) - 1)
+                ok = vid[pos] == agents_vid
+                lab[ok] = rows[pos[ok]]
+                keep = np.ones(len(vid), dtype=bool)
+                keep[pos[ok]] = False
+                rest, rows = vid[keep], rows[keep]
+            for a, row in zip(agents, lab):
+                infos[a]["expert_action"] = row
+        for a, row in zip([f"icv_{v}" for v in rest.tolist()], rows):
             info = infos.get(a)
             if info is not None:
                 info["expert_action"] = row
-        for info in infos.values():
+        for info in unlabelled:
             if "expert_action" not in info:
                 info["expert_action"] = np.zeros(2, dtype=np.float32)
 
