@@ -48,6 +48,8 @@ def main(argv=None) -> int:
                    help="seconds run before the clock and the statistics start (collisions and jams of the "
                         "warm-up are counted in the table too); default 0: from an empty intersection")
     p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--skip-existing", action="store_true",
+                   help="do not re-run a (method, demand, seed) whose runs/*.json is already in --out (resume)")
     p.add_argument("--out", default="intersection_seed_sweep")
     p.add_argument("--collect", nargs="*", default=None, help="only merge these earlier output directories into --out")
     a = p.parse_args(argv)
@@ -62,6 +64,8 @@ def main(argv=None) -> int:
         # seed outermost: an interrupted sweep keeps whole (method x demand) grids for its first seeds
         jobs = [(m, v, s, a.seconds, config) for s in parse_seeds(a.seeds) for v in tps for m in methods]
         (out / "runs").mkdir(parents=True, exist_ok=True)
+        if a.skip_existing:
+            jobs = [j for j in jobs if not (out / "runs" / f"{j[0]}_tp{j[1]:g}_seed{j[2]}.json").exists()]
         with ProcessPoolExecutor(max(1, a.workers)) as ex:
             futs = [ex.submit(_job, j) for j in jobs]
             for fut in tqdm(as_completed(futs), total=len(futs), desc="seed sweep"):

@@ -247,7 +247,8 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
                       "path_obstacle_binding": 0, "node_yielded": 0, "signal_alongside_passed": 0,
-                      "held_at_line": 0, "lane_change_yields": 0, "lc_ranked_behind": 0, "anticipating": 0}
+                      "held_at_line": 0, "lane_change_yields": 0, "lc_ranked_behind": 0, "anticipating": 0,
+                      "ahead_of_reference": 0, "crossed_targets_swapped": 0}
 
     # ---------------------------------------------------------------- fields
     def attach(self, world) -> None:

@@ -323,6 +323,18 @@ class VirtualPlatoon:
                 rr[cyc] = -1
             ok = rr >= 0
             k, rr = k[ok], rr[ok]
+            # a follower ahead of the vehicle it follows, in that vehicle's own
+            # lane, is that vehicle's leader on the road: holding its slot
+            # (ahead of the reference, in another lane) makes each wait for the
+            # other once the lane change to the slot is blocked, a circular
+            # wait (multi-vp, 3500 veh/h, seed 0: a member stood 1 m ahead of
+            # its sub-formation's first vehicle in lane 2, waiting for a gap
+            # in lane 1, for 150 s). Such a follower drives free until the
+            # lane change separates the two
+            ahead = (f.klane[k] == f.klane[rr]) & (rs.dist[k] < rs.dist[rr]) & (rs.phase[k] == 0)
+            if ahead.any():
+                self.stats["ahead_of_reference"] += int(ahead.sum())
+                k, rr = k[~ahead], rr[~ahead]
             mode[k] = MODE_FOLLOW
             xref[k] = rs.u[rr] - f.xg[k]
             vref[k] = f.speed[rr]
