@@ -13,6 +13,11 @@
 Tests 1 and 2 fail on the code before the fixes (a6324c5); test 3 fails
 there for fcfs (for the VP methods the follower is held by other rules in
 this scene).
+
+The two circular waits of the saturation sweep (multi-vp at 3500 and 4000
+veh/h, seed 0) are tested as rules at the end (both fail on 7e1c3f9: the
+crossed pair changes lanes twice, the follower ahead of its reference
+follows it).
 """
 
 import numpy as np
@@ -216,3 +221,64 @@ def test_a_member_waiting_to_change_lanes_ranks_behind_a_member_alongside_it_in_
     assert ka < kb  # A clear ahead of B (bumper gap > 0) keeps its rank
     ka, kb = keys(-290.0, -290.5, ta=0, tb=1)
     assert ka < kb  # swapping lanes: physical order
+
+
+# --- the circular waits of the saturation sweep (stop 16) -------------------------------------------------
+
+
+def _sub_of_two(env, lanes, dists, speed):
+    """Two vehicles of leg 0, movement 2 (served by lanes 1 and 2), in one sub-formation."""
+    lay = env.layout
+    w = env.world
+    vids = [put(env, 0, ln, 2, -(d - lay.box_half), speed, tlane=ln) for ln, d in zip(lanes, dists)]
+    for k, (v, ln) in enumerate(zip(vids, lanes)):
+        env.expert.on_spawn(w, v, "pair", 2.6 * k, ln)
+    env.expert.update(w)  # division (inside R2)
+    f = w.fleet
+    rows = f.rows(vids)
+    assert f.sub[rows[0]] >= 0 and f.sub[rows[0]] == f.sub[rows[1]]
+    return vids, rows
+
+
+def test_two_members_that_would_swap_lanes_exchange_their_targets():
+    """multi-vp 4000 veh/h seed 0: two members side by side, each assigned the other's lane at division,
+    stood from the warm-up to the end of the run (92 jammed behind them). They exchange targets now:
+    neither changes lanes, both cross."""
+    env = empty_env("multi-vp")
+    w = env.world
+    f = w.fleet
+    vids, (ra, rb) = _sub_of_two(env, (1, 2), (326.0, 328.6), 0.0)
+    # the division's assignment, crossed: each one's target is the other's lane
+    f.tlane[ra], f.tlane[rb] = f.klane[rb], f.klane[ra]
+    f.tidx[ra], f.tidx[rb] = f.tidx[rb], f.tidx[ra]
+    env.expert.subs[int(f.sub[ra])]["state"] = "lc"
+    lc0 = env.expert.stats["lane_changes"]
+    run(env, 60.0)
+    assert env.expert.stats["lane_changes"] == lc0  # no lane change was needed
+    assert env.expert.stats["crossed_targets_swapped"] == 1
+    rows = f.rows(vids)
+    assert all(r < 0 or f.entered[r] for r in rows)
+    assert w.stats["collisions"] == 0
+
+
+def test_a_follower_ahead_of_its_reference_in_its_lane_drives_free():
+    """multi-vp 3500 veh/h seed 0: a member 1 m ahead of its sub-formation's first vehicle, in that
+    vehicle's lane, held its slot (ahead of the first, in the lane it could not change into) while
+    the first stood behind it: 354 jammed, 738 veh/h. It drives free now."""
+    from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE
+
+    env = empty_env("multi-vp")
+    w = env.world
+    f = w.fleet
+    vids, (ra, rb) = _sub_of_two(env, (2, 2), (330.0, 323.0), 0.0)  # b is ahead of a in lane 2
+    f.tlane[rb] = 1
+    f.ref[ra], f.ref[rb] = -1, f.vid[ra]  # b follows a, slot 7 m ahead of a (interlaced, lane 1)
+    f.xg[rb] = -7.0
+    rs = w.route()
+    env.expert._references(w, rs)  # the per-vehicle modes of this step
+    assert env.expert._mode[rb] == MODE_FREE
+    assert env.expert.stats["ahead_of_reference"] == 1
+    # in another lane the same slot is followed as before
+    f.klane[rb] = 1
+    env.expert._references(w, rs)
+    assert env.expert._mode[rb] == MODE_FOLLOW
