@@ -100,4 +100,4 @@ def test_recipe_on_the_intersection_trains_on_the_k_vehicle_slots(tmp_path):
     with open(out / "curve.csv") as f:
         rows = [r for r in csv.DictReader(f) if r["val_return"] != ""]
     assert rows and all(r["val_throughput"] != "" for r in rows)
-    assert len(run["train"]["chosen_validation"]) == 5  # (unsafe, -throughput, collisions, -return, steps)
+    assert len(run["train"]["chosen_validation"]) == 4  # (-score, collisions, -return, steps)
