@@ -488,16 +488,10 @@ class IcvAgentsEnv(AbstractEnv):
         if agents is not None and len(agents):
             # the step builds its infos from ``agents`` first, in order; only the keys after them can lack a label
             unlabelled = itertools.islice(infos.values(), len(agents), None)
-            lab = np.zeros((len(agents), 2), dtype=np.float32)
-            if len(vid):
-                pos = np.minimum(np.searchsorted(vid, agents_vid), len(vid) - 1)
-                ok = vid[pos] == agents_vid
-                lab[ok] = rows[pos[ok]]
-                keep = np.ones(len(vid), dtype=bool)
-                keep[pos[ok]] = False
-                rest, rows = vid[keep], rows[keep]
-            for a, row in zip(agents, lab):
+            for a, row in zip(agents, IcvAgentsEnv._realign_rows(vid, rows, agents_vid)):
                 infos[a]["expert_action"] = row
+            late = ~np.isin(vid, agents_vid)
+            rest, rows = vid[late], rows[late]
         for a, row in zip([f"icv_{v}" for v in rest.tolist()], rows):
             info = infos.get(a)
             if info is not None:
