@@ -112,6 +112,34 @@ def test_jam_watch_counts_only_stops_outside_a_queue():
     assert 0 < s["jammed_vehicle_seconds"] < 0.5
 
 
+def test_jam_watch_queue_membership_persists_through_the_start_up_wave():
+    """A vehicle that joined a queue at the box stays in it while its own gap is short, even when the
+    chain from the stop line is broken further ahead (a discharging queue's head more than 10 m from
+    the line); it leaves the queue when its own gap opens, and is then counted if it keeps standing."""
+    dt = 0.04
+    n = int(math.ceil(JAM_SECONDS / dt)) + 50
+    state = {"chained": True, "linked": True}
+
+    def fn(rows):
+        return np.full(len(rows), state["chained"]), np.full(len(rows), state["linked"])
+
+    j = JamWatch()
+    for k in range(n):
+        if k == 20:
+            state["chained"] = False  # the front moved off: no chain from the line any more
+        j.record(k * dt, dt, np.array([7]), np.array([0.0]), fn)
+    assert j.summary()["jammed"] == 0
+    state["linked"] = False  # its leader drove away and it still stands: a hold away from the line
+    j.record(n * dt, dt, np.array([7]), np.array([0.0]), fn)
+    assert j.summary()["jammed"] == 1
+    # a vehicle never chained to the line is counted even when its own gap is short
+    j2 = JamWatch()
+    for k in range(n):
+        j2.record(k * dt, dt, np.array([3]), np.array([0.0]), lambda rows: (np.zeros(len(rows), bool),
+                                                                             np.ones(len(rows), bool)))
+    assert j2.summary()["jammed"] == 1
+
+
 def test_world_queue_rule():
     lay = IntersectionLayout("paper")
     w = IntersectionWorld(lay)

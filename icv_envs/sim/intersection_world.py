@@ -638,7 +638,7 @@ class IntersectionWorld:
             stt["min_speed_in_box"] = min(stt["min_speed_in_box"], float(f.speed[in_box].min()))
         left = appr & (u < -(lay.R3 - b + 50.0))
         self._record_pet(cx, cy, u)
-        self.jams.record(self.time, self.dt, f.vid, f.speed, lambda rows: self._in_queue(rows, u, lat_leg),
+        self.jams.record(self.time, self.dt, f.vid, f.speed, lambda rows: self._queue_links(rows, u, lat_leg),
                          dist=self.layout.box_half - u)
         # collisions
         i, j = self.collision_pairs(cx, cy)
@@ -686,13 +686,21 @@ class IntersectionWorld:
         self.pet.record(self.time, f.vid[k], pid, s, f.length[k])
 
     def _in_queue(self, rows, u, lat_leg) -> np.ndarray:
-        """Is each of ``rows`` in a queue at the box (the :class:`~icv_envs.sim.intersection_metrics.JamWatch` rule)?"""
+        """Is each of ``rows`` in a queue at the box, by the chain from the stop line
+        (the :class:`~icv_envs.sim.intersection_metrics.JamWatch` joining rule)?"""
+        return self._queue_links(rows, u, lat_leg)[0]
+
+    def _queue_links(self, rows, u, lat_leg) -> tuple[np.ndarray, np.ndarray]:
+        """``(chained, linked)`` per row (:class:`~icv_envs.sim.intersection_metrics.JamWatch`):
+        ``chained``: every bumper gap from the stop line back to the vehicle (the first one's to the line)
+        is below ``QUEUE_GAP``; ``linked``: its own gap (to the vehicle ahead in its lane, or to the line
+        when it is first) is. Vehicles in or past the box: both False."""
         f = self.fleet
         w = self.layout.lane_width
         appr = np.flatnonzero(~f.entered)
         out = np.zeros(len(rows), dtype=bool)
         if not len(appr):
-            return out
+            return out, out.copy()
         lane = np.clip(np.floor(lat_leg[appr] / w), 0, N_LANES - 1).astype(np.int64)
         key = 3 * f.leg[appr] + lane
         ua = u[appr]
@@ -712,7 +720,10 @@ class IntersectionWorld:
         queued = (c - before) == 0
         inq = np.zeros(f.n, dtype=bool)
         inq[a] = queued
-        return inq[np.asarray(rows, dtype=np.int64)]
+        lnk = np.zeros(f.n, dtype=bool)
+        lnk[a] = brk == 0
+        rows = np.asarray(rows, dtype=np.int64)
+        return inq[rows], lnk[rows]
 
     def collision_pairs(self, cx=None, cy=None) -> tuple[np.ndarray, np.ndarray]:
         """Colliding row pairs: sweep and prune along ``x`` over the east-west
