@@ -203,7 +203,11 @@ class BatchedWorlds:
     module docstring). ``env``: ``"highway_formation"``, ``"highway_ramps"``
     or ``"intersection"``; ``config``: the PettingZoo env's keyword
     arguments; ``expert``: also return the expert's action for every slot
-    (``info["expert_actions"]``, ``(B, K, 2)``, zeros in empty slots)."""
+    (``info["expert_actions"]``, ``(B, K, 2)``, zeros in empty slots).
+    Without ``expert`` the worlds never compute the expert: unless ``config``
+    says otherwise, ``expert_driven_check`` is False, so every vehicle is
+    policy-driven (learned actions are never equal to the expert's anyway;
+    the comparison cost a quarter of a 20-agent step)."""
 
     ENVS = ("highway_formation", "highway_ramps", "intersection")
 
@@ -216,6 +220,9 @@ class BatchedWorlds:
         self.num_worlds = B = _check_num(num_worlds, "num_worlds")
         cfg = dict(config or {})
         cfg.setdefault("expert_in_info", False)  # the batch asks the expert once per step itself
+        # without ``expert`` the batch never computes the expert: no action is compared with it
+        # (every vehicle policy-driven, see the envs' ``expert_driven_check``)
+        cfg.setdefault("expert_driven_check", bool(expert))
         mod = importlib.import_module(f"icv_envs.envs.{env}_v0")
         self.envs = [mod.parallel_env(**cfg) for _ in range(B)]
         self.possible_agents = list(self.envs[0].possible_agents)

@@ -128,3 +128,41 @@ def test_batched_intersection_worlds_keep_going_while_empty():
         resets += int(info["reset"][0])
         assert (obs[0][~mask[0]] == 0).all()
     assert resets == 1
+
+
+@pytest.mark.parametrize("env_name", ["highway_formation", "intersection"])
+def test_batched_worlds_without_expert_never_compute_it_and_match_separate_envs(env_name, monkeypatch):
+    """``expert=False``: no step computes the expert (``expert_driven_check`` False), and on learned
+    (random) actions the worlds are bit-identical to separate envs that do compare every action."""
+    import importlib
+
+    cfg = CFG if env_name == "highway_formation" else {"throughput": 1500, "duration": 3.0, "warmup": 20.0}
+    mod = importlib.import_module(f"icv_envs.envs.{env_name}_v0")
+    bw = BatchedWorlds(1, env=env_name, config=cfg, seed=2)
+    obs, mask = bw.reset()
+    env = mod.parallel_env(**cfg, expert_in_info=False)
+    o, _ = env.reset(seed=bw.episode_seed(0, 0))
+    assert env.core.config["expert_driven_check"] and not bw.envs[0].core.config["expert_driven_check"]
+    calls = {"n": 0}
+    core = bw.envs[0].core
+    real = core.expert_actions
+
+    def counted(*a, **k):
+        calls["n"] += 1
+        return real(*a, **k)
+
+    monkeypatch.setattr(core, "expert_actions", counted)
+    rng = np.random.default_rng(0)
+    for _ in range(6):
+        acts = rng.uniform(-0.3, 0.3, size=(1, bw.K, 2)).astype(np.float32)
+        obs, rew, term, trunc, mask, info = bw.step(acts)
+        o, r, _, _, _ = env.step({a: acts[0, bw.slot_of[a]] for a in env.agents})
+        k = [bw.slot_of[a] for a in o]
+        assert np.array_equal(np.stack(list(o.values())), obs[0, k])
+        assert np.array_equal(np.array(list(r.values())), rew[0, k])
+    assert calls["n"] == 0
+
+
+def test_expert_driven_check_is_validated():
+    with pytest.raises(ValueError, match="expert_driven_check"):
+        parallel_env(**CFG, expert_driven_check="no")

@@ -285,9 +285,13 @@ class IcvAgentsEnv(AbstractEnv):
         rows of ``acts`` belong to): who drives.  An action equal to the
         expert's (float32) is expert-driven; a vehicle carries the expert's
         lane-change plan out when it is expert-driven or its action type
-        says so (``FormationResidual``)."""
+        says so (``FormationResidual``). With ``config["expert_driven_check"]``
+        False no vehicle is expert-driven and the expert is not computed."""
         if len(vids):
-            em = np.all(np.abs(acts - self.expert_actions()) <= 1e-6, axis=1)
+            if self.config["expert_driven_check"]:
+                em = np.all(np.abs(acts - self.expert_actions()) <= 1e-6, axis=1)
+            else:  # every vehicle policy-driven; the expert is not computed (config docs)
+                em = np.zeros(len(vids), dtype=bool)
             carries = bool(getattr(self.action_type, "carries_expert_plan", False))
             self._drivers(vids, em, em | carries)
 

@@ -135,6 +135,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
                 "action": {"type": "ContinuousAction"},
                 "reward": dict(_REWARD_DEFAULTS),
                 "expert_in_info": True,
+                "expert_driven_check": True,
                 "missing_action": "error",
                 "show_formation": True,
                 "show_overlay": True,
@@ -248,6 +249,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         if c["missing_action"] not in ("error", "expert"):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
         flag(c, "expert_in_info")
+        flag(c, "expert_driven_check")
         check_render(c, flags=("show_formation", "show_overlay"))
         if c["lane_drop"] is not None:
             d = c["lane_drop"]

@@ -154,6 +154,7 @@ the road. Use it for centralised critics.
 | `action` | `{"type": "ContinuousAction"}` | see Action types |
 | `reward` | see Rewards | |
 | `expert_in_info` | True | put the expert's action in infos (costs one vectorised expert call per step) |
+| `expert_driven_check` | True | compare every action with the expert's (float32): a vehicle whose action equals it is *expert-driven* (it carries out the expert's lane-change plan; its collisions are counted under `expert` in `collisions_by_fault`). False: every vehicle is policy-driven and no step computes the expert for this check (training on learned actions: about a quarter of a 20-agent step; `icv_envs.vector.BatchedWorlds(expert=False)` sets it). Feeding the expert's actions back then does not reproduce the expert's trajectory |
 | `missing_action` | `"error"` | or `"expert"` |
 | `show_formation` | True | draw targets and the assignment when rendering |
 | `show_overlay` | True | draw the title (env, scenario), the time and a legend on every frame (docs/rendering.md) |

@@ -162,6 +162,7 @@ class IntersectionEnv(IcvAgentsEnv):
                 "action": {"type": "ContinuousAction"},
                 "reward": dict(_REWARD_DEFAULTS),
                 "expert_in_info": True,
+                "expert_driven_check": True,
                 "missing_action": "error",
                 "show_zones": True,
                 "show_groups": True,
@@ -273,7 +274,7 @@ class IntersectionEnv(IcvAgentsEnv):
         self._validate_spaces_config()
         if c["missing_action"] not in ("error", "expert"):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
-        for key in ("envelope_in_box", "vp_anticipation", "expert_in_info"):
+        for key in ("envelope_in_box", "vp_anticipation", "expert_in_info", "expert_driven_check"):
             flag(c, key)
         check_render(c, flags=("show_zones", "show_groups", "show_overlay"))
         check_possible_agents(self._n_possible_agents(), "throughput x (duration + warmup)")

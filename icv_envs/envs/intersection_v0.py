@@ -194,7 +194,7 @@ the box minus the same distance at `desired_speed`), `envelope_box_binding`
 | `observation` | `{"type": "Kinematics", "vehicles_count": 8, "perception_distance": 100}` | see Observation types |
 | `action` | `{"type": "ContinuousAction"}` | see Action types |
 | `reward` | see Rewards | |
-| `expert_in_info`, `missing_action` | True, `"error"` | as in `highway_formation_v0` |
+| `expert_in_info`, `expert_driven_check`, `missing_action` | True, True, `"error"` | as in `highway_formation_v0` |
 | `show_zones`, `show_groups` | True | rendering: zone circles; group lines and tree-layer labels |
 | `show_overlay` | True | rendering: title (method, demand, lane use), time, legend and a true-size inset of the box (docs/rendering.md) |
 | `scaling` | 0.54 | rendering: pixels per metre; 0.54 on 900 px shows the scene out to R3 = 800 m |
