@@ -104,3 +104,14 @@ def test_served_share_is_one_when_everything_arriving_clears():
     r = run_intersection("fcfs", 1000.0, 0, 300.0, {"warmup": 100.0})
     assert r["served_share"] == pytest.approx(1.0, abs=0.05)
     assert r["realised_demand"] == pytest.approx(r["achieved_throughput"], rel=0.05)
+
+
+def test_plot_title_says_how_many_seeds_each_point_has():
+    from icv_envs.experiments.intersection_compare import _seed_label
+
+    full = [{"method": "fcfs", "throughput": v, "seed": s} for v in (1000, 2000) for s in range(3)]
+    assert _seed_label(full, "mean_speed") == "3 seeds per point, band: 95% CI over seeds"
+    assert _seed_label(full, "pet_min") == "3 seeds per point"
+    ragged = full + [{"method": "fcfs", "throughput": 3000, "seed": 0}]
+    assert _seed_label(ragged, "mean_speed").startswith("1-3 seeds per point")
+    assert _seed_label(full[:1], "mean_speed") == "1 seed per point"

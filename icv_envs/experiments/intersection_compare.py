@@ -265,6 +265,20 @@ _PLOTS = (("mean_speed", "average speed [m/s]"),
           ("jammed", "jammed vehicles per run"))
 
 
+def _seed_label(results, key: str) -> str:
+    """How many seeds each point of a plot averages: one number when every (method, demand) cell has the
+    same, else the range (a grid completed on some cells only must not look uniform)."""
+    cells: dict = {}
+    for r in results:
+        cells.setdefault((r["method"], r["throughput"]), set()).add(r["seed"])
+    counts = sorted({len(v) for v in cells.values()}) or [0]
+    lo, hi = counts[0], counts[-1]
+    text = f"{hi} seed{'s' if hi != 1 else ''} per point" if lo == hi else f"{lo}-{hi} seeds per point"
+    if hi > 1 and key != "pet_min":
+        text += ", band: 95% CI over seeds"
+    return text
+
+
 def plot_results(results, out) -> list[str]:
     """One PNG per figure of :data:`_PLOTS`: seed mean per method, 95% CI band
     (for ``pet_min`` the minimum over the seeds, no band)."""
@@ -300,12 +314,9 @@ def plot_results(results, out) -> list[str]:
         if key == "achieved_throughput":
             lim = max(r["throughput"] for r in results)
             ax.plot([0, lim], [0, lim], ":", color="k", lw=0.8, label="demand")
-        seeds = sorted({r["seed"] for r in results})
         ax.set_xlabel("demand [vehicles/h entering the intersection, all legs]")
         ax.set_ylabel(label)
-        band = ", band: 95% CI over seeds" if len(seeds) > 1 and key != "pet_min" else ""
-        ax.set_title(f"Intersection: {key.replace('_', ' ')} ({len(seeds)} seed{'s' if len(seeds) != 1 else ''}{band})",
-                     fontsize=10)
+        ax.set_title(f"Intersection: {key.replace('_', ' ')} ({_seed_label(results, key)})", fontsize=10)
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
