@@ -190,7 +190,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     if args.action_type != "ContinuousAction":
         args.config_dict["action"] = {"type": args.action_type}
     if args.layout == "auto":
-        args.layout = "agents" if "highway_formation" in args.spec.id else "slots"
+        # the env family (its core module's name): every agent is there from the start only on highway_formation
+        args.layout = "agents" if args.spec.family == "highway_formation" else "slots"
     if args.init is not None and args.action_type == "DiscreteMetaAction":
         p.error("--init loads a continuous behaviour clone; it does not apply to --action-type DiscreteMetaAction")
     return args

@@ -101,3 +101,11 @@ def test_recipe_on_the_intersection_trains_on_the_k_vehicle_slots(tmp_path):
         rows = [r for r in csv.DictReader(f) if r["val_return"] != ""]
     assert rows and all(r["val_throughput"] != "" for r in rows)
     assert len(run["train"]["chosen_validation"]) == 4  # (-score, collisions, -return, steps)
+
+
+@pytest.mark.parametrize("env,layout", [("highway_formation_v0", "agents"), ("icv_envs/highway_formation-v0", "agents"),
+                                        ("highway_ramps_v0", "slots"), ("icv_envs/Intersection-v0", "slots")])
+def test_recipe_auto_layout_by_env_family(env, layout):
+    """--layout auto: one slot per agent where every agent is there from the start, K reused slots on the
+    open roads; decided by the env family, whatever name form the env was given in."""
+    assert _recipe().parse_args(["--env", env]).layout == layout
