@@ -104,7 +104,7 @@ def test_recipe_on_the_intersection_trains_on_the_k_vehicle_slots(tmp_path):
 
 
 @pytest.mark.parametrize("env,layout", [("highway_formation_v0", "agents"), ("icv_envs/highway_formation-v0", "agents"),
-                                        ("highway_ramps_v0", "slots"), ("icv_envs/Intersection-v0", "slots")])
+                                        ("highway_ramps_v0", "slots"), ("icv_envs/intersection-v0", "slots")])
 def test_recipe_auto_layout_by_env_family(env, layout):
     """--layout auto: one slot per agent where every agent is there from the start, K reused slots on the
     open roads; decided by the env family, whatever name form the env was given in."""
