@@ -112,32 +112,26 @@ def test_jam_watch_counts_only_stops_outside_a_queue():
     assert 0 < s["jammed_vehicle_seconds"] < 0.5
 
 
-def test_jam_watch_queue_membership_persists_through_the_start_up_wave():
-    """A vehicle that joined a queue at the box stays in it while its own gap is short, even when the
-    chain from the stop line is broken further ahead (a discharging queue's head more than 10 m from
-    the line); it leaves the queue when its own gap opens, and is then counted if it keeps standing."""
-    dt = 0.04
-    n = int(math.ceil(JAM_SECONDS / dt)) + 50
-    state = {"chained": True, "linked": True}
-
-    def fn(rows):
-        return np.full(len(rows), state["chained"]), np.full(len(rows), state["linked"])
-
-    j = JamWatch()
-    for k in range(n):
-        if k == 20:
-            state["chained"] = False  # the front moved off: no chain from the line any more
-        j.record(k * dt, dt, np.array([7]), np.array([0.0]), fn)
-    assert j.summary()["jammed"] == 0
-    state["linked"] = False  # its leader drove away and it still stands: a hold away from the line
-    j.record(n * dt, dt, np.array([7]), np.array([0.0]), fn)
-    assert j.summary()["jammed"] == 1
-    # a vehicle never chained to the line is counted even when its own gap is short
-    j2 = JamWatch()
-    for k in range(n):
-        j2.record(k * dt, dt, np.array([3]), np.array([0.0]), lambda rows: (np.zeros(len(rows), bool),
-                                                                             np.ones(len(rows), bool)))
-    assert j2.summary()["jammed"] == 1
+def test_world_queue_rule_anchors_a_discharging_queue_at_its_moving_front():
+    """The tail of a queue whose front has moved off (its head more than 10 m from the line, moving) is
+    still in the queue; a standing chain with a standing head away from the line is not; a vehicle
+    behind a moving vehicle but more than 10 m back is not."""
+    lay = IntersectionLayout("paper")
+    w = IntersectionWorld(lay)
+    # N lane 1: moving head 20 m before the line (gap 17.5 m), standing tail 2 m behind it
+    w.spawn(0, 1, 1, 3.0, -20.0, tlane=1)
+    for s in (-27.0, -34.0):
+        w.spawn(0, 1, 1, 0.0, s, tlane=1)
+    # E lane 1: standing head 60 m out, standing vehicle 2 m behind it
+    w.spawn(1, 1, 4, 0.0, -60.0, tlane=1)
+    w.spawn(1, 1, 4, 0.0, -67.0, tlane=1)
+    # S lane 1: moving vehicle, a standing one 15 m (bumper) behind it
+    w.spawn(2, 1, 7, 3.0, -60.0, tlane=1)
+    w.spawn(2, 1, 7, 0.0, -80.0, tlane=1)
+    rs = w.route()
+    q = w._in_queue(np.arange(7), rs.u, rs.lat_leg)
+    assert q[[1, 2]].all()  # the tail of the discharging queue
+    assert not q[3:].any()
 
 
 def test_world_queue_rule():

@@ -48,22 +48,24 @@ Post-encroachment time (:class:`PetStats`)
 Jams (:class:`JamWatch`)
     A vehicle is *jammed* when it has been stopped (``v <``
     :data:`STOPPED_SPEED`) for more than :data:`JAM_SECONDS` (10 s)
-    continuously while NOT in a queue at the box: before the stop line a
-    vehicle *joins* the queue when the first vehicle of its approach lane is
-    within :data:`QUEUE_GAP` (10 m, bumper) of the stop line and every gap
-    from there back to this vehicle is below :data:`QUEUE_GAP`, and *stays*
-    in it while its own bumper gap (to the vehicle ahead in its lane, or to
-    the line when it is first) stays below :data:`QUEUE_GAP`, whatever
-    happens further ahead.  The second half is the start-up wave of a
-    discharging queue: when the front moves off, the first vehicle is soon
-    more than 10 m from the line while the tail still stands, close behind
-    the vehicle ahead (fcfs, 5000 veh/h, seed 2, t = 422.8 s: the head of a
-    13-vehicle queue 13.7 m from the line at 5.7 m/s, three vehicles 67-81
-    m out still standing 2 m behind their leaders after 10 s, counted as
-    jammed by the chain rule alone).  A vehicle whose leader drives away
-    while it stands (its gap opens) leaves the queue, so a hold of the
-    controller away from the line is still caught.  A vehicle
-    stopped inside the box or after it is never in a queue.  ``jammed`` is
+    continuously while NOT in a queue at the box.  Before the stop line a
+    vehicle is in the queue if, following the vehicles ahead of it in its
+    approach lane through bumper gaps below :data:`QUEUE_GAP` (10 m), one
+    reaches either the stop line (the first vehicle of the lane within
+    :data:`QUEUE_GAP` of it) or a *moving* vehicle (at least
+    :data:`STOPPED_SPEED`): the front of a discharging queue, whose start-up
+    wave has not reached this vehicle yet.  The second anchor matters for
+    long queues: once the front moves off, its vehicles are soon more than
+    10 m apart while the tail still stands (fcfs, 5000 veh/h, seed 2, t =
+    422.8 s: the head of a 13-vehicle queue 13.7 m from the line at 5.7
+    m/s, three vehicles 67-81 m out still standing 2 m behind their moving
+    leaders; fcfs-tight, seed 1, t = 277.5 s: the 27th vehicle of a 200 m
+    queue whose front had started to discharge before it stopped; both
+    were counted as jammed by the stop-line anchor alone).  A vehicle
+    standing behind a vehicle that stands too, with no chain to the line,
+    is not in a queue at the box (a hold of the controller away from the
+    line).  A vehicle stopped inside the box or after it is never in a
+    queue.  ``jammed`` is
     the number of distinct vehicles that were ever jammed in the run,
     ``jammed_vehicle_seconds`` the time they spent jammed; both must be 0
     for a working controller (stopping at the line to wait for one's turn is
@@ -292,52 +294,37 @@ def pet_summary(samples) -> dict:
 class JamWatch:
     """Vehicles stopped more than :data:`JAM_SECONDS` outside a queue at the box.
 
-    Stopped time and queue membership are kept per vehicle id. Membership
-    (the module docstring's rule) is evaluated every substep for the
-    stopped vehicles and the current members: a vehicle joins when the
-    chain from the stop line reaches it, and stays while its own gap stays
-    below :data:`QUEUE_GAP` (so the start-up wave of a discharging queue
-    does not count its still-standing tail as jammed)."""
+    Stopped time is kept per vehicle id; the queue rule is evaluated only
+    for vehicles already stopped longer than :data:`JAM_SECONDS`."""
 
     def __init__(self) -> None:
         self.reset()
 
     def reset(self) -> None:
         self._stopped_for = np.zeros(0)
-        self._queued = np.zeros(0, dtype=bool)
         self.ever: set[int] = set()
         self.jammed_seconds = 0.0
         # (time, vid, distance to the centre) when a vehicle is first counted as jammed
         self.log: list[tuple[float, int, float]] = []
 
-    def record(self, t: float, dt: float, vid, speed, queue_fn, dist=None) -> None:
-        """``queue_fn(rows)`` -> ``(chained, linked)``, bool per row: the chain of short gaps from
-        the stop line reaches the vehicle; its own gap (to the vehicle ahead in its lane, or to the
-        line) is short (a plain bool array is taken as both); ``dist`` (optional, per row): its
-        distance to the centre, kept in the log."""
+    def record(self, t: float, dt: float, vid, speed, in_queue_fn, dist=None) -> None:
+        """``in_queue_fn(rows)`` -> bool per row: is the stopped vehicle in a queue at the box;
+        ``dist`` (optional, per row): its distance to the centre, kept in the log."""
         vid = np.asarray(vid, dtype=np.int64)
         if not len(vid):
             return
         top = int(vid.max()) + 1
         if top > len(self._stopped_for):
-            grow = max(top, 2 * len(self._stopped_for), 64) - len(self._stopped_for)
-            self._stopped_for = np.concatenate([self._stopped_for, np.zeros(grow)])
-            self._queued = np.concatenate([self._queued, np.zeros(grow, dtype=bool)])
+            self._stopped_for = np.concatenate([self._stopped_for,
+                                                np.zeros(max(top, 2 * len(self._stopped_for), 64)
+                                                         - len(self._stopped_for))])
         stopped = np.asarray(speed) < STOPPED_SPEED
         sf = self._stopped_for
         sf[vid] = np.where(stopped, sf[vid] + dt, 0.0)
-        q = self._queued
-        was = q[vid]
-        cand = np.flatnonzero(stopped | was)
-        q[vid] = False
-        if len(cand):
-            res = queue_fn(cand)
-            chained, linked = (res, res) if isinstance(res, np.ndarray) else res
-            q[vid[cand]] = np.asarray(chained, dtype=bool) | (was[cand] & np.asarray(linked, dtype=bool))
         rows = np.flatnonzero(stopped & (sf[vid] > JAM_SECONDS))
         if not len(rows):
             return
-        jam = rows[~q[vid[rows]]]
+        jam = rows[~np.asarray(in_queue_fn(rows), dtype=bool)]
         self.jammed_seconds += dt * len(jam)
         where = np.full(len(jam), np.nan) if dist is None else np.asarray(dist, dtype=np.float64)[jam]
         for v, d in zip(vid[jam].tolist(), where.tolist()):

@@ -51,6 +51,7 @@ from icv_envs.platoon.geometry import N_LANES
 from icv_envs.sim.intersection_layout import DEFAULT_BOX_HALF, IntersectionLayout, validate_radii
 from icv_envs.sim.intersection_metrics import (
     QUEUE_GAP,
+    STOPPED_SPEED,
     ConflictAreas,
     FaultStats,
     JamWatch,
@@ -371,7 +372,7 @@ class IntersectionWorld:
             stt["min_speed_in_box"] = min(stt["min_speed_in_box"], float(f.speed[in_box].min()))
         left = appr & (u < -(lay.R3 - b + 50.0))
         self._record_pet(cx, cy, u)
-        self.jams.record(self.time, self.dt, f.vid, f.speed, lambda rows: self._queue_links(rows, u, lat_leg),
+        self.jams.record(self.time, self.dt, f.vid, f.speed, lambda rows: self._in_queue(rows, u, lat_leg),
                          dist=self.layout.box_half - u)
         # collisions
         i, j = self.collision_pairs(cx, cy)
@@ -419,21 +420,16 @@ class IntersectionWorld:
         self.pet.record(self.time, f.vid[k], pid, s, f.length[k])
 
     def _in_queue(self, rows, u, lat_leg) -> np.ndarray:
-        """Is each of ``rows`` in a queue at the box, by the chain from the stop line
-        (the :class:`~icv_envs.sim.intersection_metrics.JamWatch` joining rule)?"""
-        return self._queue_links(rows, u, lat_leg)[0]
-
-    def _queue_links(self, rows, u, lat_leg) -> tuple[np.ndarray, np.ndarray]:
-        """``(chained, linked)`` per row (:class:`~icv_envs.sim.intersection_metrics.JamWatch`):
-        ``chained``: every bumper gap from the stop line back to the vehicle (the first one's to the line)
-        is below ``QUEUE_GAP``; ``linked``: its own gap (to the vehicle ahead in its lane, or to the line
-        when it is first) is. Vehicles in or past the box: both False."""
+        """Is each of ``rows`` in a queue at the box (the :class:`~icv_envs.sim.intersection_metrics.JamWatch`
+        rule): following the vehicles ahead in its approach lane through bumper gaps below ``QUEUE_GAP``,
+        does one reach the stop line (the first vehicle within ``QUEUE_GAP`` of it) or a moving vehicle
+        (the front of a discharging queue)?  Vehicles in or past the box: False."""
         f = self.fleet
         w = self.layout.lane_width
         appr = np.flatnonzero(~f.entered)
         out = np.zeros(len(rows), dtype=bool)
         if not len(appr):
-            return out, out.copy()
+            return out
         lane = np.clip(np.floor(lat_leg[appr] / w), 0, N_LANES - 1).astype(np.int64)
         key = 3 * f.leg[appr] + lane
         ua = u[appr]
@@ -446,17 +442,20 @@ class IntersectionWorld:
         gap[first] = -ua[first] - 0.5 * ln[first]
         nf = np.flatnonzero(~first)
         gap[nf] = ua[nf - 1] - ua[nf] - 0.5 * (ln[nf - 1] + ln[nf])
-        brk = (gap >= QUEUE_GAP).astype(np.int64)
-        c = np.cumsum(brk)
-        start = np.maximum.accumulate(np.where(first, np.arange(len(a)), 0))
-        before = c[start] - brk[start]
-        queued = (c - before) == 0
+        linked = gap < QUEUE_GAP
+        # an anchor for the vehicle behind: the stop line (first vehicle of the lane) or a moving leader
+        moving = f.speed[a] >= STOPPED_SPEED
+        seed = first.copy()
+        seed[nf] = moving[nf - 1]
+        # runs of consecutive linked vehicles of one lane; queued from the first anchor of the run backwards
+        run = np.cumsum(~linked | first)
+        c = np.cumsum(seed & linked)
+        start = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
+        before = np.repeat(c[start] - (seed & linked)[start], np.diff(np.r_[start, len(a)]))
+        queued = linked & ((c - before) > 0)
         inq = np.zeros(f.n, dtype=bool)
         inq[a] = queued
-        lnk = np.zeros(f.n, dtype=bool)
-        lnk[a] = brk == 0
-        rows = np.asarray(rows, dtype=np.int64)
-        return inq[rows], lnk[rows]
+        return inq[np.asarray(rows, dtype=np.int64)]
 
     def collision_pairs(self, cx=None, cy=None) -> tuple[np.ndarray, np.ndarray]:
         """Colliding row pairs: sweep and prune along ``x`` over the east-west
