@@ -120,3 +120,14 @@ def _tiny_model(d, config):
     model.save(d / "model.zip")
     write_run_json(d, {"algo": "ppo_recipe", "env": "icv_envs/highway_formation-v0", "config": config})
     venv.close()
+
+
+def test_reaching_the_end_of_the_highway_is_not_a_failure():
+    """``left_road`` on the highway is the end of the road (a truncation); at the intersection it is
+    driving back out of the approach road (a failure)."""
+    from icv_envs.rl.leaderboard import episode_metrics
+
+    row = {"episode_return": 1.0, "collisions": 1, "left_road": 1, "vehicles": 10, "spawned": 10,
+           "mean_speed": 20.0, "speed_fluctuation": 0.1, "achieved_throughput": 100.0}
+    assert episode_metrics(row, "highway_formation")["collisions_per_100"] == 10.0
+    assert episode_metrics(row, "intersection")["collisions_per_100"] == 20.0
