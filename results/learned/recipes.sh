@@ -46,3 +46,7 @@ t ppo_meta_intersection_50min python baselines/ppo_recipe.py --env intersection_
 # the other): 409,286 env steps; checkpoints removed from results/ (250 MB), model.zip = the chosen one
 t ppo_meta_on-ramp_50min python baselines/ppo_recipe.py --config '{"scenario": "on-ramp"}' \
     --action-type DiscreteMetaAction --max-minutes 50 --eval-every 25000 --seed 0 --out "$OUT/ppo_meta_on-ramp_50min"
+# stop 17: FormationResidual at the intersection (reported beside the target), 30 minutes on one core
+t ppo_residual_intersection_30min python baselines/ppo_recipe.py --env intersection_v0 \
+    --config '{"throughput": 1500, "duration": 120, "warmup": 80}' --action-type FormationResidual \
+    --max-minutes 30 --eval-every 50000 --seed 0 --out "$OUT/ppo_residual_intersection_30min"
