@@ -280,7 +280,7 @@ def _seed_label(results, key: str) -> str:
 
 
 def plot_results(results, out) -> list[str]:
-    """One PNG per figure of :data:`_PLOTS`: seed mean per method, 95% CI band
+    """One PNG per figure of :data:`_PLOTS`: seed mean per method, 95% CI band (clipped at 0)
     (for ``pet_min`` the minimum over the seeds, no band)."""
     import matplotlib
 
@@ -305,7 +305,7 @@ def plot_results(results, out) -> list[str]:
                     mu, h = mean_ci(vals)
                 vs.append(v)
                 ys.append(mu)
-                lo.append(mu - (h or 0.0))
+                lo.append(max(0.0, mu - (h or 0.0)))  # every banded figure is non-negative
                 hi.append(mu + (h or 0.0))
             if not vs:
                 continue
