@@ -50,3 +50,8 @@ t ppo_meta_on-ramp_50min python baselines/ppo_recipe.py --config '{"scenario": "
 t ppo_residual_intersection_30min python baselines/ppo_recipe.py --env intersection_v0 \
     --config '{"throughput": 1500, "duration": 120, "warmup": 80}' --action-type FormationResidual \
     --max-minutes 30 --eval-every 50000 --seed 0 --out "$OUT/ppo_residual_intersection_30min"
+# stop 17: second training seeds of the two highway meta-action recipes (not tuned on)
+t ppo_meta_on-ramp_50min_seed1 python baselines/ppo_recipe.py --config '{"scenario": "on-ramp"}' \
+    --action-type DiscreteMetaAction --max-minutes 50 --eval-every 25000 --seed 1 --out "$OUT/ppo_meta_on-ramp_50min_seed1"
+t ppo_meta_lane-drop_50min_seed1 python baselines/ppo_recipe.py --config '{"scenario": "lane-drop"}' \
+    --action-type DiscreteMetaAction --max-minutes 50 --eval-every 25000 --seed 1 --out "$OUT/ppo_meta_lane-drop_50min_seed1"
