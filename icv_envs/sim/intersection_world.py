@@ -448,11 +448,10 @@ class IntersectionWorld:
         seed = first.copy()
         seed[nf] = moving[nf - 1]
         # runs of consecutive linked vehicles of one lane; queued from the first anchor of the run backwards
-        run = np.cumsum(~linked | first)
-        c = np.cumsum(seed & linked)
-        start = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
-        before = np.repeat(c[start] - (seed & linked)[start], np.diff(np.r_[start, len(a)]))
-        queued = linked & ((c - before) > 0)
+        anchor = seed & linked
+        c = np.cumsum(anchor)
+        start = np.maximum.accumulate(np.where(~linked | first, np.arange(len(a)), 0))
+        queued = linked & ((c - (c[start] - anchor[start])) > 0)
         inq = np.zeros(f.n, dtype=bool)
         inq[a] = queued
         return inq[np.asarray(rows, dtype=np.int64)]
