@@ -97,3 +97,51 @@ def test_no_starvation_outside_R1():
     m = run_intersection("multi-vp", 3000.0, 12, 540.0, {"warmup": 100.0})
     assert m["collisions"] == 0
     assert m["jammed_vehicle_seconds"] < 10.0, m["jam_log"][:5]
+
+
+def test_a_hold_braking_cannot_absorb_gets_a_bounded_speed_advisory():
+    """A hold deeper than comfortable braking absorbs: the vehicle drives the
+    rest of the adjusting zone at ``max(v0 L / (L + H), floor)`` (it meets its
+    reference at R1), tracked without position error and with comfortable
+    braking only; it is never advised below the floor (no starvation)."""
+    seen = []
+
+    def check(core):
+        ex, w, lay = core.expert, core.world, core.layout
+        rows, v_adv, H = ex._advised
+        if not len(rows):
+            return
+        rs = w.route()
+        f = w.fleet
+        p = ex.p
+        seen.append(len(rows))
+        assert np.all((rs.dist[rows] > lay.R1) & (rs.dist[rows] <= lay.R2))
+        assert np.all((rs.phase[rows] == 0) & (f.node[rows] < 0))
+        assert np.all(H > f.speed[rows] ** 2 / (2 * abs(p.comfort[0])))
+        L = rs.dist[rows] - lay.R1
+        np.testing.assert_allclose(v_adv, np.maximum(p.v0 * L / (L + H), p.advisory_speed_floor))
+        assert np.all((v_adv >= p.advisory_speed_floor) & (v_adv < p.v0))
+        assert np.all(ex._mode[rows] == MODE_TREE) and not ex._tight[rows].any()
+        np.testing.assert_array_equal(ex._xref[rows], rs.X[rows])
+        np.testing.assert_array_equal(ex._vref[rows], v_adv)
+        acc = ex._longitudinal(w, rs)
+        assert np.all(acc[rows] >= p.comfort[0] - 1e-9)
+
+    m = rollout("multi-vp", 200.0, check=check, seed=3)
+    assert sum(seen) > 0, "the run never advised a vehicle"
+    assert m["collisions"] == 0
+
+
+def test_the_speed_advisory_is_off_when_the_floor_is_v0():
+    import dataclasses
+
+    env = parallel_env(method="multi-vp", throughput=3000.0, duration=120.0, expert_in_info=False)
+    env.reset(seed=3)
+    ex = env.core.expert
+    ex.p = dataclasses.replace(ex.p, advisory_speed_floor=ex.p.v0)
+    while not env.episode_over:
+        acts = env.expert_actions()
+        assert not len(ex._advised[0])
+        env.step({a: acts[a] for a in env.agents})
+    assert ex.stats["advised"] == 0
+    env.close()

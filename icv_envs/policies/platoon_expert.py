@@ -205,6 +205,7 @@ class PlatoonParams:
     cap_tau: float = 0.2  # [s] reaction time of the virtual-lane safe speed (the policy period)
     envelope_in_box: bool = True
     anticipate: bool = True  # track the virtual platoon's reference from R2 on (VirtualPlatoon._anticipate)
+    advisory_speed_floor: float = 5.0  # [m/s] slowest advised speed in the adjusting zone (v0 / 2; _anticipate)
     extra: dict = field(default_factory=dict)
 
 
@@ -243,11 +244,12 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         self._plan_vids: set | None = None  # set_plan_carriers; None: every vehicle
         # VirtualPlatoon._anticipate: (rows, reference X, bounding node id or -1)
         self._anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
+        self._advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))  # VirtualPlatoon._anticipate
         self._yield: dict[int, int] = {}  # vid -> vid of the vehicle it yields to (Regrouping._note_yields)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
                       "path_obstacle_binding": 0, "node_yielded": 0, "signal_alongside_passed": 0,
-                      "held_at_line": 0, "lane_change_yields": 0, "lc_ranked_behind": 0, "anticipating": 0,
+                      "held_at_line": 0, "lane_change_yields": 0, "lc_ranked_behind": 0, "anticipating": 0, "advised": 0,
                       "ahead_of_reference": 0, "crossed_targets_swapped": 0}
 
     # ---------------------------------------------------------------- fields
