@@ -225,3 +225,57 @@ def test_bad_actions_name_the_agent():
     env.step(acts)
     lat = highway_formation_v0.parallel_env(action={"type": "DiscreteMetaAction", "longitudinal": False})
     assert lat.action_space("icv_0").n == 3
+
+
+def test_meta_lane_change_is_aborted_by_the_opposite_request():
+    """highway-env semantics: LANE_LEFT during a change to the right (and the
+    reverse) takes the vehicle back to its lane; the same direction again is
+    ignored (one lane at a time)."""
+    env = highway_formation_v0.parallel_env(scenario="free", vehicles_count=1, lanes_count=3, missing_action="expert",
+                                            action={"type": "DiscreteMetaAction"})
+    env.reset(seed=0)
+    core = env.core
+    tr, road = core.world.traffic, core.world.road
+    lane0 = int(road.lane_of(tr.center()[1])[0])
+    go, back = (0, 2) if lane0 > 0 else (2, 0)
+    env.step({"icv_0": go})
+    env.step({"icv_0": go})  # same direction while changing: ignored
+    env.step({"icv_0": 1})
+    y_mid = float(tr.y[0])
+    assert abs(y_mid - lane0 * road.lane_width) > 0.05  # the change has started
+    env.step({"icv_0": back})
+    assert core.action_type.controller.aborted == 1
+    for _ in range(40):
+        env.step({"icv_0": 1})
+    assert abs(tr.y[0] - lane0 * road.lane_width) < 0.3 and abs(tr.heading[0]) < 0.02
+    # a change that is not aborted still ends in the next lane
+    env.reset(seed=0)
+    tr, road = core.world.traffic, core.world.road
+    for a in [go] + [1] * 40:
+        env.step({"icv_0": a})
+    assert int(road.lane_of(tr.center()[1])[0]) == lane0 + (1 if go == 2 else -1)
+
+
+def test_meta_lane_change_is_aborted_at_the_intersection():
+    env = intersection_v0.parallel_env(duration=60.0, throughput=300.0, action={"type": "DiscreteMetaAction"})
+    env.reset(seed=0)
+    core = env.core
+    while not env.agents:
+        env.step({})
+    a0 = env.agents[0]
+    f = core.world.fleet
+
+    def lat():
+        row = int(np.flatnonzero(f.vid == int(a0[4:]))[0])
+        return float(core.world.route().lat_leg[row]), int(core.world.route().lane[row])
+
+    lat0, lane = lat()
+    go, back = (0, 2) if lane > 0 else (2, 0)
+    env.step({a: (go if a == a0 else 1) for a in env.agents})
+    env.step({a: 1 for a in env.agents})
+    assert abs(lat()[0] - lat0) > 0.02  # the change has started
+    env.step({a: (back if a == a0 else 1) for a in env.agents})
+    assert core.action_type.controller.aborted == 1
+    for _ in range(30):
+        env.step({a: 1 for a in env.agents})
+    assert abs(lat()[0] - lat0) < 0.4 and lat()[1] == lane

@@ -50,7 +50,7 @@ unknown type or an option the type does not have raises `ValueError`):
 | type | space | the agent's action |
 |---|---|---|
 | `ContinuousAction` (default) | `Box(-1, 1, (2,), float32)` | `[acceleration, steering]` (below) |
-| `DiscreteMetaAction` | `Discrete(5)` (`Discrete(3)` with `longitudinal` or `lateral` False) | `0 LANE_LEFT, 1 IDLE, 2 LANE_RIGHT, 3 FASTER, 4 SLOWER` (highway-env's order), carried out by the paper's low-level layer: Bezier lane change with preview steering, the feedback law around `target_speeds[index]` (default: `speed_range` in 5 m/s steps); impossible lane changes are ignored; no safety layer |
+| `DiscreteMetaAction` | `Discrete(5)` (`Discrete(3)` with `longitudinal` or `lateral` False) | `0 LANE_LEFT, 1 IDLE, 2 LANE_RIGHT, 3 FASTER, 4 SLOWER` (highway-env's order), carried out by the paper's low-level layer: Bezier lane change with preview steering, the feedback law around `target_speeds[index]` (default: `speed_range` in 5 m/s steps); impossible lane changes are ignored; the opposite request during a lane change aborts it (back to the lane it came from, as in highway-env); no safety layer |
 | `FormationResidual` | `Box(-1, 1, (2,), float32)` | a correction `r`; the vehicle applies `clip(expert + bound * r, -1, 1)` (`bound` 0.25, or `[bound_accel, bound_steer]`); `r = 0` is the expert |
 
 `infos[agent]["expert_action"]` is always the expert's `[u_a, u_s]` (the

@@ -19,6 +19,15 @@ step, with the paper's own controllers:
   ``a = k_v (v - v_target)``, ``k_v = -1.1 /s`` (time constant 0.9 s), clipped
   to the vehicle's acceleration range.
 
+A lane-change request against the direction of an ongoing lane change
+aborts it, as in highway-env (whose ``LANE_LEFT`` during a change to the
+right moves the target lane index back): a new curve from the vehicle's
+current position back to the lane it came from, if that lane is still
+available over the curve; a request in the same direction during a change
+is ignored.  Without it two agents that started changing into one lane
+from both sides at the same step could not undo it (the learned lane-drop
+policies' collisions, issue 9).
+
 State per vehicle (target lane, speed index, lane-change plan) is keyed by
 vehicle id, created the first time a vehicle is driven by meta actions (its
 lane and the target speed nearest its speed) and dropped when it leaves.
@@ -50,6 +59,7 @@ class MetaController:
         self.y1 = np.zeros(0)
         self.length = np.zeros(0)
         self._world = None
+        self.aborted = 0  # lane changes aborted by an opposite request
 
     # ----------------------------------------------------------------- state
     def _state(self, vids: np.ndarray, lane0: np.ndarray, speed: np.ndarray) -> np.ndarray:
@@ -110,6 +120,23 @@ class MetaController:
             xa = self.x0[k] + road.wrap(x - self.x0[k])
             done = act & (xa >= self.x0[k] + self.length[k]) & (np.abs(y - self.y1[k]) < 0.3)
             self.active[k[done]] = False
+        # a request against an ongoing lane change aborts it (highway-env: the
+        # target lane index moves back): a new curve from where the vehicle is
+        # back to the lane it came from, if that lane is still there
+        ab = (dlane != 0) & self.active[k] & (dlane == -np.sign(self.y1[k] - self.y0[k]))
+        if ab.any():
+            r = np.flatnonzero(ab)
+            back = self.lane[k[r]] + dlane[r]
+            length = np.clip(v[r] * p.lc_duration, p.lc_min_length, p.lc_max_length)
+            ok = road.available(back, cx[r]) & road.available(back, cx[r] + length)
+            s = r[ok]
+            ks = k[s]
+            self.lane[ks] = back[ok]
+            self.x0[ks] = x[s]
+            self.y0[ks] = y[s]
+            self.y1[ks] = back[ok] * W
+            self.length[ks] = length[ok]
+            self.aborted += len(s)
         # new lane-change requests
         req = (dlane != 0) & ~self.active[k]
         if req.any():
@@ -162,6 +189,22 @@ class MetaController:
         if act.any():
             done = act & (((u >= self.x0[k] + self.length[k]) & (np.abs(lat - self.y1[k]) < 0.4)) | (phase > 0))
             self.active[k[done]] = False
+        # a request against an ongoing lane change aborts it (as on the highway)
+        ab = (dlane != 0) & self.active[k] & (phase == 0) & (dlane == -np.sign(self.y1[k] - self.y0[k]))
+        if ab.any():
+            r = np.flatnonzero(ab)
+            back = self.lane[k[r]] + dlane[r]
+            length = np.minimum(np.clip(v[r] * p.lc_duration, p.lc_min_length, p.lc_max_length),
+                                -u[r] - p.lc_stop_room)
+            ok = length >= 0.75 * p.lc_min_length
+            s = r[ok]
+            ks = k[s]
+            self.lane[ks] = back[ok]
+            self.x0[ks] = u[s]
+            self.y0[ks] = lat[s]
+            self.y1[ks] = (back[ok] + 0.5) * lay.lane_width
+            self.length[ks] = length[ok]
+            self.aborted += len(s)
         req = (dlane != 0) & ~self.active[k] & (phase == 0)
         if req.any():
             r = np.flatnonzero(req)
