@@ -14,24 +14,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 
 import numpy as np
 
-from icv_envs.vector import BatchedWorlds
+from icv_envs.rl.bench import batched_sps
 
 
 def rate(check: bool, worlds: int, vehicles: int, steps: int) -> float:
-    bw = BatchedWorlds(worlds, config={"vehicles_count": vehicles, "initial_position": None,
-                                       "expert_driven_check": check}, seed=0)
-    bw.reset()
-    rng = np.random.default_rng(0)
-    n = 0
-    c0 = time.process_time()
-    for _ in range(steps):
-        n += int(bw.mask.sum())
-        bw.step(rng.uniform(-0.3, 0.3, size=(worlds, bw.K, 2)).astype(np.float32))
-    return n / (time.process_time() - c0)
+    r = batched_sps(vehicles, worlds, steps, expert=False, seed=0, config={"expert_driven_check": check},
+                    random_actions=True)
+    return r["agent_steps_per_cpu_s"]
 
 
 def main() -> None:

@@ -129,7 +129,8 @@ def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -
             "ppo_wall_seconds": wall}
 
 
-def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: bool = False, seed: int = 0) -> dict:
+def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: bool = False, seed: int = 0,
+                config: dict | None = None, random_actions: bool = False) -> dict:
     """Agent-steps per second of :class:`icv_envs.vector.BatchedWorlds`:
     ``worlds`` HighwayFormation worlds of ``vehicles`` agents each, stepped
     together in this process. ``expert=False``: actions come from outside
@@ -137,18 +138,23 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
     inference is not included) and the expert is never computed;
     ``expert=True``: the expert's action is computed for every agent every
     step and fed back. Auto-resets are included. Per CPU second (process
-    time) and per wall second."""
+    time) and per wall second. ``config`` is merged into the worlds' env
+    config; ``random_actions`` replaces the zeros by uniform actions in
+    ``[-0.3, 0.3]`` (fixed seed), a stand-in for a learned policy's output."""
     from icv_envs.vector import BatchedWorlds
 
-    bw = BatchedWorlds(worlds, config={"vehicles_count": int(vehicles), "initial_position": None}, seed=seed,
-                       expert=expert)
+    cfg = {"vehicles_count": int(vehicles), "initial_position": None, **(config or {})}
+    bw = BatchedWorlds(worlds, config=cfg, seed=seed, expert=expert)
     bw.reset()
     acts = np.zeros((worlds, bw.K, 2), dtype=np.float32)
+    rng = np.random.default_rng(seed)
     agent_steps = 0
     c0, t0 = time.process_time(), time.perf_counter()
     for _ in range(steps):
         if expert:
             acts = bw.expert_actions
+        elif random_actions:
+            acts = rng.uniform(-0.3, 0.3, size=(worlds, bw.K, 2)).astype(np.float32)
         agent_steps += int(bw.mask.sum())
         bw.step(acts)
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0
