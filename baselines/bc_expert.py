@@ -132,11 +132,15 @@ def parse_args(argv=None) -> argparse.Namespace:
     return args
 
 
-def collect(envs, n_steps: int, seed: int, policy=None) -> tuple[np.ndarray, np.ndarray, dict]:
+def collect(envs, n_steps: int, seed: int, policy=None, left_road_fails: bool = True
+            ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Roll out ``n_steps`` env steps (episodes cycle through ``envs``, reset
     with seeds ``seed``, ``seed + 1``, ...). ``policy=None``: the expert
     drives; otherwise ``policy(obs_batch) -> actions`` drives every agent.
-    Returns observations, the expert's actions for them, and rollout stats."""
+    Returns observations, the expert's actions for them, and rollout stats.
+    ``left_road_fails``: leaving the road counts as a failure (the
+    intersection: driving back out of the approach road); on the highway it
+    is the end of the road, a truncation, as on the leaderboard."""
     X, Y = [], []
     steps, episodes, ret, collisions, left_road = 0, 0, 0.0, 0, 0
     while steps < n_steps:
@@ -167,7 +171,7 @@ def collect(envs, n_steps: int, seed: int, policy=None) -> tuple[np.ndarray, np.
              "return_per_episode": ret / episodes, "reward_per_agent_step": ret / max(samples, 1),
              "collisions": int(collisions), "collisions_per_1000_agent_steps": 1000.0 * collisions / max(samples, 1),
              "left_road": int(left_road),
-             "failures_per_1000_agent_steps": 1000.0 * (collisions + left_road) / max(samples, 1)}
+             "failures_per_1000_agent_steps": 1000.0 * (collisions + left_road_fails * left_road) / max(samples, 1)}
     return np.concatenate(X), np.clip(np.concatenate(Y), -1.0, 1.0), stats
 
 
@@ -262,19 +266,21 @@ def main(argv=None) -> int:
     if args.dataset is not None:  # the expert data from a Minari dataset
         X, Y, stats = load_dataset(args.dataset, args.spec.family, shell.observation_space, shell.action_space)
     else:
-        X, Y, stats = collect(envs, args.expert_steps, seed=args.seed * 100_000)
+        X, Y, stats = collect(envs, args.expert_steps, seed=args.seed * 100_000,
+                              left_road_fails=args.spec.family == "intersection")
     history = [{"round": 0, "driver": "dataset" if args.dataset else "expert", "rollout": stats,
                 "fit": fit(policy, X, Y, args.epochs, args.batch_size, args.lr, rng)}]
 
     # 4. DAgger: learner drives, the expert labels, aggregate, refit. Each
-    #    learner rollout also scores the fit that drove it (collisions + left
-    #    road per 1000 agent-steps, then reward per agent-step); a last rollout scores
+    #    learner rollout also scores the fit that drove it (collisions, + left
+    #    road at the intersection, per 1000 agent-steps, then reward per agent-step); a last rollout scores
     #    the last fit, and the best-scoring fit is saved (--no-select-best: the last).
     snapshots = [{k: v.clone() for k, v in policy.state_dict().items()}]
     scores = []
     n_iters = args.dagger_iters if args.dagger_steps > 0 else 0
     for it in range(1, n_iters + 2 if args.select_best and n_iters else n_iters + 1):
-        Xn, Yn, stats = collect(envs, args.dagger_steps, seed=args.seed * 100_000 + 10_000 * it, policy=learner)
+        Xn, Yn, stats = collect(envs, args.dagger_steps, seed=args.seed * 100_000 + 10_000 * it, policy=learner,
+                                 left_road_fails=args.spec.family == "intersection")
         scores.append((stats["failures_per_1000_agent_steps"], -stats["reward_per_agent_step"]))
         if it > n_iters:  # the scoring rollout of the last fit
             history[-1]["score_rollout"] = stats
