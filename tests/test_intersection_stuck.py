@@ -282,3 +282,36 @@ def test_a_follower_ahead_of_its_reference_in_its_lane_drives_free():
     f.klane[rb] = 1
     env.expert._references(w, rs)
     assert env.expert._mode[rb] == MODE_FOLLOW
+
+
+def _signalling_pair(d_b, signal=True):
+    env = empty_env("multi-vp")
+    w = env.world
+    f = w.fleet
+    vids, (ra, rb) = _sub_of_two(env, (1, 2), (330.0, d_b), 0.0)  # A in lane 1, B in lane 2
+    f.tlane[ra], f.tlane[rb] = 2, 2
+    f.ref[ra], f.ref[rb] = -1, f.vid[ra]  # B follows A, slot 9 m behind A
+    f.xg[rb] = 9.0
+    f.want[ra] = 2 if signal else -1  # A signals into B's lane
+    env.expert._references(w, w.route())
+    return env.expert, rb
+
+
+def test_a_follower_ahead_of_its_reference_in_the_lane_it_signals_into_drives_free():
+    """multi-vp 3000 veh/h seed 23 (held-out): the sub-formation's first vehicle A, in lane 1, waited
+    to change into lane 2 with its turn signal on; member B, in lane 2, 3 m ahead of A (alongside),
+    had its slot 9 m behind A. A braked behind B (it is listed in lane 2), B stood waiting to drop
+    back behind A: both stood from 450 s to the end of the run, 39 jammed behind them (fails on
+    254fbaa, where only a follower in its reference's own lane drove free). B drives free now."""
+    from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE
+
+    ex, rb = _signalling_pair(327.0)  # B 3 m ahead of A
+    assert ex._mode[rb] == MODE_FREE
+    assert ex.stats["ahead_of_reference"] == 1
+    # without the signal, B (in another lane than A) keeps following its slot
+    ex, rb = _signalling_pair(327.0, signal=False)
+    assert ex._mode[rb] == MODE_FOLLOW
+    # behind A in the signalled lane, B follows its slot as before
+    ex, rb = _signalling_pair(333.0)
+    assert ex._mode[rb] == MODE_FOLLOW
+    assert ex.stats["ahead_of_reference"] == 0

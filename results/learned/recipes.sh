@@ -55,3 +55,10 @@ t ppo_meta_on-ramp_50min_seed1 python baselines/ppo_recipe.py --config '{"scenar
     --action-type DiscreteMetaAction --max-minutes 50 --eval-every 25000 --seed 1 --out "$OUT/ppo_meta_on-ramp_50min_seed1"
 t ppo_meta_lane-drop_50min_seed1 python baselines/ppo_recipe.py --config '{"scenario": "lane-drop"}' \
     --action-type DiscreteMetaAction --max-minutes 50 --eval-every 25000 --seed 1 --out "$OUT/ppo_meta_lane-drop_50min_seed1"
+# stop 19: lane-drop meta PPO retrained after DiscreteMetaAction gained highway-env's abort semantics
+# (the opposite request during a lane change aborts it): 491,009 env steps in 3003 s
+t ppo_meta_lane-drop_50min_abort python baselines/ppo_recipe.py --config '{"scenario": "lane-drop"}' \
+    --action-type DiscreteMetaAction --max-minutes 50 --eval-every 25000 --seed 0 --out "$OUT/ppo_meta_lane-drop_50min_abort"
+# stop 20: its second training seed (not tuned on)
+t ppo_meta_lane-drop_50min_abort_seed1 python baselines/ppo_recipe.py --config '{"scenario": "lane-drop"}' \
+    --action-type DiscreteMetaAction --max-minutes 50 --eval-every 25000 --seed 1 --out "$OUT/ppo_meta_lane-drop_50min_abort_seed1"
