@@ -35,3 +35,26 @@ def test_ramps_errors_name_the_key_set(cfg, names):
 def test_exit_error_names_exits_and_says_why():
     with pytest.raises(ValueError, match=r"config\['exits'\]\[0\] = 0.*no off-ramp"):
         highway_formation_v0.parallel_env(exits={0: 0})
+
+
+def test_intersection_reward_speed_range_maps_the_progress_term_as_highway_env_does():
+    """``reward_speed_range = [lo, hi]``: progress = clip((v - lo) / (hi - lo), 0, 1); None = v / v_max."""
+    import numpy as np
+
+    from icv_envs.envs.intersection_v0 import parallel_env
+
+    for rsr in (None, [0.0, 10.0], [5, 15]):
+        env = parallel_env(throughput=1500, duration=20, warmup=15, reward_speed_range=rsr)
+        env.reset(seed=0)
+        for _ in range(5):
+            a = env.expert_actions()
+            _, _, _, _, infos = env.step({g: a[g] for g in env.agents})
+        f = env.core.world.fleet
+        lo, hi = rsr or (0.0, 20.0)
+        assert env.agents
+        for ag in env.agents:  # agent icv_<k> drives vehicle id k
+            v = float(f.speed[f.rows([int(ag.split("_")[1])])[0]])
+            assert infos[ag]["rewards"]["progress"] == pytest.approx(np.clip((v - lo) / (hi - lo), 0.0, 1.0))
+    for bad in ([10, 0], [0, 30], "fast", [0, True], [0, float("nan")]):
+        with pytest.raises(ValueError, match="reward_speed_range"):
+            parallel_env(reward_speed_range=bad).reset(seed=0)

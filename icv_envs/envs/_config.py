@@ -20,7 +20,7 @@ vehicle model; they are deliberately generous:
 from __future__ import annotations
 
 import math
-from numbers import Integral, Real
+from numbers import Real
 
 import numpy as np
 

@@ -161,6 +161,7 @@ class IntersectionEnv(IcvAgentsEnv):
                 "observation": dict(_OBS_DEFAULTS),
                 "action": {"type": "ContinuousAction"},
                 "reward": dict(_REWARD_DEFAULTS),
+                "reward_speed_range": None,
                 "expert_in_info": True,
                 "expert_driven_check": True,
                 "missing_action": "error",
@@ -267,6 +268,14 @@ class IntersectionEnv(IcvAgentsEnv):
                                    and 1 <= mv <= MAX_AGENTS):
             raise ValueError(f"max_vehicles = {mv!r}; allowed: None (all arrivals) or an integer in [1, {MAX_AGENTS}] "
                              f"(MAX_AGENTS)")
+        rsr = c["reward_speed_range"]
+        if rsr is not None:
+            ok = isinstance(rsr, (list, tuple)) and len(rsr) == 2 and all(
+                isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) for v in rsr)
+            ok = ok and all(np.isfinite(float(v)) for v in rsr) and 0.0 <= rsr[0] < rsr[1] <= sr[1]
+            if not ok:
+                raise ValueError(f"config['reward_speed_range'] = {rsr!r} is invalid; allowed: None (speed / v_max) "
+                                 f"or [lo, hi] with 0 <= lo < hi <= v_max = {sr[1]} m/s")
         r = c["reward"]
         check_keys(r, "reward", _REWARD_DEFAULTS)
         for k in _REWARD_DEFAULTS:
@@ -537,7 +546,8 @@ class IntersectionEnv(IcvAgentsEnv):
         return pick, present
 
     def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
-        """Per agent: progress (speed / v_max), safety (-1 on a collision, else
+        """Per agent: progress (speed / v_max, or with ``reward_speed_range``
+        = [lo, hi] highway-env's ``clip((v - lo) / (hi - lo), 0, 1)``), safety (-1 on a collision, else
         ``-max(0, 1 - gap / (2 m + v * 1 s))`` towards the leader in its
         corridors), comfort (``-(u_a^2 + u_s^2) / 2``), tracking
         (``exp(-(dx / 10 m)^2)`` of the reference error for vehicles with a
@@ -546,8 +556,8 @@ class IntersectionEnv(IcvAgentsEnv):
         w = self.world
         f = w.fleet
         wts = c["reward"]
-        vmax = float(c["speed_range"][1])
-        progress = f.speed[rows] / vmax
+        lo, hi = c["reward_speed_range"] or (0.0, c["speed_range"][1])
+        progress = np.clip((f.speed[rows] - float(lo)) / (float(hi) - float(lo)), 0.0, 1.0)
         gap = self._leader_gaps()
         safety = -np.clip(1.0 - gap[rows] / (2.0 + f.speed[rows]), 0.0, 1.0)
         safety = np.where(crashed_now[rows], -1.0, safety)
@@ -649,7 +659,6 @@ class IntersectionEnv(IcvAgentsEnv):
         a bookkeeping check that must be 0."""
         w = self.world
         st = w.stats
-        n = max(st["vehicle_steps"], 1)
         remaining = int(w.fleet.n)
         queued = int(sum(len(q) for q in self._queues.values()))
         sim = max(w.time, 1e-9)

@@ -126,7 +126,9 @@ naming the agent.  Every live agent needs an action unless
 ## Rewards
 
 Per agent and per step, the weighted sum (weights in `config["reward"]`) of
-`progress` (0.4): speed / v_max; `safety` (1.0): -1 on the step of a
+`progress` (0.4): speed / v_max (with `reward_speed_range` = [lo, hi], as
+in highway-env, `clip((v - lo) / (hi - lo), 0, 1)`: `[0, 10]` pays nothing
+for driving faster than the methods' desired speed); `safety` (1.0): -1 on the step of a
 collision, else `-max(0, 1 - gap / (2 m + v * 1 s))` towards the leader in
 its lane / path; `comfort` (0.1): `-(u_a^2 + u_s^2) / 2`; `tracking` (0.5):
 `exp(-(ref_dx / 10 m)^2)` for a vehicle with a reference, else 0.  The
@@ -194,6 +196,7 @@ the box minus the same distance at `desired_speed`), `envelope_box_binding`
 | `observation` | `{"type": "Kinematics", "vehicles_count": 8, "perception_distance": 100}` | see Observation types |
 | `action` | `{"type": "ContinuousAction"}` | see Action types |
 | `reward` | see Rewards | |
+| `reward_speed_range` | None | highway-env's key: `[lo, hi]` m/s, `0 <= lo < hi <= v_max`, maps the speed of the progress term linearly to [0, 1], clipped; None = speed / v_max |
 | `expert_in_info`, `expert_driven_check`, `missing_action` | True, True, `"error"` | as in `highway_formation_v0` |
 | `show_zones`, `show_groups` | True | rendering: zone circles; group lines and tree-layer labels |
 | `show_overlay` | True | rendering: title (method, demand, lane use), time, legend and a true-size inset of the box (docs/rendering.md) |

@@ -169,7 +169,6 @@ class FcfsExpert(PlatoonExpert):
         return (k0 + ks).astype(np.int64), [np.flatnonzero(row) for row in lo]
 
     def _requests(self, world, rs) -> None:
-        p = self.p
         f = world.fleet
         lay = world.layout
         klane = np.clip(f.klane, 0, 2)

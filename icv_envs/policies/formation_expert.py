@@ -153,7 +153,6 @@ class FormationExpert:
         W = road.lane_width
         n_tot = road.total_lanes
         lane = road.lane_of(cy)
-        rows = np.arange(n)
         index = world.lane_index()
         x_ref, lane_ref, v_ref, member = world.manager.references(tr)
 

@@ -226,7 +226,6 @@ class VirtualPlatoon:
             lanes[k] = {int(ln): float(rs.dist[r[rs.lane[r] == ln]].min()) for ln in np.unique(rs.lane[r])}, \
                 {int(ln): float(rs.dist[r[rs.lane[r] == ln]].max()) for ln in np.unique(rs.lane[r])}
         leg = {k: int(lay.leg_of[self.nodes[k]["mv"]]) for k in order}
-        pos = {k: i for i, k in enumerate(order)}
         changed = True
         guard = 0
         while changed and guard < 4 * len(order) + 4:
