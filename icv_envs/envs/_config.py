@@ -26,7 +26,7 @@ import numpy as np
 
 __all__ = [
     "MAX_DURATION", "MAX_AGENTS", "MAX_ACCEL", "MAX_SCREEN", "num", "section", "check_keys", "flag",
-    "accel_range", "speed_range", "check_render", "check_unused", "check_possible_agents", "typed_options",
+    "accel_range", "speed_range", "is_speed_pair", "check_render", "check_unused", "check_possible_agents", "typed_options",
     "pick_type",
 ]
 
@@ -91,11 +91,15 @@ def flag(config: dict, key: str, optional: bool = False) -> None:
         raise ValueError(f"config[{key!r}] = {v!r} is invalid; allowed: True or False" + (" or None" if optional else ""))
 
 
+def is_speed_pair(sr, v_top: float) -> bool:
+    """``[lo, hi]`` of finite reals with ``0 <= lo < hi <= v_top``."""
+    ok = isinstance(sr, (list, tuple)) and len(sr) == 2 and all(_is_real(v) for v in sr)
+    return ok and all(math.isfinite(v) for v in sr) and 0 <= sr[0] < sr[1] <= v_top
+
+
 def speed_range(config: dict) -> tuple[float, float]:
     sr = config["speed_range"]
-    ok = isinstance(sr, (list, tuple)) and len(sr) == 2 and all(_is_real(v) for v in sr)
-    ok = ok and all(math.isfinite(v) for v in sr) and 0 <= sr[0] < sr[1] <= 100.0
-    if not ok:
+    if not is_speed_pair(sr, 100.0):
         raise ValueError(f"config['speed_range'] = {sr!r} is invalid; allowed: [v_min, v_max] with "
                          f"0 <= v_min < v_max <= 100 m/s")
     return float(sr[0]), float(sr[1])

@@ -45,6 +45,7 @@ from icv_envs.envs._config import (
     check_unused,
     flag,
     section,
+    is_speed_pair,
     speed_range,
 )
 from icv_envs.envs.base import IcvAgentsEnv
@@ -269,13 +270,9 @@ class IntersectionEnv(IcvAgentsEnv):
             raise ValueError(f"max_vehicles = {mv!r}; allowed: None (all arrivals) or an integer in [1, {MAX_AGENTS}] "
                              f"(MAX_AGENTS)")
         rsr = c["reward_speed_range"]
-        if rsr is not None:
-            ok = isinstance(rsr, (list, tuple)) and len(rsr) == 2 and all(
-                isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) for v in rsr)
-            ok = ok and all(np.isfinite(float(v)) for v in rsr) and 0.0 <= rsr[0] < rsr[1] <= sr[1]
-            if not ok:
-                raise ValueError(f"config['reward_speed_range'] = {rsr!r} is invalid; allowed: None (speed / v_max) "
-                                 f"or [lo, hi] with 0 <= lo < hi <= v_max = {sr[1]} m/s")
+        if rsr is not None and not is_speed_pair(rsr, sr[1]):
+            raise ValueError(f"config['reward_speed_range'] = {rsr!r} is invalid; allowed: None (speed / v_max) "
+                             f"or [lo, hi] with 0 <= lo < hi <= v_max = {sr[1]} m/s")
         r = c["reward"]
         check_keys(r, "reward", _REWARD_DEFAULTS)
         for k in _REWARD_DEFAULTS:
