@@ -279,3 +279,44 @@ def test_meta_lane_change_is_aborted_at_the_intersection():
     for _ in range(30):
         env.step({a: 1 for a in env.agents})
     assert abs(lat()[0] - lat0) < 0.4 and lat()[1] == lane
+
+
+def test_intersection_leader_features_are_opt_in_and_match_the_corridor_leader():
+    """``lead_gap`` / ``lead_dv`` (opt-in): the default layout is unchanged, the
+    extra columns are the leader the safety reward sees, and both the
+    Gymnasium and the PettingZoo checkers accept the wider space."""
+    from icv_envs.envs.intersection import OBS_FEATURES
+
+    feats = list(OBS_FEATURES) + ["lead_gap", "lead_dv"]
+    cfg = {"throughput": 2000, "duration": 4.0}
+    wide = intersection_v0.parallel_env(**cfg, observation={"features": feats, "normalize": False})
+    base = intersection_v0.parallel_env(**cfg)
+    ow, iw = wide.reset(seed=5)
+    ob, ib = base.reset(seed=5)
+    assert wide.observation_space("icv_0").shape == (8, 16)
+    saw_leader = False
+    for _ in range(15):
+        ow, *_, iw = wide.step({a: iw[a]["expert_action"] for a in wide.agents})
+        ob, *_, ib = base.step({a: ib[a]["expert_action"] for a in base.agents})
+        core = wide.core
+        gap, dv = core._leaders()
+        f = core.world.fleet
+        for a in wide.agents:
+            r = int(np.searchsorted(f.vid, int(a.split("_")[1])))
+            expect_gap = min(gap[r], 100.0)
+            assert ow[a][0, 14] == pytest.approx(expect_gap, abs=1e-4)
+            assert ow[a][0, 15] == pytest.approx(dv[r] if np.isfinite(gap[r]) else 0.0, abs=1e-4)
+            saw_leader |= bool(np.isfinite(gap[r]))
+        # the default columns, normalised, are the default observation
+        assert set(ob) == set(ow)
+    assert saw_leader
+    norm = intersection_v0.parallel_env(**cfg, observation={"features": feats})
+    on, _ = norm.reset(seed=5)
+    for a in on:
+        np.testing.assert_array_equal(on[a][:, :14], intersection_v0.parallel_env(**cfg).reset(seed=5)[0][a])
+        break
+    g = gym.make("icv_envs/Intersection-v0", config=dict(cfg, observation={"features": ["lead_dv", "x", "lead_gap"]}))
+    check_env(g.unwrapped, skip_render_check=True)
+    parallel_api_test(intersection_v0.parallel_env(**cfg, observation={"features": feats}), num_cycles=10)
+    with pytest.raises(ValueError, match="lead_gap"):
+        highway_formation_v0.parallel_env(observation={"features": ["x", "lead_gap"]})

@@ -58,7 +58,7 @@ from icv_envs.policies.fcfs import FcfsExpert
 from icv_envs.policies.platoon_expert import Corridors, PlatoonExpert, PlatoonParams
 from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents, validate_radii
 
-__all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "MAX_THROUGHPUT"]
+__all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "OBS_EXTRA_FEATURES", "MAX_THROUGHPUT"]
 
 METHODS = ("multi-vp", "single-vp", "fcfs", "fcfs-tight")
 #: FCFS reservation buffers of the method ``fcfs-tight`` (the buffers of the
@@ -85,6 +85,13 @@ OBS_FEATURES = (
     "go",
 )
 STATE_FEATURES = OBS_FEATURES
+#: Kinematics features outside the default set (ask for them in
+#: ``observation["features"]``): the leader the safety reward and the
+#: experts' envelope see, in the vehicle's corridors (lane, the lane it
+#: signals into, its path in the box): ``lead_gap`` = bumper gap in metres
+#: (the perception distance when there is none), ``lead_dv`` = own speed -
+#: the leader's (0 when there is none)
+OBS_EXTRA_FEATURES = ("lead_gap", "lead_dv")
 
 _REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "tracking": 0.5}
 #: Reservation parameters of ``fcfs``.  Buffers chosen so that FCFS's measured
@@ -113,6 +120,7 @@ class IntersectionEnv(IcvAgentsEnv):
     """
 
     OBS_FEATURES = OBS_FEATURES
+    OBS_EXTRA_FEATURES = OBS_EXTRA_FEATURES
 
     def _vehicles(self):
         return self.world.fleet
@@ -511,6 +519,13 @@ class IntersectionEnv(IcvAgentsEnv):
         zone = np.where(rs.dist > lay.R2, 0.0, np.where(rs.dist > lay.R1, 1.0 / 3.0, 2.0 / 3.0))
         F[:, 12] = np.where(appr, zone, 1.0)
         F[:, 13] = go
+        extra = getattr(self._obs_type, "extra", ())
+        if extra:
+            pd = float(getattr(self._obs_type, "pd", self.PERCEPTION_DISTANCE))
+            gap, dv = self._leaders()
+            has = np.isfinite(gap)
+            cols = {"lead_gap": np.where(has, np.minimum(gap, pd), pd), "lead_dv": np.where(has, dv, 0.0)}
+            F = np.concatenate([F, np.stack([cols[k] for k in extra], axis=1)], axis=1)
         return F
 
     PERCEPTION_DISTANCE = 100.0
@@ -521,7 +536,10 @@ class IntersectionEnv(IcvAgentsEnv):
         vmax = float(c["speed_range"][1])
         pos = (float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE) \
             if relative else lay.R3
-        return np.array([1.0, pos, pos, vmax, vmax, 1.0, 1.0, lay.R3, 100.0, vmax, lay.lane_width * 3, 1.0, 1.0, 1.0])
+        base = [1.0, pos, pos, vmax, vmax, 1.0, 1.0, lay.R3, 100.0, vmax, lay.lane_width * 3, 1.0, 1.0, 1.0]
+        pd = float(getattr(self._obs_type, "pd", self.PERCEPTION_DISTANCE))
+        extra = {"lead_gap": pd, "lead_dv": vmax}
+        return np.array(base + [extra[k] for k in getattr(self._obs_type, "extra", ())])
 
     def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
         return self._scales(False), self._scales(True)
@@ -565,11 +583,17 @@ class IntersectionEnv(IcvAgentsEnv):
         return total, {"progress": progress, "safety": safety, "comfort": comfort, "tracking": track}
 
     def _leader_gaps(self) -> np.ndarray:
+        return self._leaders()[0]
+
+    def _leaders(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per vehicle: bumper gap to the nearest leader over its corridors
+        (inf without one) and its speed minus that leader's (0 without one)."""
         w = self.world
         f = w.fleet
         gap = np.full(f.n, np.inf)
+        dv = np.zeros(f.n)
         if f.n < 2:
-            return gap
+            return gap, dv
         cor = Corridors(w, w.route(), np.full(f.n, -1))
         e = np.flatnonzero(cor.lead >= 0)
         if len(e):
@@ -577,7 +601,13 @@ class IntersectionEnv(IcvAgentsEnv):
             ld = cor.rows[cor.lead[e]]
             g = cor.coord[cor.lead[e]] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
             np.minimum.at(gap, me, g)
-        return gap
+            # the leader of the smallest gap (ties: the first corridor listed)
+            o = np.lexsort((g, me))
+            me_o, first = me[o], np.ones(len(o), dtype=bool)
+            first[1:] = me_o[1:] != me_o[:-1]
+            pick = o[first]
+            dv[me[pick]] = f.speed[me[pick]] - f.speed[ld[pick]]
+        return gap, dv
 
     def global_state(self, slots: list[str]) -> np.ndarray:
         """One row per possible agent (slot order), absolute normalised features, zeros for absent vehicles."""
@@ -588,7 +618,8 @@ class IntersectionEnv(IcvAgentsEnv):
             slot_of = {name: i for i, name in enumerate(slots)}
             idx = np.array([slot_of.get(f"icv_{v}", -1) for v in f.vid])
             ok = idx >= 0
-            out[idx[ok]] = np.clip(F[ok] / self._scales(False), -1, 1)
+            k = len(STATE_FEATURES)
+            out[idx[ok]] = np.clip(F[ok, :k] / self._scales(False)[:k], -1, 1)
         return out
 
     # ------------------------------------------------------------------ expert

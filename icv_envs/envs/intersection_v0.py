@@ -112,6 +112,17 @@ Columns:
 | 12 | zone | 0 approaching, 1/3 adjusting, 2/3 coordinating, 1 in or past the box |
 | 13 | go | 1 if it may enter the box now (in a virtual-platoon node / holding a reservation, in an allowed lane) |
 
+Opt-in columns (not in the default; name them in `observation["features"]`,
+e.g. the default list plus these two, giving `(V, 16)`): the leader the safety
+reward and the experts' safety envelope see, the nearest vehicle ahead over
+the vehicle's corridors (its lane, the lane it signals into, its path in the
+box):
+
+| feature | scaling |
+|---|---|
+| lead_gap | bumper gap to that leader (m) / perception_distance; 1 (the perception distance) without one |
+| lead_dv | own speed - the leader's, / v_max; 0 without one |
+
 With the default options all values are clipped to [-1, 1].
 
 ## Actions (ContinuousAction)

@@ -11,7 +11,8 @@
 
     * ``features``: a list of the env's feature names (default: all of them,
       the table of the module docstring, formation-target features included),
-      in the order given;
+      in the order given; the intersection also offers opt-in features outside
+      the default (``lead_gap``, ``lead_dv``: the leader in its corridors);
     * ``vehicles_count`` (8), ``perception_distance`` (150 m highway, 100 m
       intersection);
     * ``absolute`` (False): False gives the other vehicles' ``x, y, vx, vy``
@@ -107,7 +108,14 @@ class Kinematics(ObservationType):
         self.V = _num(o, "vehicles_count", 1, 64, integer=True, allowed="an integer in [1, 64]")
         o["vehicles_count"] = self.V
         self.pd = _num(o, "perception_distance", 0.0, lo_open=True, allowed="a number > 0 metres")
-        self.idx = self._features(env.OBS_FEATURES, env.OBS_FEATURES)
+        extra = tuple(getattr(env, "OBS_EXTRA_FEATURES", ()))
+        self.idx = self._features(tuple(env.OBS_FEATURES) + extra, env.OBS_FEATURES)
+        # opt-in columns the env appends to its feature array, in this order
+        self.extra = tuple(k for k in extra if k in self.features)
+        # index into (default columns + the requested extra columns)
+        n0 = len(env.OBS_FEATURES)
+        self.idx = np.array([i if i < n0 else n0 + self.extra.index(extra[i - n0]) for i in self.idx.tolist()],
+                            dtype=np.int64)
         self.absolute, self.normalize, self.clip = _bool(o, "absolute"), _bool(o, "normalize"), _bool(o, "clip")
         bound = 1.0 if self.normalize and self.clip else np.inf
         self.space_ = spaces.Box(-bound, bound, (self.V, len(self.idx)), dtype=np.float32)

@@ -242,8 +242,11 @@ def _policies(task: Task, models_dir) -> list[tuple[str, object, dict, Path | No
     out += [("zero", "zero", dict(task.config), None), ("random", "random", dict(task.config), None)]
     for label, d, meta in find_models(models_dir, task):
         cfg = dict(task.config)
-        if "action" in (meta.get("config") or {}):
-            cfg["action"] = meta["config"]["action"]
+        # evaluated through the interface it was trained on (action and
+        # observation types); the task's config (traffic, reward) is the board's
+        for key in ("action", "observation"):
+            if key in (meta.get("config") or {}):
+                cfg[key] = meta["config"][key]
         out.append((label, str(d), cfg, d / "model.zip"))
     return out
 
