@@ -75,3 +75,8 @@ LEAD='{"throughput": 1500, "duration": 120, "warmup": 80, "observation": {"type"
 t bc_dagger_intersection_leader python baselines/bc_expert.py --env intersection_v0 --config "$LEAD" \
     --expert-steps 3000 --dagger-iters 15 --dagger-steps 1800 --epochs 2 --seed 0 --eval-episodes 4 \
     --out "$OUT/bc_dagger_intersection_leader"
+# stop 21: stage-2 re-selection of the seed-1 lane-drop run (checkpoints kept outside results/): every checkpoint
+# tied at 0 stage-1 validation collisions (62) runs 8 more validation episodes (seeds 90002-90009, 64 vehicles);
+# fewest collisions, then return (1,303 s wall, 4 processes on 2 cores)
+# python baselines/reselect_checkpoint.py /work/ppo_meta_ld50_abort_seed1 --episodes 8 \
+#     --out "$OUT/ppo_meta_lane-drop_50min_abort_seed1_resel"
