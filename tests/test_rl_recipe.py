@@ -109,3 +109,27 @@ def test_recipe_auto_layout_by_env_family(env, layout):
     """--layout auto: one slot per agent where every agent is there from the start, K reused slots on the
     open roads; decided by the env family, whatever name form the env was given in."""
     assert _recipe().parse_args(["--env", env]).layout == layout
+
+
+def test_reselect_checkpoint_picks_the_fewest_stage2_collisions(tmp_path):
+    """baselines/reselect_checkpoint.py: stage 2 over the checkpoints tied at the fewest stage-1
+    collisions; the copy is the chosen checkpoint and the choice follows the stated rule."""
+    import filecmp
+
+    out = tmp_path / "run"
+    cfg = json.dumps({"scenario": "on-ramp", "duration": 2})
+    assert _recipe().main(["--config", cfg, "--action-type", "DiscreteMetaAction", "--out", str(out)] + TINY) == 0
+    sel = tmp_path / "resel"
+    res = load_baseline("reselect_checkpoint")
+    assert res.main([str(out), "--episodes", "1", "--out", str(sel)]) == 0
+    meta = json.loads((sel / "run.json").read_text())["reselection"]
+    rows = meta["results"]
+    assert rows and meta["chosen"] in {r["checkpoint"] for r in rows}
+    best = min(rows, key=lambda r: (r["collisions"], -r["episode_return"]))
+    assert meta["chosen"] == best["checkpoint"]
+    assert filecmp.cmp(sel / "model.zip", out / "checkpoints" / meta["chosen"] / "model.zip", shallow=False)
+    with open(out / "curve.csv") as f:
+        stage1 = [float(r["val_collisions_per_100"]) for r in csv.DictReader(f) if r["val_return"]]
+    assert all(r["stage1_collisions_per_100"] == min(stage1) for r in rows)
+    with pytest.raises(SystemExit):
+        res.main([str(out), "--episodes", "0", "--out", str(sel)])

@@ -80,3 +80,7 @@ t bc_dagger_intersection_leader python baselines/bc_expert.py --env intersection
 # fewest collisions, then return (1,303 s wall, 4 processes on 2 cores)
 # python baselines/reselect_checkpoint.py /work/ppo_meta_ld50_abort_seed1 --episodes 8 \
 #     --out "$OUT/ppo_meta_lane-drop_50min_abort_seed1_resel"
+# stop 21: the same with 30 DAgger rounds (rounds 0-15 are bit-identical to the 15-round run; 2401 s wall)
+t bc_dagger_intersection_leader_30rounds python baselines/bc_expert.py --env intersection_v0 --config "$LEAD" \
+    --expert-steps 3000 --dagger-iters 30 --dagger-steps 1800 --epochs 2 --seed 0 --eval-episodes 4 \
+    --out "$OUT/bc_dagger_intersection_leader_30rounds"
