@@ -413,6 +413,7 @@ class IntersectionEnv(IcvAgentsEnv):
         self._proxies: dict[int, Any] = {}
         self._last_actions = np.zeros((0, 2))
         self._expert_cache = None
+        self._leaders_cache = None
         self._ego_vid = 0
         self._ego_done = False
         self.warmup_collisions = 0
@@ -454,6 +455,7 @@ class IntersectionEnv(IcvAgentsEnv):
             self.expert.stats[k] = 0.0 if isinstance(self.expert.stats[k], float) else 0
         self._ego_vid = int(f.vid[-1]) if f.n else int(f.next_vid)
         self._expert_cache = None
+        self._leaders_cache = None
 
     def _spawn_due(self) -> list[int]:
         """Move due arrivals into their lane queues and spawn queue heads whose spawn point is free."""
@@ -588,10 +590,15 @@ class IntersectionEnv(IcvAgentsEnv):
     def _leaders(self) -> tuple[np.ndarray, np.ndarray]:
         """Per vehicle: bumper gap to the nearest leader over its corridors
         (inf without one) and its speed minus that leader's (0 without one)."""
+        key = self._expert_key()  # the world, its clock and its vehicles: one state
+        cached = getattr(self, "_leaders_cache", None)
+        if cached is not None and cached[0] == key:
+            return cached[1]
         w = self.world
         f = w.fleet
         gap = np.full(f.n, np.inf)
         dv = np.zeros(f.n)
+        self._leaders_cache = (key, (gap, dv))
         if f.n < 2:
             return gap, dv
         cor = Corridors(w, w.route(), np.full(f.n, -1))
