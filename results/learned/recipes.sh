@@ -84,3 +84,7 @@ t bc_dagger_intersection_leader python baselines/bc_expert.py --env intersection
 t bc_dagger_intersection_leader_30rounds python baselines/bc_expert.py --env intersection_v0 --config "$LEAD" \
     --expert-steps 3000 --dagger-iters 30 --dagger-steps 1800 --epochs 2 --seed 0 --eval-episodes 4 \
     --out "$OUT/bc_dagger_intersection_leader_30rounds"
+# stop 21: its second training seed (not tuned on; 1748 s wall)
+t bc_dagger_intersection_leader_30rounds_seed1 python baselines/bc_expert.py --env intersection_v0 --config "$LEAD" \
+    --expert-steps 3000 --dagger-iters 30 --dagger-steps 1800 --epochs 2 --seed 1 --eval-episodes 4 \
+    --out "$OUT/bc_dagger_intersection_leader_30rounds_seed1"
