@@ -88,3 +88,7 @@ t bc_dagger_intersection_leader_30rounds python baselines/bc_expert.py --env int
 t bc_dagger_intersection_leader_30rounds_seed1 python baselines/bc_expert.py --env intersection_v0 --config "$LEAD" \
     --expert-steps 3000 --dagger-iters 30 --dagger-steps 1800 --epochs 2 --seed 1 --eval-episodes 4 \
     --out "$OUT/bc_dagger_intersection_leader_30rounds_seed1"
+# stop 21: intersection meta PPO (the stop-16 command) with the leader features, 45 minutes: 79,116 env steps
+t ppo_meta_intersection_leader_45min python baselines/ppo_recipe.py --env intersection_v0 --config "$LEAD" \
+    --action-type DiscreteMetaAction --max-minutes 45 --eval-every 50000 --seed 0 \
+    --out "$OUT/ppo_meta_intersection_leader_45min"
