@@ -307,7 +307,7 @@ def test_intersection_leader_features_are_opt_in_and_match_the_corridor_leader()
             assert ow[a][0, 14] == pytest.approx(expect_gap, abs=1e-4)
             assert ow[a][0, 15] == pytest.approx(dv[r] if np.isfinite(gap[r]) else 0.0, abs=1e-4)
             saw_leader |= bool(np.isfinite(gap[r]))
-        # the default columns, normalised, are the default observation
+        # the extra columns do not change who is on the road
         assert set(ob) == set(ow)
     assert saw_leader
     norm = intersection_v0.parallel_env(**cfg, observation={"features": feats})

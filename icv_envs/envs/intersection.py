@@ -521,13 +521,11 @@ class IntersectionEnv(IcvAgentsEnv):
         zone = np.where(rs.dist > lay.R2, 0.0, np.where(rs.dist > lay.R1, 1.0 / 3.0, 2.0 / 3.0))
         F[:, 12] = np.where(appr, zone, 1.0)
         F[:, 13] = go
-        extra = getattr(self._obs_type, "extra", ())
-        if extra:
-            pd = float(getattr(self._obs_type, "pd", self.PERCEPTION_DISTANCE))
+        if getattr(self._obs_type, "extra", ()):  # OBS_EXTRA_FEATURES, in that order
+            pd = self._perception_distance()
             gap, dv = self._leaders()
             has = np.isfinite(gap)
-            cols = {"lead_gap": np.where(has, np.minimum(gap, pd), pd), "lead_dv": np.where(has, dv, 0.0)}
-            F = np.concatenate([F, np.stack([cols[k] for k in extra], axis=1)], axis=1)
+            F = np.column_stack([F, np.where(has, np.minimum(gap, pd), pd), np.where(has, dv, 0.0)])
         return F
 
     PERCEPTION_DISTANCE = 100.0
@@ -536,12 +534,15 @@ class IntersectionEnv(IcvAgentsEnv):
         c = self.config
         lay = self.layout
         vmax = float(c["speed_range"][1])
-        pos = (float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE) \
-            if relative else lay.R3
-        base = [1.0, pos, pos, vmax, vmax, 1.0, 1.0, lay.R3, 100.0, vmax, lay.lane_width * 3, 1.0, 1.0, 1.0]
-        pd = float(getattr(self._obs_type, "pd", self.PERCEPTION_DISTANCE))
-        extra = {"lead_gap": pd, "lead_dv": vmax}
-        return np.array(base + [extra[k] for k in getattr(self._obs_type, "extra", ())])
+        pd = self._perception_distance()
+        pos = pd if relative else lay.R3
+        scales = [1.0, pos, pos, vmax, vmax, 1.0, 1.0, lay.R3, 100.0, vmax, lay.lane_width * 3, 1.0, 1.0, 1.0]
+        if getattr(self._obs_type, "extra", ()):
+            scales += [pd, vmax]  # lead_gap, lead_dv
+        return np.array(scales)
+
+    def _perception_distance(self) -> float:
+        return float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE
 
     def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
         return self._scales(False), self._scales(True)

@@ -110,12 +110,9 @@ class Kinematics(ObservationType):
         self.pd = _num(o, "perception_distance", 0.0, lo_open=True, allowed="a number > 0 metres")
         extra = tuple(getattr(env, "OBS_EXTRA_FEATURES", ()))
         self.idx = self._features(tuple(env.OBS_FEATURES) + extra, env.OBS_FEATURES)
-        # opt-in columns the env appends to its feature array, in this order
-        self.extra = tuple(k for k in extra if k in self.features)
-        # index into (default columns + the requested extra columns)
-        n0 = len(env.OBS_FEATURES)
-        self.idx = np.array([i if i < n0 else n0 + self.extra.index(extra[i - n0]) for i in self.idx.tolist()],
-                            dtype=np.int64)
+        # opt-in columns the env appends to its feature array (all of them when
+        # any is asked for), so ``idx`` indexes that array directly
+        self.extra = extra if any(k in self.features for k in extra) else ()
         self.absolute, self.normalize, self.clip = _bool(o, "absolute"), _bool(o, "normalize"), _bool(o, "clip")
         bound = 1.0 if self.normalize and self.clip else np.inf
         self.space_ = spaces.Box(-bound, bound, (self.V, len(self.idx)), dtype=np.float32)
