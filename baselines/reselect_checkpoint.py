@@ -39,6 +39,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from icv_envs.rl.envs import env_family
 from icv_envs.rl.evaluate import evaluate
 
 
@@ -57,7 +58,7 @@ def main(argv=None) -> int:
     meta = json.loads((run / "run.json").read_text())
     if meta.get("algo") != "ppo_recipe":
         p.error(f"{str(run)!r} is a {meta.get('algo')!r} run; allowed: a ppo_recipe.py run")
-    if meta.get("env_kind") != "pettingzoo" or "intersection" in meta.get("env", "") or "ramps" in meta.get("env", ""):
+    if meta.get("env_kind") != "pettingzoo" or env_family(meta.get("env", "")) != "highway_formation":
         p.error(f"env {meta.get('env')!r}: stage 2 uses the highway rule (fewest collisions, then return); "
                 "the open-road selection (throughput x no-collision share) is not implemented here")
     rows = []
@@ -83,7 +84,6 @@ def main(argv=None) -> int:
                     "episode_return": float(ev["episode_return"]), "mean_speed": ev.get("mean_speed")})
     best = min(res, key=lambda r: (r["collisions"], -r["episode_return"]))
     shutil.copy(run / "checkpoints" / best["checkpoint"] / "model.zip", out / "model.zip")
-    meta = dict(meta)
     meta["reselection"] = {"from": str(run), "stage1_chosen": meta.get("train", {}).get("chosen_checkpoint"),
                            "candidates": a.candidates, "episodes": a.episodes, "seed": a.seed,
                            "chosen": best["checkpoint"], "results": res,
