@@ -576,7 +576,7 @@ class IntersectionEnv(IcvAgentsEnv):
         wts = c["reward"]
         lo, hi = c["reward_speed_range"] or (0.0, c["speed_range"][1])
         progress = np.clip((f.speed[rows] - float(lo)) / (float(hi) - float(lo)), 0.0, 1.0)
-        gap = self._leader_gaps()
+        gap = self._leaders()[0]
         safety = -np.clip(1.0 - gap[rows] / (2.0 + f.speed[rows]), 0.0, 1.0)
         safety = np.where(crashed_now[rows], -1.0, safety)
         ua = self._last_actions[rows] if len(self._last_actions) == f.n else np.zeros((len(rows), 2))
@@ -584,9 +584,6 @@ class IntersectionEnv(IcvAgentsEnv):
         track = np.where(F[rows, 8] != 0.0, np.exp(-(F[rows, 8] / 10.0) ** 2), 0.0)
         total = wts["progress"] * progress + wts["safety"] * safety + wts["comfort"] * comfort + wts["tracking"] * track
         return total, {"progress": progress, "safety": safety, "comfort": comfort, "tracking": track}
-
-    def _leader_gaps(self) -> np.ndarray:
-        return self._leaders()[0]
 
     def _leaders(self) -> tuple[np.ndarray, np.ndarray]:
         """Per vehicle: bumper gap to the nearest leader over its corridors
