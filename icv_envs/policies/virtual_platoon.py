@@ -8,6 +8,8 @@ The pure algorithms (tree depths, reference positions) are in
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from icv_envs.formation.targets import formation_length, interlaced_targets
@@ -215,38 +217,45 @@ class VirtualPlatoon:
         order.insert(pos, nid)
         self.vp_order = order
 
-    def _repair_order(self, world, rs, order, o, ids):
-        f = world.fleet
+    def _repair_order(self, world, rs, order, o, ids, rows, seg):
+        """``order`` (node ids) repaired so that no node comes before a node of
+        its own leg that has a vehicle ahead of one of its vehicles in a shared
+        approach lane; ``rows`` are the rows of every node's members (``seg``
+        the index into ``ids`` of each row's node). Scans the later node
+        ``b`` first, then the earlier ``a``: the first such pair moves ``b``
+        to ``a``'s place, and the scan restarts. The pair test is one array
+        over (node, node, lane): per node and approach lane the nearest and
+        the farthest member distance."""
         lay = world.layout
-        lanes = {}
-        for k in order:
-            r = f.rows(self.nodes[k]["members"])
-            r = r[(r >= 0)]
-            r = r[rs.phase[r] == 0]
-            lanes[k] = {int(ln): float(rs.dist[r[rs.lane[r] == ln]].min()) for ln in np.unique(rs.lane[r])}, \
-                {int(ln): float(rs.dist[r[rs.lane[r] == ln]].max()) for ln in np.unique(rs.lane[r])}
-        leg = {k: int(lay.leg_of[self.nodes[k]["mv"]]) for k in order}
-        changed = True
-        guard = 0
-        while changed and guard < 4 * len(order) + 4:
-            changed = False
-            guard += 1
-            for b in range(1, len(order)):
-                k = order[b]
-                for a in range(b):
-                    i = order[a]
-                    if leg[i] != leg[k]:
-                        continue
-                    # k has a vehicle ahead of a vehicle of i in a shared lane
-                    if any(ln in lanes[k][0] and lanes[k][0][ln] < lanes[i][1][ln] - 1e-6 and
-                           lanes[k][0][ln] < lanes[i][0][ln] for ln in lanes[i][1]):
-                        order.insert(a, order.pop(b))
-                        changed = True
-                        self.stats["order_repaired"] = self.stats.get("order_repaired", 0) + 1
-                        break
-                if changed:
+        K = len(ids)
+        app = (rows >= 0)
+        app[app] = rs.phase[rows[app]] == 0
+        r, g = rows[app], seg[app]
+        if len(r):
+            codes, lane = np.unique(rs.lane[r], return_inverse=True)
+            lo = np.full((K, len(codes)), np.inf)
+            hi = np.full((K, len(codes)), -np.inf)
+            d = rs.dist[r]
+            np.minimum.at(lo, (g, lane), d)
+            np.maximum.at(hi, (g, lane), d)
+            leg = lay.leg_of[np.array([self.nodes[k]["mv"] for k in ids], dtype=np.int64)]
+            # M[k, i]: node k has a vehicle ahead of a vehicle of node i (same leg, shared lane)
+            M = ((lo[:, None, :] < hi[None, :, :] - 1e-6) & (lo[:, None, :] < lo[None, :, :])).any(axis=2)
+            M &= leg[:, None] == leg[None, :]
+            pos = {k: i for i, k in enumerate(ids)}
+            at = np.array([pos[k] for k in order], dtype=np.int64)
+            for _ in range(4 * len(order) + 4):
+                P = np.tril(M[np.ix_(at, at)], -1)  # P[b, a], a < b
+                hit = P.any(axis=1)
+                if not hit.any():
                     break
-        self.vp_order = order + [k for k in self.vp_order if k not in set(order)]
+                b = int(np.argmax(hit))
+                a = int(np.argmax(P[b]))
+                at = np.concatenate((at[:a], at[b:b + 1], at[a:b], at[b + 1:]))
+                self.stats["order_repaired"] = self.stats.get("order_repaired", 0) + 1
+            order = [ids[i] for i in at]
+        placed = set(order)
+        self.vp_order = order + [k for k in self.vp_order if k not in placed]
         idx = {k: i for i, k in enumerate(ids)}
         return np.array([idx[k] for k in order], dtype=np.int64) if len(order) else o
 
@@ -258,33 +267,34 @@ class VirtualPlatoon:
         if not ids:
             return [], np.zeros(1, dtype=np.int64), None
         K = len(ids)
-        xf = np.empty(K)
-        rear = np.empty(K)
-        first = np.empty(K, dtype=np.int64)
-        rear_row = np.empty(K, dtype=np.int64)
-        mvs = np.empty(K, dtype=np.int64)
-        lens = np.empty(K)
-        key = np.empty(K)
-        for k, nid in enumerate(ids):
-            N = self.nodes[nid]
-            rows = f.rows(N["members"])
-            X = rs.X[rows]
-            i0 = int(np.argmin(rs.dist[rows]))
-            i1 = int(np.argmax(X))
-            first[k] = rows[i0]
-            rear_row[k] = rows[i1]
-            key[k] = rs.dist[rows[i0]]
-            xf[k] = X[i0]
-            rear[k] = X[i1]
-            mvs[k] = N["mv"]
-            lens[k] = N["length"]
+        # every node's members in one array (each node's in member order): per
+        # node the first vehicle (least distance to the centre) and the rear one
+        # (largest X); ties go to the earlier member, as argmin / argmax do
+        members = [self.nodes[nid]["members"] for nid in ids]
+        sizes = np.fromiter(map(len, members), dtype=np.int64, count=K)
+        seg = np.repeat(np.arange(K), sizes)
+        rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+        X = rs.X[rows]
+        dist = rs.dist[rows]
+        at = np.arange(len(rows))
+        i0 = np.lexsort((at, dist, seg))
+        i1 = np.lexsort((at, -X, seg))
+        head = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+        i0, i1 = i0[head], i1[head]
+        first = rows[i0]
+        rear_row = rows[i1]
+        key = dist[i0]
+        xf = X[i0]
+        rear = X[i1]
+        mvs = np.array([self.nodes[nid]["mv"] for nid in ids], dtype=np.int64)
+        lens = np.array([self.nodes[nid]["length"] for nid in ids], dtype=np.float64)
         # nodes in the virtual platoon's order (_insert_node), repaired so that
         # no node comes before a node of its own leg that has a vehicle ahead
         # of one of its vehicles in the same approach lane (that node would
         # wait behind it for a reference it cannot reach: a circular wait)
         rank = {k: i for i, k in enumerate(self.vp_order)}
         o = np.argsort([rank.get(k, len(rank) + k) for k in ids], kind="stable")
-        o = self._repair_order(world, rs, [ids[i] for i in o], o, ids)
+        o = self._repair_order(world, rs, [ids[i] for i in o], o, ids, rows, seg)
         xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
         ids = [ids[i] for i in o]
         C = world.layout.conflict[np.ix_(mvs, mvs)]
