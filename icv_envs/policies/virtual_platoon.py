@@ -96,12 +96,25 @@ class VirtualPlatoon:
             self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
         if not single:
             self._detach_inverted(world, rs)
-        for nid, N in list(self.nodes.items()):
-            rows = f.rows(N["members"])
-            if np.all(f.cleared[rows]):
-                f.node[rows] = -1
-                f.ref[rows] = -1
-                del self.nodes[nid]
+        if self.nodes:
+            ids, rows, seg, sizes = self._member_rows(f)
+            done = np.bincount(seg, weights=~f.cleared[rows], minlength=len(ids)) == 0
+            for k in np.flatnonzero(done).tolist():
+                r = rows[seg == k]
+                f.node[r] = -1
+                f.ref[r] = -1
+                del self.nodes[ids[k]]
+
+    def _member_rows(self, f):
+        """Every node's member rows in one array, each node's in member order:
+        ``(node ids, rows, index into the ids of each row's node, node sizes)``
+        (one ``f.rows`` call instead of one per node)."""
+        ids = list(self.nodes)
+        members = [self.nodes[nid]["members"] for nid in ids]
+        sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(ids))
+        seg = np.repeat(np.arange(len(ids)), sizes)
+        rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+        return ids, rows, seg, sizes
 
     def _detach_inverted(self, world, rs) -> None:
         """A node member whose leader in its approach lane is a vehicle of
@@ -120,7 +133,10 @@ class VirtualPlatoon:
         if not bad.any():
             return
         # only a foreign vehicle between the node's first vehicle and this member counts
-        first_d = {nid: float(rs.dist[f.rows(N["members"])].min()) for nid, N in self.nodes.items()}
+        ids, mr, seg, _ = self._member_rows(f)
+        dmin = np.full(len(ids), np.inf)
+        np.minimum.at(dmin, seg, rs.dist[mr])
+        first_d = dict(zip(ids, dmin.tolist()))
         fd = np.array([first_d.get(int(nd), np.inf) for nd in f.node[rows]])
         bad &= (rs.dist[lr0] > fd + 1e-9) & (rs.dist[rows] > fd + 1e-9)
         if not bad.any():
@@ -270,10 +286,7 @@ class VirtualPlatoon:
         # every node's members in one array (each node's in member order): per
         # node the first vehicle (least distance to the centre) and the rear one
         # (largest X); ties go to the earlier member, as argmin / argmax do
-        members = [self.nodes[nid]["members"] for nid in ids]
-        sizes = np.fromiter(map(len, members), dtype=np.int64, count=K)
-        seg = np.repeat(np.arange(K), sizes)
-        rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+        _, rows, seg, sizes = self._member_rows(f)
         X = rs.X[rows]
         dist = rs.dist[rows]
         at = np.arange(len(rows))
