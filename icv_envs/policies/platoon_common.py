@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from icv_envs.policies._kernels import corridor_index
+
 __all__ = ["Corridors", "MODE_FREE", "MODE_FOLLOW", "MODE_TREE", "MODE_PLAN", "ST_APPROACH", "ST_LC",
            "ST_ADJUSTED", "ST_COORD"]
 
@@ -37,9 +39,7 @@ class Corridors:
         lay = world.layout
         w = lay.lane_width
         n = f.n
-        rows, corr, coord, sigflag = [], [], [], []
         appr = rs.phase == 0
-        idx = np.arange(n)
         # half the footprint's lateral extent, heading included: a vehicle
         # stopped at an angle in the middle of a lane change reaches further
         # into the lane it leaves than its width says (single-vp, 4500 veh/h,
@@ -48,61 +48,21 @@ class Corridors:
         ad = lay.app_dir[f.leg]
         dh = f.heading - np.arctan2(ad[:, 1], ad[:, 0]) if n else np.zeros(0)
         reach = 0.5 * w + 0.5 * (f.length * np.abs(np.sin(dh)) + f.width * np.abs(np.cos(dh)))
-        for dl in (-1, 0, 1):
-            ln = rs.lane + dl
-            ok = appr & (ln >= 0) & (ln < 3) & (np.abs(rs.lat_leg - (ln + 0.5) * w) < reach)
-            rows.append(idx[ok])
-            corr.append((3 * f.leg + ln)[ok])
-            coord.append(rs.s[ok])
-            sigflag.append(np.zeros(int(ok.sum()), dtype=bool))
-        sig = appr & (signal_lane >= 0)
-        if sig.any():
-            rows.append(idx[sig])
-            corr.append((3 * f.leg + signal_lane)[sig])
-            coord.append(rs.s[sig])
-            sigflag.append(np.ones(int(sig.sum()), dtype=bool))
         box = rs.phase == 1
-        if box.any():
-            rows.append(idx[box])
-            corr.append(24 + rs.pid[box])
-            coord.append(rs.s[box])
-            sigflag.append(np.zeros(int(box.sum()), dtype=bool))
-            early = box & (rs.s < diverge)
-            rows.append(idx[early])
-            corr.append((3 * f.leg + np.maximum(f.plane, 0))[early])
-            coord.append(rs.s[early])
-            sigflag.append(np.zeros(int(early.sum()), dtype=bool))
+        early = box & (rs.s < diverge)
         dep = (rs.phase == 2) | (box & (rs.s > rs.L - diverge))
         if dep.any():
             ex = np.where(f.exit_leg >= 0, f.exit_leg, lay.exit_of[f.mv])
-            rows.append(idx[dep])
-            corr.append((12 + 3 * ex + lay.dlane[rs.pid])[dep])
-            coord.append((rs.s - rs.L)[dep])
-            sigflag.append(np.zeros(int(dep.sum()), dtype=bool))
-        rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
-        corr = np.concatenate(corr) if corr else np.zeros(0, dtype=np.int64)
-        coord = np.concatenate(coord) if coord else np.zeros(0)
-        sigflag = np.concatenate(sigflag) if sigflag else np.zeros(0, dtype=bool)
-        if len(rows):
-            # first occurrence wins: a vehicle whose body covers its signal
-            # lane is listed there physically, not as a signal only
-            pair = rows * 64 + corr
-            _, first = np.unique(pair, return_index=True)
-            first = np.sort(first)
-            rows, corr, coord, sigflag = rows[first], corr[first], coord[first], sigflag[first]
-        keys = corr * self.BIG + coord
-        order = np.lexsort((rows, keys))
-        self.rows = rows[order].astype(np.int64)
-        self.corr = corr[order].astype(np.int64)
-        self.coord = coord[order]
-        self.keys = keys[order]
-        #: the entry exists only because the vehicle waits to change into that lane
-        self.signal_only = sigflag[order]
-        m = len(self.rows)
-        lead = np.full(m, -1, dtype=np.int64)
-        if m > 1:
-            same = self.corr[1:] == self.corr[:-1]
-            lead[:-1][same] = np.arange(1, m)[same]
+            dep_corr = (12 + 3 * ex + lay.dlane[rs.pid]).astype(np.int64)
+        else:
+            dep_corr = np.zeros(n, dtype=np.int64)
+        # the entries (listed in the order of the class docstring; of two
+        # entries of one vehicle in one corridor, only a signal can repeat a
+        # physical one, and the physical one is kept), sorted by key then row
+        self.rows, self.corr, self.coord, self.keys, self.signal_only, lead = corridor_index(
+            appr, rs.lane.astype(np.int64, copy=False), rs.lat_leg, reach, float(w), f.leg.astype(np.int64, copy=False),
+            rs.s, np.asarray(signal_lane, dtype=np.int64), box, rs.pid.astype(np.int64, copy=False), early,
+            np.maximum(f.plane, 0).astype(np.int64, copy=False), dep, dep_corr, rs.L, self.BIG)
         self.lead = lead  # entry index of the leader of each entry (-1 none)
 
     def neighbours(self, q_rows, q_corr, q_coord):
