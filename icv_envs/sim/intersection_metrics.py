@@ -233,6 +233,7 @@ class PetStats:
         self.pending: dict[tuple[int, int], list[float]] = {}  # (area, side) -> entry times waiting for the other side
         self._occ = np.zeros((0, self._K), dtype=bool)  # per vehicle id: occupied slots of its path's areas
         self._pid = np.zeros(0, dtype=np.int64)  # per vehicle id: the path those slots belong to
+        self._busy = np.zeros(0, dtype=np.int64)  # ids with an occupied slot, sorted
         self.samples: list[float] = []
 
     def record(self, t: float, vid, pid, s, length) -> None:
@@ -251,18 +252,24 @@ class PetStats:
         x = np.asarray(s, dtype=np.float64)[ok][:, None]
         h = 0.5 * np.asarray(length, dtype=np.float64)[ok][:, None]
         occ = (x - h < self._hi[pid]) & (x + h > self._lo[pid])
-        new = np.zeros_like(self._occ)
-        new[vid] = occ
-        prev_pid = self._pid.copy()
+        # only the listed vehicles and those inside an area until now can
+        # change (every other row is empty before and after): events are
+        # handled over those rows, in increasing id as over the whole table
+        cand = np.union1d(vid, self._busy)
+        at = np.searchsorted(cand, vid)
+        old = self._occ[cand]
+        new = np.zeros_like(old)
+        new[at] = occ
+        prev_pid = self._pid[cand]
         self._pid[vid] = pid
-        old = self._occ
         for v, k in zip(*np.nonzero(old & ~new)):
             q = prev_pid[v]
             self._leave(t, int(self._ids[q, k]), int(self._side[q, k]))
         for v, k in zip(*np.nonzero(new & ~old)):
-            q = self._pid[v]
+            q = self._pid[cand[v]]
             self._enter(t, int(self._ids[q, k]), int(self._side[q, k]))
-        self._occ = new
+        self._occ[cand] = new
+        self._busy = cand[new.any(axis=1)]
 
     def _enter(self, t, a, k) -> None:
         o = 1 - k
