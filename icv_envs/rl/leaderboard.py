@@ -129,9 +129,9 @@ def find_models(models_dir, task: Task) -> list[tuple[str, Path, dict]]:
     if not root.is_dir():
         return found
     for meta_path in sorted(root.glob("*/run.json")):
-        if not (meta_path.parent / "model.zip").is_file():
-            continue
         meta = json.loads(meta_path.read_text())
+        if not (meta_path.parent / "model.zip").is_file() and meta.get("algo") != "ensemble":
+            continue
         if model_fits(meta, task):
             found.append((meta_path.parent.name, meta_path.parent, meta))
     return found
@@ -247,7 +247,8 @@ def _policies(task: Task, models_dir) -> list[tuple[str, object, dict, Path | No
         for key in ("action", "observation"):
             if key in (meta.get("config") or {}):
                 cfg[key] = meta["config"][key]
-        out.append((label, str(d), cfg, d / "model.zip"))
+        # an ensemble has no model.zip: its run.json's age decides whether a cached evaluation is fresh
+        out.append((label, str(d), cfg, d / "model.zip" if (d / "model.zip").is_file() else d / "run.json"))
     return out
 
 

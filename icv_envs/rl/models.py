@@ -14,21 +14,31 @@ Every script writes, into its ``--out`` directory,
 :func:`load_model` accepts the directory, the ``model.zip`` path, or the path
 without ``.zip``; ``run.json`` next to the model is optional (without it the
 model counts as a generic SB3 model).
+
+**Ensembles** (``algo: "ensemble"``, written by :func:`write_ensemble`): a
+directory with only a ``run.json`` naming member model directories
+(``"members"``, relative to the ensemble's directory or absolute). It acts
+by the mean of its members' deterministic actions (continuous actions
+only): the plain average of independently trained regressors, which
+lowers the variance between training seeds. Every member must have the same
+env, config and spaces.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import platform
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["LoadedModel", "load_model", "resolve_model_path", "write_run_json", "json_safe", "platform_info"]
+__all__ = ["LoadedModel", "LoadedEnsemble", "load_model", "resolve_model_path", "write_ensemble", "write_run_json",
+           "json_safe", "platform_info"]
 
-ALGOS = ("ppo_single", "ppo_shared", "bc_expert")
+ALGOS = ("ppo_single", "ppo_shared", "bc_expert", "ensemble")
 
 
 def resolve_model_path(path) -> tuple[Path, Path | None]:
@@ -37,6 +47,8 @@ def resolve_model_path(path) -> tuple[Path, Path | None]:
     p = Path(path)
     if p.is_dir():
         z = p / "model.zip"
+        if not z.is_file() and _is_ensemble(p):
+            return p / "run.json", p / "run.json"
         if not z.is_file():
             raise ValueError(f"policy directory {str(p)!r} holds no model.zip; allowed: expert, zero, random, or a "
                              f"directory / model.zip written by baselines/ppo_single.py, ppo_shared.py or "
@@ -94,9 +106,81 @@ class LoadedModel:
             )
 
 
+def _is_ensemble(d: Path) -> bool:
+    try:
+        return json.loads((d / "run.json").read_text()).get("algo") == "ensemble"
+    except (OSError, json.JSONDecodeError, AttributeError):
+        return False
+
+
+class LoadedEnsemble(LoadedModel):
+    """Members' mean deterministic action (module docstring)."""
+
+    def __init__(self, path: Path, members: list, meta: dict) -> None:
+        super().__init__(path, members[0].model, meta)
+        self.members = members
+
+    def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
+        if not deterministic:
+            raise ValueError(f"ensemble {str(self.path)!r} acts by its members' mean action; deterministic=False "
+                             f"is not defined for it (allowed: deterministic=True)")
+        acts = [m.act(obs, True) for m in self.members]
+        return np.mean(acts, axis=0, dtype=np.float64).astype(np.float32) if acts else acts
+
+
+def _load_ensemble(run_json: Path, meta: dict) -> LoadedEnsemble:
+    names = meta.get("members")
+    if not isinstance(names, list) or len(names) < 2:
+        raise ValueError(f"{str(run_json)!r}: an ensemble needs a list of at least two member directories "
+                         f"under 'members', got {names!r}")
+    members = []
+    for n in names:
+        d = Path(n) if Path(n).is_absolute() else run_json.parent / n
+        m = load_model(d)
+        if isinstance(m, LoadedEnsemble):
+            raise ValueError(f"{str(run_json)!r}: member {n!r} is itself an ensemble; allowed: single models")
+        members.append(m)
+    first = members[0]
+    if type(first.action_space).__name__ != "Box":
+        raise ValueError(f"{str(run_json)!r}: an ensemble averages continuous actions; member {names[0]!r} has "
+                         f"{type(first.action_space).__name__} actions (allowed: Box)")
+    for n, m in zip(names[1:], members[1:]):
+        same = (m.meta.get("env") == first.meta.get("env") and m.meta.get("config") == first.meta.get("config")
+                and m.observation_space.shape == first.observation_space.shape
+                and m.action_space.shape == first.action_space.shape
+                and type(m.action_space).__name__ == type(first.action_space).__name__)
+        if not same:
+            raise ValueError(f"{str(run_json)!r}: member {n!r} differs from {names[0]!r} in env, config or spaces "
+                             f"(env {m.meta.get('env')!r} vs {first.meta.get('env')!r}); allowed: members trained "
+                             f"on one env and config")
+    return LoadedEnsemble(run_json, members, meta)
+
+
+def write_ensemble(out, members) -> Path:
+    """An ensemble directory ``out`` of the model directories ``members``
+    (stored relative to ``out``); the members are loaded once to check them.
+    ``run.json`` carries the first member's env, config and spaces."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rel = [os.path.relpath(Path(m).resolve(), out.resolve()) for m in members]
+    meta = {"algo": "ensemble", "members": rel}
+    (out / "run.json").write_text(json.dumps(meta))
+    try:
+        ens = _load_ensemble(out / "run.json", meta)
+    except ValueError:
+        (out / "run.json").unlink()
+        raise
+    first = ens.members[0].meta
+    meta.update({k: first.get(k) for k in ("env", "env_kind", "env_module", "config", "scenarios",
+                                           "observation_shape", "action_shape") if k in first})
+    meta["member_algos"] = [m.algo for m in ens.members]
+    meta["platform"] = platform_info()
+    return write_run_json(out, meta)
+
+
 def load_model(path) -> LoadedModel:
     """Load a model written by one of the ``baselines/`` scripts (or any SB3
-    PPO zip)."""
+    PPO zip), or an ensemble of such models (:func:`write_ensemble`)."""
     z, meta_path = resolve_model_path(path)
     meta = {}
     if meta_path is not None:
@@ -104,6 +188,8 @@ def load_model(path) -> LoadedModel:
             meta = json.loads(meta_path.read_text())
         except json.JSONDecodeError as exc:
             raise ValueError(f"{str(meta_path)!r} is not valid JSON: {exc}") from None
+    if z == meta_path and meta.get("algo") == "ensemble":
+        return _load_ensemble(meta_path, meta)
     try:
         from stable_baselines3 import PPO
     except ImportError as exc:  # pragma: no cover
