@@ -1,5 +1,5 @@
 """The compiled corridor index (:func:`icv_envs.policies._kernels.corridor_index`, behind
-:class:`~icv_envs.policies.platoon_common.Corridors`) against the numpy code it replaced, on states of
+:class:`~icv_envs.policies.platoon_common.Corridors`) and its neighbour search against the numpy code they replaced, on states of
 real intersection runs with random signal lanes: the same entries, bit for bit."""
 
 import numpy as np
@@ -83,6 +83,29 @@ def _numpy_index(world, rs, signal_lane, diverge=10.0):
     return rows_, corr_, coord_, keys_, sig_, lead
 
 
+def _numpy_neighbours(cor, q_rows, q_corr, q_coord):
+    """The numpy neighbour search the kernel replaced."""
+    k = len(q_rows)
+    lr, lc = np.full(k, -1, dtype=np.int64), np.full(k, np.inf)
+    fr, fc = np.full(k, -1, dtype=np.int64), np.full(k, -np.inf)
+    m = len(cor.keys)
+    if not m or not k:
+        return lr, lc, fr, fc
+    pos = np.searchsorted(cor.keys, q_corr * cor.BIG + q_coord, side="right")
+    for out_r, out_c, steps in ((lr, lc, range(4)), (fr, fc, range(-1, -5, -1))):
+        todo = np.ones(k, dtype=bool)
+        for j in steps:
+            p = pos + j
+            valid = todo & (p < m) & (p >= 0)
+            pc = np.clip(p, 0, m - 1)
+            valid &= cor.corr[pc] == q_corr
+            hit = valid & (cor.rows[pc] != q_rows)
+            out_r[hit] = cor.rows[pc[hit]]
+            out_c[hit] = cor.coord[pc[hit]]
+            todo &= ~hit & valid
+    return lr, lc, fr, fc
+
+
 @pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 3000.0, 0), ("single-vp", 4000.0, 1), ("fcfs", 2000.0, 2)])
 def test_corridor_index_matches_the_numpy_code(method, throughput, seed):
     env = parallel_env(method=method, throughput=throughput, duration=120.0)
@@ -103,4 +126,9 @@ def test_corridor_index_matches_the_numpy_code(method, throughput, seed):
             for got, want in zip((cor.rows, cor.corr, cor.coord, cor.keys, cor.signal_only, cor.lead), ref):
                 assert got.dtype == want.dtype and np.array_equal(got, want)
             checked += len(ref[0])
+            # every vehicle asked in its own approach lane and in a random one, at its coordinate and beside it
+            q = np.arange(n)
+            for qc, qx in ((3 * w.fleet.leg + rs.lane, rs.s), (rng.integers(0, 60, n), rs.s + rng.normal(0, 5, n))):
+                for got, want in zip(cor.neighbours(q, qc, qx), _numpy_neighbours(cor, q, qc, qx)):
+                    assert got.dtype == want.dtype and np.array_equal(got, want)
     assert checked > 1000

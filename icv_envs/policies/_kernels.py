@@ -90,3 +90,38 @@ def corridor_index(appr, lane, lat_leg, reach, w, leg, s, signal_lane, box, pid,
         if corr[a + 1] == corr[a]:
             lead[a] = a + 1
     return rows, corr, coord, keys, sig, lead
+
+
+@nb.njit(cache=True)
+def corridor_neighbours(keys, corr, rows, coord, q_rows, q_corr, qk):
+    """Per query: the nearest entry of another vehicle ahead (key > ``qk``) and behind (<=) in
+    corridor ``q_corr``, looking at most 4 entries each way (a vehicle is listed at most once per
+    corridor, so its own entry is the only one skipped). ``(lead_row, lead_coord, foll_row,
+    foll_coord)``, -1 / +-inf when none."""
+    k = q_rows.shape[0]
+    m = keys.shape[0]
+    lr = np.full(k, -1, dtype=np.int64)
+    lc = np.full(k, np.inf)
+    fr = np.full(k, -1, dtype=np.int64)
+    fc = np.full(k, -np.inf)
+    if m == 0:
+        return lr, lc, fr, fc
+    pos = np.searchsorted(keys, qk, side="right")
+    for i in range(k):
+        for j in range(4):
+            p = pos[i] + j
+            if p >= m or corr[p] != q_corr[i]:
+                break
+            if rows[p] != q_rows[i]:
+                lr[i] = rows[p]
+                lc[i] = coord[p]
+                break
+        for j in range(1, 5):
+            p = pos[i] - j
+            if p < 0 or corr[p] != q_corr[i]:
+                break
+            if rows[p] != q_rows[i]:
+                fr[i] = rows[p]
+                fc[i] = coord[p]
+                break
+    return lr, lc, fr, fc

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.policies._kernels import corridor_index
+from icv_envs.policies._kernels import corridor_index, corridor_neighbours
 
 __all__ = ["Corridors", "MODE_FREE", "MODE_FOLLOW", "MODE_TREE", "MODE_PLAN", "ST_APPROACH", "ST_LC",
            "ST_ADJUSTED", "ST_COORD"]
@@ -72,13 +72,10 @@ class Corridors:
         """
         q_rows = np.asarray(q_rows, dtype=np.int64)
         k = len(q_rows)
-        lr = np.full(k, -1, dtype=np.int64)
-        lc = np.full(k, np.inf)
-        fr = np.full(k, -1, dtype=np.int64)
-        fc = np.full(k, -np.inf)
-        m = len(self.keys)
-        if not m or not k:
-            return lr, lc, fr, fc
+        q_corr = np.broadcast_to(np.asarray(q_corr, dtype=np.int64), (k,))
+        qk = np.broadcast_to(q_corr * self.BIG + q_coord, (k,))
+        return corridor_neighbours(self.keys, self.corr, self.rows, self.coord, q_rows, np.ascontiguousarray(q_corr),
+                                   np.ascontiguousarray(qk, dtype=np.float64))
         qk = q_corr * self.BIG + q_coord
         pos = np.searchsorted(self.keys, qk, side="right")
         todo = np.ones(k, dtype=bool)
