@@ -76,26 +76,3 @@ class Corridors:
         qk = np.broadcast_to(q_corr * self.BIG + q_coord, (k,))
         return corridor_neighbours(self.keys, self.corr, self.rows, self.coord, q_rows, np.ascontiguousarray(q_corr),
                                    np.ascontiguousarray(qk, dtype=np.float64))
-        qk = q_corr * self.BIG + q_coord
-        pos = np.searchsorted(self.keys, qk, side="right")
-        todo = np.ones(k, dtype=bool)
-        for j in range(4):
-            p = pos + j
-            valid = todo & (p < m)
-            pc = np.minimum(p, m - 1)
-            valid &= self.corr[pc] == q_corr
-            hit = valid & (self.rows[pc] != q_rows)
-            lr[hit] = self.rows[pc[hit]]
-            lc[hit] = self.coord[pc[hit]]
-            todo &= ~hit & valid
-        todo = np.ones(k, dtype=bool)
-        for j in range(1, 5):
-            p = pos - j
-            valid = todo & (p >= 0)
-            pc = np.maximum(p, 0)
-            valid &= self.corr[pc] == q_corr
-            hit = valid & (self.rows[pc] != q_rows)
-            fr[hit] = self.rows[pc[hit]]
-            fc[hit] = self.coord[pc[hit]]
-            todo &= ~hit & valid
-        return lr, lc, fr, fc

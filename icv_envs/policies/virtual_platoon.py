@@ -296,7 +296,6 @@ class VirtualPlatoon:
         i0, i1 = i0[head], i1[head]
         first = rows[i0]
         rear_row = rows[i1]
-        key = dist[i0]
         xf = X[i0]
         rear = X[i1]
         mvs = np.array([self.nodes[nid]["mv"] for nid in ids], dtype=np.int64)
