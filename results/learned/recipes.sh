@@ -92,3 +92,11 @@ t bc_dagger_intersection_leader_30rounds_seed1 python baselines/bc_expert.py --e
 t ppo_meta_intersection_leader_45min python baselines/ppo_recipe.py --env intersection_v0 --config "$LEAD" \
     --action-type DiscreteMetaAction --max-minutes 45 --eval-every 50000 --seed 0 \
     --out "$OUT/ppo_meta_intersection_leader_45min"
+# stop 22: its third training seed (not tuned on; 1916 s wall, 2-3 processes on 2 cores)
+t bc_dagger_intersection_leader_30rounds_seed2 python baselines/bc_expert.py --env intersection_v0 --config "$LEAD" \
+    --expert-steps 3000 --dagger-iters 30 --dagger-steps 1800 --epochs 2 --seed 2 --eval-episodes 4 \
+    --out "$OUT/bc_dagger_intersection_leader_30rounds_seed2"
+# stop 22: the ensemble of the three training seeds (the members' mean action; chosen before it was evaluated:
+# every training seed of the recipe, equal weights; nothing trained)
+python baselines/ensemble.py --members "$OUT/bc_dagger_intersection_leader_30rounds,$OUT/bc_dagger_intersection_leader_30rounds_seed1,$OUT/bc_dagger_intersection_leader_30rounds_seed2" \
+    --out "$OUT/bc_dagger_intersection_leader_30rounds_ensemble3"
