@@ -1,10 +1,11 @@
-"""An ensemble of saved models: the mean of the members' deterministic actions.
+"""An ensemble of saved models: the mean of the members' deterministic actions (continuous), or the
+action of largest mean probability (discrete: soft voting).
 
     python baselines/ensemble.py --members results/learned/A,results/learned/B --out results/learned/A_B_ensemble
     icv-envs evaluate --env intersection_v0 --policy results/learned/A_B_ensemble --episodes 8
 
 The members (directories written by ``bc_expert.py`` or ``ppo_recipe.py``
-with continuous actions) must share the env, its config and the spaces;
+with continuous or discrete actions) must share the env, its config and the spaces;
 ``OUT/run.json`` names them relative to ``OUT`` and nothing is trained.
 Averaging independently trained regressors is the plain variance
 reduction of bagging: it costs one forward pass per member and needs no

@@ -49,6 +49,27 @@ def test_ensemble_acts_by_the_members_mean(tmp_path):
         ens.act(obs, deterministic=False)
 
 
+def test_discrete_ensemble_votes_by_mean_probability(tmp_path):
+    from icv_envs.rl.models import load_model, write_ensemble
+
+    a = _model(tmp_path / "a", 0, action="DiscreteMetaAction")
+    b = _model(tmp_path / "b", 1, action="DiscreteMetaAction")
+    write_ensemble(tmp_path / "same", [a, a])
+    write_ensemble(tmp_path / "ab", [a, b])
+    ma, mb = load_model(a), load_model(b)
+    obs = np.random.default_rng(1).normal(size=(64, *ma.observation_space.shape)).astype(np.float32)
+    same = load_model(tmp_path / "same").act(obs)
+    assert same.dtype == np.int64 and np.array_equal(same, ma.act(obs).astype(np.int64))
+
+    def probs(m):
+        t, _ = m.model.policy.obs_to_tensor(obs)
+        return m.model.policy.get_distribution(t).distribution.probs.detach().numpy()
+
+    want = np.argmax(probs(ma) + probs(mb), axis=1)
+    assert np.array_equal(load_model(tmp_path / "ab").act(obs), want)
+    assert load_model(tmp_path / "ab").act(obs[:0]).shape == (0,)
+
+
 def test_ensemble_is_evaluated_like_a_model(tmp_path):
     from icv_envs.rl.evaluate import evaluate
     from icv_envs.rl.models import write_ensemble
@@ -67,8 +88,8 @@ def test_ensemble_bad_members_are_clear_errors(tmp_path):
         write_ensemble(tmp_path / "e1", [a, other])
     assert not (tmp_path / "e1" / "run.json").exists()
     meta = _model(tmp_path / "m", 2, action="DiscreteMetaAction")
-    with pytest.raises(ValueError, match="continuous actions"):
-        write_ensemble(tmp_path / "e2", [meta, meta])
+    with pytest.raises(ValueError, match="differs from"):  # another action type: another config
+        write_ensemble(tmp_path / "e2", [a, meta])
     with pytest.raises(ValueError, match="at least two"):
         write_ensemble(tmp_path / "e3", [a])
     (tmp_path / "e4").mkdir()

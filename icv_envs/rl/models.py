@@ -18,9 +18,11 @@ model counts as a generic SB3 model).
 **Ensembles** (``algo: "ensemble"``, written by :func:`write_ensemble`): a
 directory with only a ``run.json`` naming member model directories
 (``"members"``, relative to the ensemble's directory or absolute). It acts
-by the mean of its members' deterministic actions (continuous actions
-only): the plain average of independently trained regressors, which
-lowers the variance between training seeds. Every member must have the same
+by the mean of its members' deterministic actions (continuous actions:
+the plain average of independently trained regressors, which lowers the
+variance between training seeds), or for discrete actions by soft voting
+(the action of largest mean probability over the members; ties go to the
+lowest action index). Every member must have the same
 env, config and spaces.
 """
 
@@ -124,8 +126,20 @@ class LoadedEnsemble(LoadedModel):
         if not deterministic:
             raise ValueError(f"ensemble {str(self.path)!r} acts by its members' mean action; deterministic=False "
                              f"is not defined for it (allowed: deterministic=True)")
+        obs = np.asarray(obs, dtype=np.float32)
+        if type(self.action_space).__name__ == "Discrete":
+            if len(obs) == 0:
+                return np.zeros(0, dtype=np.int64)
+            import torch
+
+            probs = 0.0
+            with torch.no_grad():
+                for m in self.members:
+                    t, _ = m.model.policy.obs_to_tensor(obs)
+                    probs = probs + m.model.policy.get_distribution(t).distribution.probs.cpu().numpy()
+            return np.argmax(probs, axis=1).astype(np.int64)
         acts = [m.act(obs, True) for m in self.members]
-        return np.mean(acts, axis=0, dtype=np.float64).astype(np.float32) if acts else acts
+        return np.mean(acts, axis=0, dtype=np.float64).astype(np.float32)
 
 
 def _load_ensemble(run_json: Path, meta: dict) -> LoadedEnsemble:
@@ -141,9 +155,10 @@ def _load_ensemble(run_json: Path, meta: dict) -> LoadedEnsemble:
             raise ValueError(f"{str(run_json)!r}: member {n!r} is itself an ensemble; allowed: single models")
         members.append(m)
     first = members[0]
-    if type(first.action_space).__name__ != "Box":
-        raise ValueError(f"{str(run_json)!r}: an ensemble averages continuous actions; member {names[0]!r} has "
-                         f"{type(first.action_space).__name__} actions (allowed: Box)")
+    if type(first.action_space).__name__ not in ("Box", "Discrete"):
+        raise ValueError(f"{str(run_json)!r}: an ensemble averages continuous actions or votes on discrete ones; "
+                         f"member {names[0]!r} has {type(first.action_space).__name__} actions "
+                         f"(allowed: Box, Discrete)")
     for n, m in zip(names[1:], members[1:]):
         same = (m.meta.get("env") == first.meta.get("env") and m.meta.get("config") == first.meta.get("config")
                 and m.observation_space.shape == first.observation_space.shape
