@@ -100,3 +100,7 @@ t bc_dagger_intersection_leader_30rounds_seed2 python baselines/bc_expert.py --e
 # every training seed of the recipe, equal weights; nothing trained)
 python baselines/ensemble.py --members "$OUT/bc_dagger_intersection_leader_30rounds,$OUT/bc_dagger_intersection_leader_30rounds_seed1,$OUT/bc_dagger_intersection_leader_30rounds_seed2" \
     --out "$OUT/bc_dagger_intersection_leader_30rounds_ensemble3"
+# stop 22: the soft-voting ensemble of the two lane-drop meta PPO runs trained on the current DiscreteMetaAction
+# (abort seed 0 and the re-selected seed 1; chosen before it was evaluated, nothing trained)
+python baselines/ensemble.py --members "$OUT/ppo_meta_lane-drop_50min_abort,$OUT/ppo_meta_lane-drop_50min_abort_seed1_resel" \
+    --out "$OUT/ppo_meta_lane-drop_50min_abort_ensemble2"
