@@ -96,3 +96,21 @@ def test_ensemble_bad_members_are_clear_errors(tmp_path):
     (tmp_path / "e4" / "run.json").write_text(json.dumps({"algo": "ensemble", "members": ["../a", "../nope"]}))
     with pytest.raises(ValueError, match="nope"):
         load_model(tmp_path / "e4")
+
+
+def test_leaderboard_cache_of_an_ensemble_follows_its_members(tmp_path):
+    """A cached evaluation of an ensemble is stale once a member is retrained (newer model.zip)."""
+    import os
+
+    from icv_envs.rl.leaderboard import _newest_model_file
+    from icv_envs.rl.models import write_ensemble
+
+    a, b = _model(tmp_path / "a", 0), _model(tmp_path / "b", 1)
+    meta = json.loads(write_ensemble(tmp_path / "ens", [a, b]).read_text())
+    run = tmp_path / "ens" / "run.json"
+    os.utime(a / "model.zip", (1, 1))
+    os.utime(b / "model.zip", (2, 2))
+    assert _newest_model_file(tmp_path / "ens", meta) == run
+    later = run.stat().st_mtime + 10
+    os.utime(b / "model.zip", (later, later))
+    assert _newest_model_file(tmp_path / "ens", meta).resolve() == (b / "model.zip").resolve()

@@ -247,9 +247,19 @@ def _policies(task: Task, models_dir) -> list[tuple[str, object, dict, Path | No
         for key in ("action", "observation"):
             if key in (meta.get("config") or {}):
                 cfg[key] = meta["config"][key]
-        # an ensemble has no model.zip: its run.json's age decides whether a cached evaluation is fresh
-        out.append((label, str(d), cfg, d / "model.zip" if (d / "model.zip").is_file() else d / "run.json"))
+        out.append((label, str(d), cfg, _newest_model_file(d, meta)))
     return out
+
+
+def _newest_model_file(d: Path, meta: dict) -> Path:
+    """The file whose age decides whether a cached evaluation is fresh: ``model.zip``, or for an ensemble
+    (no model.zip) the newest of its ``run.json`` and its members' ``model.zip``."""
+    if (d / "model.zip").is_file() or meta.get("algo") != "ensemble":
+        return d / "model.zip"
+    files = [d / "run.json"] + [p / "model.zip" for p in ((Path(m) if Path(m).is_absolute() else d / m)
+                                                        for m in meta.get("members") or [])
+                                if (p / "model.zip").is_file()]
+    return max(files, key=lambda f: f.stat().st_mtime)
 
 
 def run_leaderboard(out="results/leaderboard", models_dir="results/learned", tasks=None, episodes=None,

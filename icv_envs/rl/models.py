@@ -116,7 +116,7 @@ def _is_ensemble(d: Path) -> bool:
 
 
 class LoadedEnsemble(LoadedModel):
-    """Members' mean deterministic action (module docstring)."""
+    """Members' mean deterministic action, or soft vote for discrete actions (module docstring)."""
 
     def __init__(self, path: Path, members: list, meta: dict) -> None:
         super().__init__(path, members[0].model, meta)
@@ -163,7 +163,8 @@ def _load_ensemble(run_json: Path, meta: dict) -> LoadedEnsemble:
         same = (m.meta.get("env") == first.meta.get("env") and m.meta.get("config") == first.meta.get("config")
                 and m.observation_space.shape == first.observation_space.shape
                 and m.action_space.shape == first.action_space.shape
-                and type(m.action_space).__name__ == type(first.action_space).__name__)
+                and type(m.action_space).__name__ == type(first.action_space).__name__
+                and getattr(m.action_space, "n", None) == getattr(first.action_space, "n", None))
         if not same:
             raise ValueError(f"{str(run_json)!r}: member {n!r} differs from {names[0]!r} in env, config or spaces "
                              f"(env {m.meta.get('env')!r} vs {first.meta.get('env')!r}); allowed: members trained "
