@@ -60,7 +60,7 @@ def _run(nodes, leg_of, rs, order, n):
     rows = world.fleet.rows(np.concatenate(members))
     pos = {k: i for i, k in enumerate(ids)}
     o = np.array([pos[k] for k in order], dtype=np.int64)
-    out = VirtualPlatoon._repair_order(self, world, rs, list(order), o, ids, rows, seg)
+    out = VirtualPlatoon._repair_order(self, world, rs, o, ids, rows, seg)
     return [ids[i] for i in out], self.stats.get("order_repaired", 0), self.vp_order, world.fleet.rows
 
 

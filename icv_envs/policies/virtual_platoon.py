@@ -233,8 +233,8 @@ class VirtualPlatoon:
         order.insert(pos, nid)
         self.vp_order = order
 
-    def _repair_order(self, world, rs, order, o, ids, rows, seg):
-        """``order`` (node ids) repaired so that no node comes before a node of
+    def _repair_order(self, world, rs, o, ids, rows, seg):
+        """The node order ``o`` (indices into ``ids``) repaired so that no node comes before a node of
         its own leg that has a vehicle ahead of one of its vehicles in a shared
         approach lane; ``rows`` are the rows of every node's members (``seg``
         the index into ``ids`` of each row's node). Scans the later node
@@ -247,6 +247,7 @@ class VirtualPlatoon:
         app = (rows >= 0)
         app[app] = rs.phase[rows[app]] == 0
         r, g = rows[app], seg[app]
+        at = np.asarray(o, dtype=np.int64)
         if len(r):
             codes, lane = np.unique(rs.lane[r], return_inverse=True)
             lo = np.full((K, len(codes)), np.inf)
@@ -258,9 +259,7 @@ class VirtualPlatoon:
             # M[k, i]: node k has a vehicle ahead of a vehicle of node i (same leg, shared lane)
             M = ((lo[:, None, :] < hi[None, :, :] - 1e-6) & (lo[:, None, :] < lo[None, :, :])).any(axis=2)
             M &= leg[:, None] == leg[None, :]
-            pos = {k: i for i, k in enumerate(ids)}
-            at = np.array([pos[k] for k in order], dtype=np.int64)
-            for _ in range(4 * len(order) + 4):
+            for _ in range(4 * len(at) + 4):
                 P = np.tril(M[np.ix_(at, at)], -1)  # P[b, a], a < b
                 hit = P.any(axis=1)
                 if not hit.any():
@@ -269,11 +268,10 @@ class VirtualPlatoon:
                 a = int(np.argmax(P[b]))
                 at = np.concatenate((at[:a], at[b:b + 1], at[a:b], at[b + 1:]))
                 self.stats["order_repaired"] = self.stats.get("order_repaired", 0) + 1
-            order = [ids[i] for i in at]
+        order = [ids[i] for i in at]
         placed = set(order)
         self.vp_order = order + [k for k in self.vp_order if k not in placed]
-        idx = {k: i for i, k in enumerate(ids)}
-        return np.array([idx[k] for k in order], dtype=np.int64) if len(order) else o
+        return at
 
     def tree(self, world, rs):
         """Current virtual platoon: ``(node ids in order, depths (with the leader at 0), references)``."""
@@ -286,12 +284,12 @@ class VirtualPlatoon:
         # every node's members in one array (each node's in member order): per
         # node the first vehicle (least distance to the centre) and the rear one
         # (largest X); ties go to the earlier member, as argmin / argmax do
+        # (lexsort is stable)
         _, rows, seg, sizes = self._member_rows(f)
         X = rs.X[rows]
         dist = rs.dist[rows]
-        at = np.arange(len(rows))
-        i0 = np.lexsort((at, dist, seg))
-        i1 = np.lexsort((at, -X, seg))
+        i0 = np.lexsort((dist, seg))
+        i1 = np.lexsort((-X, seg))
         head = np.concatenate(([0], np.cumsum(sizes)[:-1]))
         i0, i1 = i0[head], i1[head]
         first = rows[i0]
@@ -306,7 +304,7 @@ class VirtualPlatoon:
         # wait behind it for a reference it cannot reach: a circular wait)
         rank = {k: i for i, k in enumerate(self.vp_order)}
         o = np.argsort([rank.get(k, len(rank) + k) for k in ids], kind="stable")
-        o = self._repair_order(world, rs, [ids[i] for i in o], o, ids, rows, seg)
+        o = self._repair_order(world, rs, o, ids, rows, seg)
         xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
         ids = [ids[i] for i in o]
         C = world.layout.conflict[np.ix_(mvs, mvs)]
