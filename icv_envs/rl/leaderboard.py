@@ -78,6 +78,7 @@ import numpy as np
 
 from icv_envs.rl.envs import env_family, resolve_env
 from icv_envs.rl.evaluate import evaluate, policy_names
+from icv_envs.rl.models import ensemble_member_dirs
 
 __all__ = ["TASKS", "Task", "METRICS", "run_leaderboard", "interval_estimates", "find_models", "model_fits",
            "episode_metrics", "main", "add_arguments"]
@@ -256,9 +257,7 @@ def _newest_model_file(d: Path, meta: dict) -> Path:
     (no model.zip) the newest of its ``run.json`` and its members' ``model.zip``."""
     if (d / "model.zip").is_file() or meta.get("algo") != "ensemble":
         return d / "model.zip"
-    files = [d / "run.json"] + [p / "model.zip" for p in ((Path(m) if Path(m).is_absolute() else d / m)
-                                                        for m in meta.get("members") or [])
-                                if (p / "model.zip").is_file()]
+    files = [d / "run.json"] + [m / "model.zip" for m in ensemble_member_dirs(d, meta) if (m / "model.zip").is_file()]
     return max(files, key=lambda f: f.stat().st_mtime)
 
 

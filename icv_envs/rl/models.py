@@ -37,8 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["LoadedModel", "LoadedEnsemble", "load_model", "resolve_model_path", "write_ensemble", "write_run_json",
-           "json_safe", "platform_info"]
+__all__ = ["LoadedModel", "LoadedEnsemble", "load_model", "resolve_model_path", "write_ensemble",
+           "ensemble_member_dirs", "write_run_json", "json_safe", "platform_info"]
 
 ALGOS = ("ppo_single", "ppo_shared", "bc_expert", "ensemble")
 
@@ -142,14 +142,18 @@ class LoadedEnsemble(LoadedModel):
         return np.mean(acts, axis=0, dtype=np.float64).astype(np.float32)
 
 
+def ensemble_member_dirs(ensemble_dir, meta: dict) -> list[Path]:
+    """The member directories named in an ensemble's ``run.json`` (relative to ``ensemble_dir`` or absolute)."""
+    return [Path(n) if Path(n).is_absolute() else Path(ensemble_dir) / n for n in meta.get("members") or []]
+
+
 def _load_ensemble(run_json: Path, meta: dict) -> LoadedEnsemble:
     names = meta.get("members")
     if not isinstance(names, list) or len(names) < 2:
         raise ValueError(f"{str(run_json)!r}: an ensemble needs a list of at least two member directories "
                          f"under 'members', got {names!r}")
     members = []
-    for n in names:
-        d = Path(n) if Path(n).is_absolute() else run_json.parent / n
+    for n, d in zip(names, ensemble_member_dirs(run_json.parent, meta)):
         m = load_model(d)
         if isinstance(m, LoadedEnsemble):
             raise ValueError(f"{str(run_json)!r}: member {n!r} is itself an ensemble; allowed: single models")
