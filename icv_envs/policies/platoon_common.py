@@ -58,12 +58,12 @@ class Corridors:
             dep_corr = np.zeros(n, dtype=np.int64)
         # the entries (listed in the order of the class docstring; of two
         # entries of one vehicle in one corridor, only a signal can repeat a
-        # physical one, and the physical one is kept), sorted by key then row
-        self.rows, self.corr, self.coord, self.keys, self.signal_only, lead = corridor_index(
+        # physical one, and the physical one is kept), sorted by key then row;
+        # ``lead``: the entry index of each entry's leader (-1 none)
+        self.rows, self.corr, self.coord, self.keys, self.signal_only, self.lead = corridor_index(
             appr, rs.lane.astype(np.int64, copy=False), rs.lat_leg, reach, float(w), f.leg.astype(np.int64, copy=False),
             rs.s, np.asarray(signal_lane, dtype=np.int64), box, rs.pid.astype(np.int64, copy=False), early,
             np.maximum(f.plane, 0).astype(np.int64, copy=False), dep, dep_corr, rs.L, self.BIG)
-        self.lead = lead  # entry index of the leader of each entry (-1 none)
 
     def neighbours(self, q_rows, q_corr, q_coord):
         """Nearest other vehicle ahead (coordinate >) and behind (<=) in corridor ``q_corr``.
