@@ -205,6 +205,7 @@ class PlatoonParams:
     cap_tau: float = 0.2  # [s] reaction time of the virtual-lane safe speed (the policy period)
     envelope_in_box: bool = True
     anticipate: bool = True  # track the virtual platoon's reference from R2 on (VirtualPlatoon._anticipate)
+    wait_at_line: bool = True  # a node vehicle stopped for its reference waits at the stop line (_wait_at_line)
     advisory_speed_floor: float = 5.0  # [m/s] slowest advised speed in the adjusting zone (v0 / 2; _anticipate)
     extra: dict = field(default_factory=dict)
 
@@ -250,7 +251,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
                       "path_obstacle_binding": 0, "node_yielded": 0, "signal_alongside_passed": 0,
                       "held_at_line": 0, "lane_change_yields": 0, "lc_ranked_behind": 0, "anticipating": 0, "advised": 0,
-                      "ahead_of_reference": 0, "crossed_targets_swapped": 0}
+                      "ahead_of_reference": 0, "crossed_targets_swapped": 0, "advised_in_zone": 0}
 
     # ---------------------------------------------------------------- fields
     def attach(self, world) -> None:

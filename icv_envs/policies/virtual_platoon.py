@@ -15,6 +15,7 @@ import numpy as np
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon.tree import reference_positions, tree_depths
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
+from icv_envs.sim.intersection_metrics import QUEUE_GAP
 
 __all__ = ["VirtualPlatoon"]
 
@@ -403,6 +404,7 @@ class VirtualPlatoon:
             xref[rows_all] = np.where(bind, lb, paper)
             vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
             tight[rows_all] = bind
+        wait = self._advise_in_zone(world, rs, mode, xref, vref, tight) if p.wait_at_line else np.zeros(0, dtype=np.int64)
         if p.anticipate:
             self._anticipate(world, rs, mode, xref, vref)
         self._mode, self._xref, self._vref, self._tight = mode, xref, vref, tight
@@ -414,8 +416,52 @@ class VirtualPlatoon:
         # in the coordinating zone only coordinated vehicles (a node / a reservation) may enter
         self._stop |= (rs.phase == 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
         self._stop |= (rs.phase == 0) & hold
+        self._stop[wait] = True
         self.stats["held_at_line"] += int(((rs.phase == 0) & hold).sum())
         self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
+
+    def _advise_in_zone(self, world, rs, mode, xref, vref, tight) -> np.ndarray:
+        """The speed advisory inside ``R1`` too: a node vehicle whose
+        reference lies further behind it than comfortable braking absorbs
+        meets it at the stop line instead of standing (our rule; the paper
+        is silent).
+
+        Tracking a reference ``H = X_ref - X > 0`` behind it (a deep
+        tree-layer, or ``D_t`` behind the rear of an earlier conflicting node),
+        a vehicle brakes and, when ``H`` exceeds what braking at
+        ``comfort[0]`` absorbs before standing (``v^2 / 2|comfort[0]|``),
+        stands until the reference arrives, typically right after ``R1``, 285
+        m from the stop line (issue 8: the virtual platoon's only jams on the
+        20-seed sweep, vehicles standing at ``R1`` for 10-20 s with the lanes
+        behind them blocked).  Such a vehicle instead gets the adjusting
+        zone's advisory (:meth:`_anticipate`) with ``L`` its distance to the
+        stop line: ``v0 L / (L + H)``, at which it reaches the line when a
+        reference moving at ``v0`` does, tracked with no position error and
+        braking at most ``comfort[0]``; recomputed every step, so a reference
+        that moves slower slows it further.  It waits at most at the stop line
+        (it gets ``_stop``: it never enters the box while the hold lasts), in
+        the queue there, and enters the box no earlier than before.  A hold
+        that braking absorbs is tracked as before.  It stays a node all the
+        time, so later conflicting nodes keep their bound ``D_t`` behind its
+        rear.  ``PlatoonParams.wait_at_line`` (env config
+        ``vp_wait_at_line``) switches it off.  Returns the advised rows."""
+        p = self.p
+        f = world.fleet
+        rows, _ = self._tree_rows
+        if not len(rows):
+            return np.zeros(0, dtype=np.int64)
+        H = xref[rows] - rs.X[rows]
+        room = f.speed[rows] ** 2 / (2.0 * abs(p.comfort[0]))
+        L = np.maximum(-rs.u[rows] - 0.5 * f.length[rows] - p.stop_margin, 0.0)
+        w = (rs.phase[rows] == 0) & (H > room) & (L - room > QUEUE_GAP)
+        k = rows[w]
+        if not len(k):
+            return k
+        vref[k] = p.v0 * L[w] / (L[w] + H[w])
+        xref[k] = rs.X[k]
+        tight[k] = False
+        self.stats["advised_in_zone"] += len(k)
+        return k
 
     def _anticipate(self, world, rs, mode, xref, vref) -> None:
         """Track the virtual platoon's reference from ``R2`` on (our addition;
