@@ -162,7 +162,7 @@ class IntersectionEnv(IcvAgentsEnv):
                 "fcfs": dict(_FCFS_DEFAULTS),
                 "envelope_in_box": True,
                 "vp_anticipation": True,
-                "vp_wait_at_line": True,
+                "vp_zone_advisory": True,
                 "simulation_frequency": 25,
                 "policy_frequency": 5,
                 "duration": 120.0,
@@ -289,7 +289,7 @@ class IntersectionEnv(IcvAgentsEnv):
         self._validate_spaces_config()
         if c["missing_action"] not in ("error", "expert"):
             raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
-        for key in ("envelope_in_box", "vp_anticipation", "vp_wait_at_line", "expert_in_info", "expert_driven_check"):
+        for key in ("envelope_in_box", "vp_anticipation", "vp_zone_advisory", "expert_in_info", "expert_driven_check"):
             flag(c, key)
         check_render(c, flags=("show_zones", "show_groups", "show_overlay"))
         check_possible_agents(self._n_possible_agents(), "throughput x (duration + warmup)")
@@ -326,7 +326,7 @@ class IntersectionEnv(IcvAgentsEnv):
             gap_out=float(c["gap_outside"]), gap_in=float(c["gap_inside"]), D_t=float(self.D_t),
             merge_range=float(c["merge_range"]), max_node_size=int(c["max_node_size"]),
             envelope_in_box=bool(c["envelope_in_box"]), anticipate=bool(c["vp_anticipation"]),
-            wait_at_line=bool(c["vp_wait_at_line"]), D_safe=float(self.layout.model_gap),
+            zone_advisory=bool(c["vp_zone_advisory"]), D_safe=float(self.layout.model_gap),
             cap_tau=1.0 / float(c["policy_frequency"]),
         )
 

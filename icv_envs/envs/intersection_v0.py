@@ -201,6 +201,7 @@ the box minus the same distance at `desired_speed`), `envelope_box_binding`
 | `fcfs` | `{"tile": 1, "time_buffer": 0, "space_buffer": 0, "request_distance": 80, "a_plan": 1.5}` | reservation parameters (`fcfs-tight` fixes time_buffer 5 steps, space_buffer 0.5 m) |
 | `envelope_in_box` | True | False switches the safety envelope off inside the box (to show the coordination alone is collision-free) |
 | `vp_anticipation` | True | virtual-platoon methods: vehicles of the adjusting zone already track (comfortable braking only) the reference they would get as a node, instead of meeting it at R1 (docs/methods.md#virtual-platoon); False = the paper's zones as printed |
+| `vp_zone_advisory` | True | virtual-platoon methods: a node vehicle inside R1 whose reference lies further behind it than comfortable braking absorbs drives at the speed that meets it at the stop line, instead of standing for it right after R1 (docs/methods.md#virtual-platoon); False = it stands |
 | `duration` | 120 | seconds |
 | `max_vehicles` | None | cap on arrivals (possible agents) |
 | `simulation_frequency` / `policy_frequency` | 25 / 5 | Hz |

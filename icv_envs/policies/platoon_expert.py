@@ -85,6 +85,10 @@ Coordinating zone (virtual platoon, Sec. 4.2)
     ``X_ref,1^k = X_0 + m D_t + sum_{i<m} max_{n in T_i} len_n`` with
     ``X_0 = X_1^1 - D_t``; followers track ``X_1^k + x_gi`` (eq. (xi)).  A
     node leaves the platoon when all its vehicles have cleared the box.
+    A node vehicle whose reference lies further behind it than comfortable
+    braking absorbs, where standing would leave it away from the stop line,
+    drives at the speed that meets the reference at the line instead
+    (our addition, ``vp_zone_advisory``; :meth:`VirtualPlatoon._advise_in_zone`).
 
     Our addition (the paper is silent): the layer references assume every
     earlier layer sits on its reference.  A node that lags its reference
@@ -205,7 +209,7 @@ class PlatoonParams:
     cap_tau: float = 0.2  # [s] reaction time of the virtual-lane safe speed (the policy period)
     envelope_in_box: bool = True
     anticipate: bool = True  # track the virtual platoon's reference from R2 on (VirtualPlatoon._anticipate)
-    wait_at_line: bool = True  # a node vehicle stopped for its reference waits at the stop line (_wait_at_line)
+    zone_advisory: bool = True  # the speed advisory inside R1 as well (VirtualPlatoon._advise_in_zone)
     advisory_speed_floor: float = 5.0  # [m/s] slowest advised speed in the adjusting zone (v0 / 2; _anticipate)
     extra: dict = field(default_factory=dict)
 
@@ -246,6 +250,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         # VirtualPlatoon._anticipate: (rows, reference X, bounding node id or -1)
         self._anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
         self._advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))  # VirtualPlatoon._anticipate
+        self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))  # VirtualPlatoon._advise_in_zone
         self._yield: dict[int, int] = {}  # vid -> vid of the vehicle it yields to (Regrouping._note_yields)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
