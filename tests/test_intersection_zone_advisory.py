@@ -83,3 +83,31 @@ def test_vp_zone_advisory_false_switches_it_off_and_is_validated():
     env.close()
     with pytest.raises(ValueError, match="vp_zone_advisory"):
         parallel_env(vp_zone_advisory="yes")
+
+
+def test_a_follower_keeps_its_slot_relative_to_the_nodes_first_vehicle():
+    """Once the members ahead of it have left the road, a node's first vehicle
+    is a later slot; a follower's reference is its slot relative to that one
+    (multi-vp, 3000 veh/h, seed 2: with the absolute slot a member stopped in
+    the box at t = 318-322 s and the whole virtual platoon stood, 9 vehicles
+    jammed at R1 from t = 331 s after the warm-up)."""
+    env = parallel_env(method="multi-vp", throughput=3000.0, duration=345.0, warmup=100.0, expert_in_info=False)
+    env.reset(seed=2)
+    shifted = 0
+    while not env.episode_over:
+        acts = env.expert_actions()
+        ex, w = env.core.expert, env.core.world
+        rows, kk = ex._tree_rows
+        if len(rows):
+            f, rs = w.fleet, w.route()
+            first = ex._tree["first"][kk]
+            fol = (rows != first) & ~ex._tight[rows] & (ex._mode[rows] == MODE_TREE)
+            fol &= ~np.isin(rows, ex._zone_advised[0])
+            r, fr = rows[fol], first[fol]
+            np.testing.assert_allclose(ex._xref[r], rs.X[fr] + f.xg[r] - f.xg[fr])
+            shifted += int((f.xg[fr] != 0).sum())
+        env.step({a: acts[a] for a in env.agents})
+    m = env.metrics()
+    env.close()
+    assert shifted > 0, "no node lost its slot-0 member while followers were in the tree"
+    assert m["collisions"] == 0 and m["jammed"] == 0, m["jam_log"][:5]

@@ -389,8 +389,14 @@ class VirtualPlatoon:
             is_first = rows_all == first
             # a node's first vehicle never chases a reference ahead of it: it
             # then drives at v0 (the virtual platoon only holds vehicles back)
+            # followers: their slot relative to the first vehicle's slot, which is
+            # not slot 0 once the members ahead of it have left the road (with
+            # the absolute slot, multi-vp, 3000 veh/h, seed 2: a member with
+            # x_g = 72 m following the node's new first vehicle 9-11 m behind
+            # got a reference 30-50 m behind it, braked to a stop in the box
+            # and held the whole virtual platoon: 9 jammed at R1)
             paper = np.where(is_first, np.maximum(T["refs"][kk + 1], rs.X[rows_all]),
-                             rs.X[first] + f.xg[rows_all])
+                             rs.X[first] + f.xg[rows_all] - f.xg[first])
             vpaper = np.where(is_first, p.v0, f.speed[first])
             lb = T["lb"][kk]
             bind = lb > paper
