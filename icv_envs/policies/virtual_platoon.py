@@ -446,8 +446,8 @@ class VirtualPlatoon:
         reference moving at ``v0`` does, tracked with no position error and
         braking at most ``comfort[0]``; recomputed every step, so a reference
         that moves slower slows it further.  While advised it gets ``_stop``
-        (it never enters the box ahead of its reference), so it waits at most
-        at the stop line, in the queue there.  Only where standing would
+        (it cannot enter the box while advised), so it waits at most at the
+        stop line, in the queue there.  Only where standing would
         leave it away from the line: its comfortable braking distance ends
         more than :data:`~icv_envs.sim.intersection_metrics.QUEUE_GAP` (10 m,
         the jam watch's queue gap) before the stop line.  Closer, or with a
