@@ -24,7 +24,7 @@ def test_zone_advisory_invariants_over_a_busy_run():
     while not env.episode_over:
         acts = env.expert_actions()
         ex, w, lay = env.core.expert, env.core.world, env.core.layout
-        rows, v_adv, H = ex._zone_advised
+        rows, v_adv, H, v_tree = ex._zone_advised
         if len(rows):
             rs = w.route()
             f = w.fleet
@@ -44,6 +44,11 @@ def test_zone_advisory_invariants_over_a_busy_run():
             np.testing.assert_array_equal(ex._xref[rows], rs.X[rows])
             np.testing.assert_array_equal(ex._vref[rows], v_adv)
             assert ex._stop[rows].all()
+            # the observation keeps reporting the tree's reference, not the advisory
+            has, d, dv, _ = ex.references(w)
+            assert has[rows].all()
+            np.testing.assert_allclose(d[rows], -H)
+            np.testing.assert_allclose(dv[rows], v_tree - f.speed[rows])
             acc = ex._longitudinal(w, rs)
             assert np.all(acc[rows] >= np.minimum(p.comfort[0], ex._vcap[rows]) - 1e-9)
         env.step({a: acts[a] for a in env.agents})

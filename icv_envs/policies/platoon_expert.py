@@ -250,7 +250,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         # VirtualPlatoon._anticipate: (rows, reference X, bounding node id or -1)
         self._anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
         self._advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))  # VirtualPlatoon._anticipate
-        self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))  # VirtualPlatoon._advise_in_zone
+        self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0))  # _advise_in_zone
         self._yield: dict[int, int] = {}  # vid -> vid of the vehicle it yields to (Regrouping._note_yields)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
@@ -660,7 +660,10 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         position error to the reference along the route (metres, positive =
         the reference is ahead), the speed error, and whether the vehicle may
         enter the box now (in a node / holding a reservation, in a lane
-        allowed for its movement)."""
+        allowed for its movement).  A vehicle under the speed advisory inside
+        R1 (:meth:`VirtualPlatoon._advise_in_zone`) reports the tree's
+        reference (its hold ``H`` behind it, the tree's speed reference), not
+        the advisory its controller tracks."""
         self._check_stamp(world)
         f = world.fleet
         rs = world.route()
@@ -671,6 +674,9 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         k = self._mode == MODE_TREE
         d[k] = rs.X[k] - self._xref[k]
         dv = np.where(has, self._vref - f.speed, self.p.v0 - f.speed)
+        adv, _, H, v_tree = self._zone_advised
+        d[adv] = -H
+        dv[adv] = v_tree - f.speed[adv]
         go = (f.node >= 0) & ~self._stop
         return has, d, dv, go
 

@@ -410,7 +410,7 @@ class VirtualPlatoon:
             xref[rows_all] = np.where(bind, lb, paper)
             vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
             tight[rows_all] = bind
-        self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
+        self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0))
         advised = self._advise_in_zone(world, rs, xref, vref, tight) if p.zone_advisory else self._zone_advised[0]
         if p.anticipate:
             self._anticipate(world, rs, mode, xref, vref)
@@ -470,10 +470,13 @@ class VirtualPlatoon:
         k = rows[w]
         if not len(k):
             return k
+        v_tree = vref[k].copy()
         vref[k] = p.v0 * L[w] / (L[w] + H[w])
         xref[k] = rs.X[k]
         tight[k] = False
-        self._zone_advised = (k, vref[k].copy(), H[w])  # for inspection (tests): rows, advised speed, hold H
+        # rows, advised speed, hold H, the tree's speed reference: tests, and the
+        # observation, which keeps reporting the tree's reference (PlatoonExpert.references)
+        self._zone_advised = (k, vref[k].copy(), H[w], v_tree)
         self.stats["advised_in_zone"] += len(k)
         return k
 
