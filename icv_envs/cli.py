@@ -54,6 +54,8 @@ METHOD_HELP = {
     "formation": "interlaced formations on the left three lanes, the formation expert drives (paper Sec. 3)",
     "lane-lp": "optimal lane assignment LP at the ramps (Dao et al. 2007), IDM/MOBIL drive",
     "idm": "IDM car following and MOBIL lane changes, no coordination",
+    "lane-lp-close": "lane-lp at the formation members' 0.5 s IDM time gap (equal margins)",
+    "idm-close": "idm at the formation members' 0.5 s IDM time gap (equal margins)",
     "multi-vp": "regrouping + improved virtual platoon, a node per sub-formation (paper Sec. 4-5)",
     "single-vp": "virtual platoon with one vehicle per node",
     "fcfs": "tile reservation, first come first served (Dresner & Stone's AIM)",
@@ -181,7 +183,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("target", type=_choice("comparison", COMPARES), metavar="TARGET", help=f"one of: {', '.join(COMPARES)}")
     c.add_argument("--methods", type=_names, default=None,
                    help="comma-separated; highway-ramps: " + ",".join(METHODS["highway-ramps"])
-                   + "; intersection: " + ",".join(METHODS["intersection"]) + " (default: all of the target's but fcfs-tight)")
+                   + "; intersection: " + ",".join(METHODS["intersection"])
+                   + " (default: highway-ramps formation,lane-lp,idm; intersection all but fcfs-tight)")
     c.add_argument("--throughput", default=None,
                    help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,1500,2000,2500,3000)")
     c.add_argument("--lane-use", dest="lane_use", default=None,  # checked by the env config (exit 2)

@@ -13,7 +13,7 @@ local process pool (default: one worker per core) or on a Ray cluster
   series and its density heat maps;
 * ``remaining_vs_vgr.png``, ``remaining_plus_queued_vs_vgr.png``,
   ``mean_speed_vs_vgr.png``, ``speed_fluctuation_vs_vgr.png``,
-  ``min_time_headway_vs_vgr.png`` (seed mean and 95% confidence interval
+  ``min_time_headway_vs_vgr.png``, ``time_headway_p05_vs_vgr.png`` (seed mean and 95% confidence interval
   per method), ``remaining_vs_time.png`` (Fig. 9 style);
 * ``heatmap.png`` (Fig. 10 as the paper draws it): vehicles per 500 m per
   lane, at the VGR nearest 1/3 and the first seed, one row per method, the
@@ -219,13 +219,15 @@ def plot_results(results, out) -> list[str]:
 
     out = Path(out)
     methods = sorted({r["method"] for r in results}, key=lambda m: METHODS.index(m))
-    colours = {"formation": "tab:red", "lane-lp": "tab:blue", "idm": "tab:grey"}
+    colours = {"formation": "tab:red", "lane-lp": "tab:blue", "idm": "tab:grey", "lane-lp-close": "tab:cyan",
+               "idm-close": "tab:olive"}
     files = []
     for key, label in (("remaining", "vehicles remaining on the road at the end"),
                        ("remaining_plus_queued", "remaining on the road + queued at the ramps"),
                        ("mean_speed", "mean speed [m/s]"),
                        ("speed_fluctuation", "speed fluctuation: mean |dv/dt| [m/s$^2$]"),
-                       ("min_time_headway", "minimum time headway [s]")):
+                       ("min_time_headway", "minimum time headway [s]"),
+                       ("time_headway_p05", "5th-percentile time headway [s]")):
         fig, ax = plt.subplots(figsize=(6, 4))
         for m in methods:
             vs = sorted({r["vgr"] for r in results if r["method"] == m})
