@@ -28,7 +28,9 @@ vehicle that misses its exit drives another lap. An arrival waits in a queue
 while its ramp's spawn point is occupied. The `method` decides who
 coordinates: `formation` (interlaced formations on the left three lanes,
 the fourth lane a transition lane, the formation expert driving), `lane-lp`
-(optimal lane assignment LP at the ramps, IDM) or `idm` (IDM/MOBIL). The
+(optimal lane assignment LP at the ramps, IDM) or `idm` (IDM/MOBIL);
+`lane-lp-close` and `idm-close` are the two references at the formation
+members' 0.5 s IDM time gap instead of 1.0 s (equal car-following margins). The
 `expert_action` in the infos is the chosen method's controller.
 
 ## Observations, actions, rewards, state
@@ -92,7 +94,7 @@ time-averaged and at the end), in the paper's coordinates.
 
 | key | default | meaning |
 |---|---|---|
-| `method` | `"formation"` | `formation`, `lane-lp`, `idm` |
+| `method` | `"formation"` | `formation`, `lane-lp`, `idm`, `lane-lp-close`, `idm-close` |
 | `vgr` | 1/3 | vehicles/s per on-ramp, in (0, 1] |
 | `arrivals` | `"poisson"` | or `"fixed"` (constant interval, random phase per ramp) |
 | `exit_choices` | None | list of off-ramp indices (0 = the one at 1600 m) a vehicle may pick |
