@@ -1,7 +1,8 @@
 """The paper's three highway claims (Sec. 6.1) against the LP reference, tested on a sweep.
 
 Reads the ``runs/*.json`` of ``icv-envs compare highway-ramps`` output
-directories and prints, per VGR, the formation method's relative difference
+directories (or, where a directory has none, as in the committed results
+whose ``runs/`` is not in git, its ``results.csv``: one row per run) and prints, per VGR, the formation method's relative difference
 to ``lane-lp`` (and to ``idm``) in vehicles remaining on the road at the end,
 mean speed and speed fluctuation (mean |dv/dt| of the realised speed), with a
 95% Student t interval over seeds of the *per-seed* relative difference (a
@@ -19,6 +20,7 @@ other side, *not resolved* otherwise (the size is reported, not judged).
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import sys
 from pathlib import Path
@@ -37,8 +39,13 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     runs = {}
     for d in a.dirs:
-        for fp in sorted(Path(d, "runs").glob("*.json")):
-            r = json.loads(fp.read_text())
+        found = [json.loads(fp.read_text()) for fp in sorted(Path(d, "runs").glob("*.json"))]
+        if not found and Path(d, "results.csv").is_file():
+            with open(Path(d, "results.csv"), newline="") as fh:
+                found = [{**row, **{k: float(row[k]) for k, _, _ in CLAIMS}} for row in csv.DictReader(fh)]
+        if not found:
+            raise SystemExit(f"{d}: neither runs/*.json nor results.csv")
+        for r in found:
             key = (r["method"], round(float(r["vgr"]), 6), int(r["seed"]))
             if key in runs:
                 raise SystemExit(f"run {key} twice")
