@@ -688,10 +688,13 @@ class IntersectionEnv(IcvAgentsEnv):
         return {"realised_demand": due * 3600.0 / sim, "served_share": cleared / due if due else None}
 
     def metrics(self, **kwargs) -> dict:
-        """Run totals (see :mod:`icv_envs.experiments.intersection_compare` for definitions).
-
-        ``lost`` = spawned - removed - left_road - remaining - crashed_removed:
-        a bookkeeping check that must be 0."""
+        """Run totals; the speed, fluctuation, PET and jam figures are defined
+        in :mod:`icv_envs.sim.intersection_metrics`. ``achieved_throughput``
+        = vehicles/h that cleared the box over the statistics window;
+        ``mean_delay`` = mean over the vehicles that cleared the box of their
+        travel time from R3 minus that distance at the free speed (``v_free``); ``lost`` = spawned
+        - removed - left_road - remaining - crashed_removed: a bookkeeping
+        check that must be 0."""
         w = self.world
         st = w.stats
         remaining = int(w.fleet.n)
