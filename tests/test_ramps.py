@@ -211,3 +211,38 @@ def test_compare_on_ray_backend(tmp_path):
 def test_compare_unknown_backend(tmp_path):
     with pytest.raises(ValueError, match="backend 'spark'"):
         compare_highway_ramps(["idm"], [0.2], 1, 10.0, tmp_path, backend="spark")
+
+
+def _merge_script():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "merge_highway_runs.py"
+    spec = importlib.util.spec_from_file_location("merge_highway_runs", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_merged_sweeps_equal_one_sweep(tmp_path):
+    """A grid run in two pieces and merged gives the rows one sweep gives; a run
+    met twice with different figures, or an unknown method, is refused."""
+    merge = _merge_script()
+    compare_highway_ramps(["idm"], [0.2], [0, 1], 10.0, tmp_path / "one", workers=1, progress=False)
+    compare_highway_ramps(["idm"], [0.2], [1], 10.0, tmp_path / "b", workers=1, progress=False)
+    compare_highway_ramps(["idm", "lane-lp"], [0.2], [0], 10.0, tmp_path / "a", workers=1, progress=False)
+    assert merge.main([str(tmp_path / "a"), str(tmp_path / "b"), "--methods", "idm", "--out", str(tmp_path / "m")]) == 0
+    timing = {"wall_seconds", "real_time_factor"}
+    read = lambda d: [{k: v for k, v in r.items() if k not in timing}
+                      for r in csv.DictReader(open(tmp_path / d / "results.csv"))]
+    assert read("m") == read("one")
+    assert json.loads((tmp_path / "m" / "summary.json").read_text())["table"] == \
+        json.loads((tmp_path / "one" / "summary.json").read_text())["table"]
+    run = tmp_path / "b" / "runs" / "idm_vgr0.2_seed1.json"
+    r = json.loads(run.read_text())
+    r["remaining"] += 1
+    run.write_text(json.dumps(r))
+    with pytest.raises(SystemExit, match="found twice with different figures"):
+        merge.main([str(tmp_path / "one"), str(tmp_path / "b"), "--out", str(tmp_path / "x")])
+    with pytest.raises(SystemExit, match="unknown methods"):
+        merge.main([str(tmp_path / "one"), "--methods", "idmm", "--out", str(tmp_path / "x")])

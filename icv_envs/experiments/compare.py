@@ -160,7 +160,18 @@ def compare_highway_ramps(methods, vgrs, seeds, seconds: float, out, backend: st
     (out / "runs").mkdir(parents=True, exist_ok=True)
     jobs = [(m, float(v), s, float(seconds), config) for m in methods for v in vgrs for s in _seed_list(seeds)]
     results = run_jobs(_run_job, jobs, backend, workers, progress, "highway-ramps runs")
-    results.sort(key=lambda r: (list(methods).index(r["method"]), r["vgr"], r["seed"]))
+    return write_results(results, out, methods)
+
+
+def write_results(results: list[dict], out, methods=None) -> dict:
+    """Write a sweep's files to ``out``: ``runs/<method>_vgr<v>_seed<s>.json``
+    (one per run), ``results.csv`` (one row per run), ``summary.json`` (seed
+    means with 95% intervals, returned) and the plots. Runs are ordered by
+    ``methods`` (default: ``METHODS``), VGR and seed."""
+    order = list(methods) if methods is not None else list(METHODS)
+    results = sorted(results, key=lambda r: (order.index(r["method"]), r["vgr"], r["seed"]))
+    out = Path(out)
+    (out / "runs").mkdir(parents=True, exist_ok=True)
     for r in results:
         (out / "runs" / f"{_tag(r['method'], r['vgr'], r['seed'])}.json").write_text(json.dumps(r))
     with open(out / "results.csv", "w", newline="") as fh:
