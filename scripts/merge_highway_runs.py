@@ -9,6 +9,7 @@ and writes to ``--out`` exactly what ``compare_highway_ramps`` writes:
 ``runs/``, ``results.csv``, ``summary.json`` and the plots.
 
     python scripts/merge_highway_runs.py /tmp/hw_all --methods lane-lp-close,idm-close --out results/highway_ramps_close
+    python scripts/merge_highway_runs.py /tmp/hw_all --plots-only --out results/highway_ramps_close
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import json
 from pathlib import Path
 
 from icv_envs.envs.highway_ramps import METHODS
-from icv_envs.experiments.compare import CSV_COLUMNS, write_results
+from icv_envs.experiments.compare import CSV_COLUMNS, plot_results, write_results
 
 # figures that depend on the machine, not on the run
 _TIMING = ("wall_seconds", "real_time_factor")
@@ -53,10 +54,16 @@ def main(argv=None) -> int:
     ap.add_argument("dirs", nargs="+")
     ap.add_argument("--methods", default=None, help="comma-separated; default: every method found")
     ap.add_argument("--out", required=True)
+    ap.add_argument("--plots-only", action="store_true",
+                    help="write only the plots (e.g. every method's curves beside a directory that keeps a subset)")
     a = ap.parse_args(argv)
     methods = a.methods.split(",") if a.methods else None
     results = merge(a.dirs, methods)
-    write_results(results, a.out, methods)
+    if a.plots_only:
+        Path(a.out).mkdir(parents=True, exist_ok=True)
+        plot_results(results, a.out)
+    else:
+        write_results(results, a.out, methods)
     print(f"{len(results)} runs -> {a.out}")
     return 0
 

@@ -246,3 +246,11 @@ def test_merged_sweeps_equal_one_sweep(tmp_path):
         merge.main([str(tmp_path / "one"), str(tmp_path / "b"), "--out", str(tmp_path / "x")])
     with pytest.raises(SystemExit, match="unknown methods"):
         merge.main([str(tmp_path / "one"), "--methods", "idmm", "--out", str(tmp_path / "x")])
+
+
+def test_merge_plots_only_writes_only_plots(tmp_path):
+    merge = _merge_script()
+    compare_highway_ramps(["idm"], [0.2], [0], 10.0, tmp_path / "a", workers=1, progress=False)
+    assert merge.main([str(tmp_path / "a"), "--plots-only", "--out", str(tmp_path / "p")]) == 0
+    assert (tmp_path / "p" / "mean_speed_vs_vgr.png").stat().st_size > 5000
+    assert not (tmp_path / "p" / "results.csv").exists() and not (tmp_path / "p" / "runs").exists()
