@@ -18,8 +18,7 @@ import argparse
 import json
 from pathlib import Path
 
-from icv_envs.envs.highway_ramps import METHODS
-from icv_envs.experiments.compare import CSV_COLUMNS, plot_results, write_results
+from icv_envs.experiments.compare import CSV_COLUMNS, plot_results, validate_methods, write_results
 
 # figures that depend on the machine, not on the run
 _TIMING = ("wall_seconds", "real_time_factor")
@@ -28,9 +27,10 @@ _TIMING = ("wall_seconds", "real_time_factor")
 def merge(dirs: list[str], methods: list[str] | None = None) -> list[dict]:
     """The runs of ``dirs`` (``runs/*.json``), keeping ``methods`` only if given."""
     if methods is not None:
-        bad = [m for m in methods if m not in METHODS]
-        if bad:
-            raise SystemExit(f"unknown methods {bad}; allowed: {list(METHODS)}")
+        try:
+            validate_methods(methods)
+        except ValueError as e:
+            raise SystemExit(str(e)) from None
     runs: dict = {}
     for d in dirs:
         files = sorted(Path(d, "runs").glob("*.json"))

@@ -15,6 +15,8 @@ import argparse
 import json
 from pathlib import Path
 
+from icv_envs.envs.highway_ramps import METHODS
+
 
 def rows(dirs: list[str]) -> list[dict]:
     table = []
@@ -23,10 +25,7 @@ def rows(dirs: list[str]) -> list[dict]:
         if not fp.is_file():
             raise SystemExit(f"{d}: no summary.json")
         table += json.loads(fp.read_text())["table"]
-    return sorted(table, key=lambda r: (r["vgr"], _ORDER.get(r["method"], 99), r["method"]))
-
-
-_ORDER = {"formation": 0, "lane-lp": 1, "idm": 2, "lane-lp-close": 3, "idm-close": 4}
+    return sorted(table, key=lambda r: (r["vgr"], METHODS.index(r["method"])))
 
 
 def main(argv=None) -> int:

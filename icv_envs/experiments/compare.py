@@ -51,13 +51,18 @@ SUMMARY_KEYS = ("remaining", "queued", "remaining_plus_queued", "mean_speed", "s
                 "time_headway_p05")
 
 
-def validate_grid(methods, vgrs, seeds, seconds) -> None:
+def validate_methods(methods) -> None:
+    """A non-empty list of HighwayRamps method names, or ValueError naming the bad ones."""
     methods = list(methods)
     if not methods:
         raise ValueError("no methods given; allowed: " + ", ".join(METHODS))
     bad = [m for m in methods if m not in METHODS]
     if bad:
         raise ValueError(f"unknown methods {bad}; allowed: {list(METHODS)}")
+
+
+def validate_grid(methods, vgrs, seeds, seconds) -> None:
+    validate_methods(methods)
     if not list(vgrs):
         raise ValueError("no VGR given")
     for v in vgrs:
