@@ -4,6 +4,7 @@ replaced, on random inputs (hypothesis): same results, bit for bit."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -134,3 +135,112 @@ def test_join_search_equals_the_numpy_search(rows, v_lo, v_hi, max_duration):
     d0, v0, a0 = (np.array(c, dtype=np.float64) for c in zip(*rows))
     kw = dict(accel=1.5, decel=3.0, jerk=2.0, t_min=2.0, max_duration=max_duration, v_lo=v_lo, v_hi=v_hi)
     np.testing.assert_array_equal(join_duration(d0, v0, a0, **kw), _numpy_join_duration(d0, v0, a0, **kw))
+
+
+# ------------------------------------------------ the fused physics substep
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(0, 60), periodic=st.booleans(), limit=st.booleans(), seed=st.integers(0, 2**31))
+def test_kinematic_substep_equals_traffic_step(n, periodic, limit, seed):
+    """kinematic_substep gives Traffic.step's state (with the crashed
+    override and the standing time of World.substep) and Traffic.center's
+    body centres, bit for bit where NumPy's SIMD dispatch is at most AVX2
+    (X86_V3): the compiled code calls libm's sin, cos, tan and atan, as
+    NumPy's float64 ufuncs do there. NumPy's AVX-512 kernels (SVML) round
+    tan and atan differently in the last bit, so in a process that runs
+    them the check allows 1e-9 (the end-to-end bit-identity is checked in
+    the pinned process of tests/test_trajectory_hash.py)."""
+    from trajectory_hash import _active_targets_above
+
+    from icv_envs.sim._kernels import kinematic_substep
+    from icv_envs.sim.traffic import Traffic
+
+    rng = np.random.default_rng(seed)
+    period = 10_000.0 if periodic else None
+    tr = Traffic(2.8, period=period, lat_accel_max=4.9 if limit else None)
+    tr.x = rng.uniform(-50.0, 10_050.0, n) if not periodic else rng.uniform(0.0, 10_000.0, n)
+    tr.y = rng.uniform(-2.0, 14.0, n)
+    tr.heading = rng.normal(0.0, 0.2, n)
+    tr.speed = np.where(rng.random(n) < 0.2, 0.0, rng.uniform(0.0, 32.0, n))
+    tr.crashed = rng.random(n) < 0.2
+    tr.stopped_for = np.where(rng.random(n) < 0.5, rng.uniform(0.0, 40.0, n), 0.0)
+    a = rng.uniform(-6.0, 3.0, n)
+    phi = rng.uniform(-0.6, 0.6, n)
+    got = kinematic_substep(tr.x, tr.y, tr.heading, tr.speed, a, phi, tr.crashed, tr.stopped_for, 2.8,
+                            4.9 if limit else -1.0, 0.04, 30.0, -1.0 if period is None else period)
+    st0 = tr.stopped_for
+    tr.step(np.where(tr.crashed, -6.0, a), np.where(tr.crashed, 0.0, phi), 0.04, 30.0)
+    cx, cy = tr.center()
+    want = (tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, np.where(tr.speed < 0.1, st0 + 0.04, 0.0), cx, cy)
+    exact = not _active_targets_above()
+    for g, w in zip(got, want):
+        if exact:
+            np.testing.assert_array_equal(g, w)
+        else:
+            np.testing.assert_allclose(g, w, rtol=0.0, atol=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(0, 60), ramp=st.booleans(), seed=st.integers(0, 2**31))
+def test_road_check_equals_lane_of_and_available(n, ramp, seed):
+    from icv_envs.sim._kernels import road_check
+
+    rng = np.random.default_rng(seed)
+    obstacles = [Obstacle(int(rng.integers(0, 3)), float(rng.uniform(0, 2_000)), 4.0) for _ in range(rng.integers(0, 3))]
+    ends = np.where(rng.random(3) < 0.4, rng.uniform(0, 2_000, 3), np.inf)
+    from icv_envs.sim.road import OnRamp
+
+    ramps = [OnRamp(300.0, 500.0)] if ramp else []
+    road = RoadLayout(3, 2_000.0, 4.0, ends, ramps, [], obstacles)
+    cx = rng.uniform(-20.0, 2_020.0, n)
+    cy = rng.uniform(-4.0, 4.0 * road.total_lanes + 2.0, n)
+    lane, off = road_check(cx, cy, road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane,
+                           road._ob_lo, road._ob_hi, road._ramp_iv, 0.5)
+    want_lane = road.lane_of(cy)
+    want_off = ~road.available(want_lane, cx) | (np.abs(cy - want_lane * road.lane_width) > 0.5 * road.lane_width + 0.5)
+    np.testing.assert_array_equal(lane, want_lane)
+    np.testing.assert_array_equal(off, want_off)
+
+
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(0, 1200), seed=st.integers(0, 2**31))
+def test_pairwise_sum_rounds_as_numpy_sum(n, seed):
+    from icv_envs.sim._kernels import pairwise_sum
+
+    rng = np.random.default_rng(seed)
+    a = rng.standard_normal(n) * 10.0 ** rng.uniform(-6, 6, n)
+    lo = int(rng.integers(0, 4)) if n > 4 else 0
+    assert pairwise_sum(a, lo, n - lo) == a[lo:].sum()
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 300), sorted_ids=st.booleans(), seed=st.integers(0, 2**31))
+def test_motion_record_equals_numpy(n, sorted_ids, seed):
+    """MotionStats.record (compiled) accumulates exactly what the numpy
+    expressions it replaced did."""
+    from icv_envs.sim.metrics import STOPPED_SPEED, MotionStats
+
+    rng = np.random.default_rng(seed)
+    vid = np.sort(rng.choice(2 * n, n, replace=False)) if sorted_ids else rng.integers(0, n, n)
+    v0, v1 = rng.uniform(0, 30, n), np.where(rng.random(n) < 0.1, 0.0, rng.uniform(0, 30, n))
+    a = rng.uniform(-6, 3, n)
+    m = MotionStats()
+    m.record(vid, v0, v1, a, 0.04)
+    m.record(vid, v1, v0, -a, 0.04)
+    cnt, s1, s2 = np.zeros(2 * n, np.int64), np.zeros(2 * n), np.zeros(2 * n)
+    tot = [0.0, 0.0, 0.0, 0]
+    for p, q, c in ((v0, v1, a), (v1, v0, -a)):
+        tot[0] += float(q.sum())
+        tot[1] += float(np.abs(q - p).sum()) / 0.04
+        tot[2] += float(np.abs(c).sum())
+        tot[3] += int((q < STOPPED_SPEED).sum())
+        np.add.at(cnt, vid, 1)
+        np.add.at(s1, vid, q)
+        np.add.at(s2, vid, q * q)
+    assert (m.speed_sum, m.realised_abs_accel_sum, m.commanded_abs_accel_sum, m.stopped_steps) == tuple(tot)
+    k = int(vid.max()) + 1
+    assert len(m._n) >= k
+    np.testing.assert_array_equal(m._n[:k], cnt[:k])
+    np.testing.assert_array_equal(m._s1[:k], s1[:k])
+    np.testing.assert_array_equal(m._s2[:k], s2[:k])
+    with pytest.raises(ValueError, match="one length"):
+        m.record(vid, v0[:-1] if n > 1 else v0[:0], v1, a, 0.04)

@@ -20,10 +20,13 @@ the compile time (a few seconds).
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
-__all__ = ["sweep_candidates", "segment_max", "drivable_lane_bits"]
+__all__ = ["sweep_candidates", "segment_max", "drivable_lane_bits", "npy_mod", "kinematic_substep", "road_check",
+           "pairwise_sum", "motion_record"]
 
 
 @nb.njit(cache=True)
@@ -122,3 +125,220 @@ def drivable_lane_bits(a, span, x0, x1, periodic, length, lane_ends, ob_lane, ob
                 bits |= 1 << lane
         out[g] = bits
     return out
+
+
+@nb.njit(cache=True, inline="always")
+def npy_mod(a, b):
+    """``numpy.mod`` of two floats, NumPy's own algorithm (``npy_divmod``):
+    ``fmod`` then a shift by ``b`` when the signs differ, ``+0`` with the
+    sign of ``b`` for an exact multiple."""
+    m = np.fmod(a, b)
+    if m != 0.0:
+        if (b < 0.0) != (m < 0.0):
+            m += b
+    else:
+        m = math.copysign(0.0, b)
+    return m
+
+
+@nb.njit(cache=True)
+def kinematic_substep(x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase, lat_accel_max,
+                      dt, v_max, period):
+    """One forward-Euler step of the rear-axle kinematic bicycle model for
+    every vehicle, fused (:meth:`icv_envs.sim.world.World.substep` with
+    :meth:`icv_envs.sim.traffic.Traffic.step` and
+    :func:`icv_envs.sim.traffic.limit_steering`, paper Sec. 2.2): a crashed
+    vehicle brakes at -6 m/s^2 with the wheels straight; the steering angle
+    is limited by the lateral acceleration ``v^2 tan(phi) / L <=
+    lat_accel_max`` (``lat_accel_max < 0``: no limit); speed is kept in
+    ``[0, v_max]``; ``x`` is folded onto a ring of length ``period``
+    (``period <= 0``: no ring). Also the standing time (speed < 0.1 m/s)
+    and the body centres of the new state (``wheelbase / 2`` ahead of the
+    rear axle, ``cx`` folded on a ring), as :meth:`Traffic.center`.
+
+    Returns ``(x, y, heading, speed, accel, steer, stopped_for, cx, cy)``
+    as new arrays (the inputs are not touched)."""
+    n = x.shape[0]
+    nx = np.empty(n)
+    ny = np.empty(n)
+    nh = np.empty(n)
+    nv = np.empty(n)
+    na = np.empty(n)
+    ns = np.empty(n)
+    nst = np.empty(n)
+    cx = np.empty(n)
+    cy = np.empty(n)
+    lat_wb = lat_accel_max * wheelbase
+    half = 0.5 * wheelbase
+    for i in range(n):
+        a = accel[i]
+        s = steer[i]
+        if crashed[i]:
+            a = -6.0
+            s = 0.0
+        v = speed[i]
+        if lat_accel_max >= 0.0:
+            v2 = max(v * v, 1e-9)
+            pm = math.atan(lat_wb / v2)
+            s = min(max(s, -pm), pm)
+        h = heading[i]
+        xi = x[i] + v * math.cos(h) * dt
+        nyi = y[i] + v * math.sin(h) * dt
+        hi = h + v * math.tan(s) / wheelbase * dt
+        vi = min(max(v + a * dt, 0.0), v_max)
+        if period > 0.0:
+            xi = npy_mod(xi, period)
+        nx[i] = xi
+        ny[i] = nyi
+        nh[i] = hi
+        nv[i] = vi
+        na[i] = a
+        ns[i] = s
+        nst[i] = stopped_for[i] + dt if vi < 0.1 else 0.0
+        c = xi + half * math.cos(hi)
+        if period > 0.0:
+            c = npy_mod(c, period)
+        cx[i] = c
+        cy[i] = nyi + half * math.sin(hi)
+    return nx, ny, nh, nv, na, ns, nst, cx, cy
+
+
+@nb.njit(cache=True)
+def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, edge_margin):
+    """Per vehicle: the lane whose centre is nearest
+    (:meth:`icv_envs.sim.road.RoadLayout.lane_of`) and whether the body
+    centre is off the drivable surface there: the lane is not available at
+    ``cx`` (:meth:`RoadLayout.available`: a main lane past its end or inside
+    an obstacle's interval, a ramp lane outside every ramp interval) or
+    more than ``lane_width / 2 + edge_margin`` beside the lane centre.
+    ``cx`` is already folded onto a ring."""
+    n = cx.shape[0]
+    lane = np.empty(n, dtype=np.int64)
+    off = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        li = np.rint(cy[i] / lane_width)
+        li = min(max(li, 0.0), total_lanes - 1.0)
+        ln = np.int64(li)
+        lane[i] = ln
+        x = cx[i]
+        ok = False
+        if ln < n_lanes:
+            ok = x >= 0.0 and x < lane_ends[ln]
+            if ok:
+                for o in range(ob_lane.shape[0]):
+                    if ob_lane[o] == ln and x >= ob_lo[o] and x <= ob_hi[o]:
+                        ok = False
+                        break
+        elif ln == n_lanes:
+            for r in range(ramp_iv.shape[0]):
+                if x >= ramp_iv[r, 0] and x <= ramp_iv[r, 1]:
+                    ok = True
+                    break
+        off[i] = (not ok) or abs(cy[i] - ln * lane_width) > 0.5 * lane_width + edge_margin
+    return lane, off
+
+
+@nb.njit(cache=True)
+def _pairwise_leaf(a, lo, n):
+    """NumPy's pairwise summation of ``a[lo:lo + n]`` for ``n <= 128``."""
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0 = a[lo]
+    r1 = a[lo + 1]
+    r2 = a[lo + 2]
+    r3 = a[lo + 3]
+    r4 = a[lo + 4]
+    r5 = a[lo + 5]
+    r6 = a[lo + 6]
+    r7 = a[lo + 7]
+    i = 8
+    m = n - (n % 8)
+    while i < m:
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@nb.njit(cache=True)
+def pairwise_sum(a, lo, n):
+    """``a[lo:lo + n].sum()`` by NumPy's own pairwise summation
+    (``pairwise_sum_DOUBLE``: 8 accumulators in blocks of up to 128 values;
+    above, the sum of the two halves split at a multiple of 8), so a
+    compiled reduction rounds exactly as ``numpy.sum`` does. The halving
+    recursion runs on an explicit stack (numba's on-disk cache does not
+    hold recursive functions)."""
+    if n <= 128:
+        return _pairwise_leaf(a, lo, n)
+    f_lo = np.empty(64, dtype=np.int64)
+    f_n = np.empty(64, dtype=np.int64)
+    f_phase = np.empty(64, dtype=np.int64)  # 0 start, 1 awaiting left, 2 left done, 3 awaiting right
+    f_left = np.empty(64)
+    sp = 0
+    f_lo[0] = lo
+    f_n[0] = n
+    f_phase[0] = 0
+    while True:
+        l0 = f_lo[sp]
+        m = f_n[sp]
+        n2 = m // 2
+        n2 -= n2 % 8
+        if f_phase[sp] == 0:
+            f_phase[sp] = 1
+            cl, cn = l0, n2
+        else:  # phase 2
+            f_phase[sp] = 3
+            cl, cn = l0 + n2, m - n2
+        if cn > 128:
+            sp += 1
+            f_lo[sp] = cl
+            f_n[sp] = cn
+            f_phase[sp] = 0
+            continue
+        v = _pairwise_leaf(a, cl, cn)
+        while True:  # hand the finished sum up the stack
+            if f_phase[sp] == 1:
+                f_left[sp] = v
+                f_phase[sp] = 2
+                break
+            v = f_left[sp] + v
+            if sp == 0:
+                return v
+            sp -= 1
+
+
+@nb.njit(cache=True)
+def motion_record(vid, v0, v1, commanded, stopped_speed, count, s1, s2):
+    """One substep of :meth:`icv_envs.sim.metrics.MotionStats.record`: the
+    per-vehicle speed moments ``count[vid] += 1``, ``s1[vid] += v1``,
+    ``s2[vid] += v1^2`` (in place, in row order), and the sums of ``v1``,
+    ``|v1 - v0|`` and ``|commanded|`` (NumPy's pairwise order) and the count
+    of ``v1 < stopped_speed``."""
+    n = vid.shape[0]
+    dv = np.empty(n)
+    ac = np.empty(n)
+    stopped = 0
+    for i in range(n):
+        v = v1[i]
+        dv[i] = abs(v - v0[i])
+        ac[i] = abs(commanded[i])
+        if v < stopped_speed:
+            stopped += 1
+        k = vid[i]
+        count[k] += 1
+        s1[k] += v
+        s2[k] += v * v
+    return pairwise_sum(v1, 0, n), pairwise_sum(dv, 0, n), pairwise_sum(ac, 0, n), stopped

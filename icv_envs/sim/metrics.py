@@ -64,6 +64,8 @@ import math
 
 import numpy as np
 
+from icv_envs.sim._kernels import motion_record
+
 __all__ = [
     "STOPPED_SPEED",
     "HEADWAY_BIN",
@@ -125,20 +127,17 @@ class MotionStats:
             raise ValueError(f"dt must be > 0, got {dt!r}")
         if vid.min() < 0:
             raise ValueError(f"vehicle ids must be >= 0, got {int(vid.min())}")
-        self.vehicle_steps += len(vid)
-        self.speed_sum += float(v1.sum())
-        self.realised_abs_accel_sum += float(np.abs(v1 - v0).sum()) / float(dt)
-        self.commanded_abs_accel_sum += float(np.abs(a).sum())
-        self.stopped_steps += int((v1 < STOPPED_SPEED).sum())
+        if not (vid.ndim == 1 and v0.shape == v1.shape == a.shape == vid.shape):
+            raise ValueError(f"vid, v_before, v_after and commanded must be 1-D of one length; got shapes "
+                             f"{vid.shape}, {v0.shape}, {v1.shape}, {a.shape}")
         self._grow(int(vid.max()) + 1)
-        if len(vid) == 1 or bool((vid[1:] > vid[:-1]).all()):  # a world's rows: distinct, sorted ids
-            self._n[vid] += 1
-            self._s1[vid] += v1
-            self._s2[vid] += v1 * v1
-        else:
-            np.add.at(self._n, vid, 1)
-            np.add.at(self._s1, vid, v1)
-            np.add.at(self._s2, vid, v1 * v1)
+        # compiled, with NumPy's summation order (icv_envs.sim._kernels.motion_record)
+        sv, sdv, sa, stopped = motion_record(vid, v0, v1, a, STOPPED_SPEED, self._n, self._s1, self._s2)
+        self.vehicle_steps += len(vid)
+        self.speed_sum += sv
+        self.realised_abs_accel_sum += sdv / float(dt)
+        self.commanded_abs_accel_sum += sa
+        self.stopped_steps += stopped
 
     def per_vehicle_std(self) -> np.ndarray:
         """Speed standard deviation of every vehicle with >= 2 samples."""

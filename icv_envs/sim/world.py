@@ -11,6 +11,7 @@ import numpy as np
 
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.metrics import HeadwayStats, MotionStats
+from icv_envs.sim._kernels import kinematic_substep, road_check
 from icv_envs.sim.road import RoadLayout
 from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, leaders, rect_overlap
 
@@ -61,6 +62,7 @@ class World:
         self.traffic = Traffic(wheelbase, period=road.length if road.periodic else None)
         self.time = 0.0
         self._index = None
+        self._gaps = None  # own_lane_gaps of the current state, with the index
         # run metrics (definitions in icv_envs.sim.metrics): event counts here,
         # speed/acceleration every substep in ``motion``, gaps and time
         # headways every policy step in ``headways``
@@ -88,15 +90,16 @@ class World:
         lanes is also listed in its target lane; without, only where its body
         is (the view used for gaps in metrics and rewards)."""
         if self._index is None:
+            self._index = [None, None]
+            self._gaps = None
+        k = 0 if reserved else 1
+        if self._index[k] is None:
             cx, cy = self.traffic.center()
             args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
-            self._index = (
-                lane_index(*args, periodic=self.road.periodic, reserved_lane=self._reservations(),
-                           length=self.traffic.length, heading=self.traffic.heading),
-                lane_index(*args, periodic=self.road.periodic, length=self.traffic.length,
-                           heading=self.traffic.heading),
-            )
-        return self._index[0] if reserved else self._index[1]
+            self._index[k] = lane_index(*args, periodic=self.road.periodic,
+                                        reserved_lane=self._reservations() if reserved else None,
+                                        length=self.traffic.length, heading=self.traffic.heading)
+        return self._index[k]
 
     def _reservations(self) -> np.ndarray:
         """Lane-change target lanes that hold a reservation: only those of
@@ -118,14 +121,18 @@ class World:
     def own_lane_gaps(self) -> tuple[np.ndarray, np.ndarray]:
         """Bumper-to-bumper gap to the leader in each vehicle's own lane, and
         that leader's row (-1 and ``inf`` when none)."""
-        tr = self.traffic
-        cx, cy = tr.center()
-        lane = self.road.lane_of(cy)
-        lead, lx = leaders(self.lane_index(reserved=False), np.arange(tr.n), lane, cx, return_x=True)
-        gap = np.full(tr.n, np.inf)
-        ok = lead >= 0
-        gap[ok] = lx[ok] - cx[ok] - 0.5 * (tr.length[lead[ok]] + tr.length[ok])
-        return gap, lead
+        index = self.lane_index(reserved=False)  # (re)sets self._gaps when the state changed
+        if self._gaps is None:
+            tr = self.traffic
+            cx, cy = tr.center()
+            lane = self.road.lane_of(cy)
+            lead, lx = leaders(index, np.arange(tr.n), lane, cx, return_x=True)
+            gap = np.full(tr.n, np.inf)
+            ok = lead >= 0
+            gap[ok] = lx[ok] - cx[ok] - 0.5 * (tr.length[lead[ok]] + tr.length[ok])
+            self._gaps = (gap, lead)
+        gap, lead = self._gaps
+        return gap.copy(), lead.copy()
 
     # ---------------------------------------------------------------- dynamics
     def substep(self, accel: np.ndarray, steer: np.ndarray, events: StepEvents) -> None:
@@ -133,23 +140,28 @@ class World:
         detection (sweep and prune, see :func:`find_collisions`), exits and
         road ends."""
         tr = self.traffic
-        if tr.n and self.road.n_exits:
+        road = self.road
+        if tr.n and road.n_exits:
             cx_before = tr.center()[0]
-        if tr.n:
-            accel = np.where(tr.crashed, -6.0, accel)
-            steer = np.where(tr.crashed, 0.0, steer)
-            v_before = tr.speed
-            tr.step(accel, steer, self.dt, self.v_max)
-            self.motion.record(tr.vid, v_before, tr.speed, tr.accel, self.dt)
-            tr.stopped_for = np.where(tr.speed < 0.1, tr.stopped_for + self.dt, 0.0)
         self.time += self.dt
         self._index = None
         if not tr.n:
             return
+        # the integration, the standing time, the body centres and the road
+        # check of every vehicle in one compiled pass
+        # (icv_envs.sim._kernels.kinematic_substep / road_check: the same
+        # IEEE operations in the same order as the numpy expressions they
+        # replaced, see tests/test_trajectory_hash.py)
+        v_before = tr.speed
+        lat = -1.0 if tr.lat_accel_max is None else tr.lat_accel_max
+        (tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy) = kinematic_substep(
+            tr.x, tr.y, tr.heading, tr.speed, np.asarray(accel, dtype=np.float64),
+            np.asarray(steer, dtype=np.float64), tr.crashed, tr.stopped_for, tr.wheelbase, lat, self.dt,
+            self.v_max, -1.0 if tr.period is None else tr.period)
+        self.motion.record(tr.vid, v_before, tr.speed, tr.accel, self.dt)
         st = self.stats
-        cx, cy = tr.center()
         i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width,
-                               period=self.road.length if self.road.periodic else None)
+                               period=road.length if road.periodic else None)
         hit = np.zeros(tr.n, dtype=bool)
         hit_obstacle = np.zeros(tr.n, dtype=bool)
         if len(i):
@@ -157,23 +169,23 @@ class World:
             hit[j] = True
             for a, b in zip(tr.vid[i], tr.vid[j]):
                 events.collision_pairs.append((int(a), int(b)))
-        obs = self.road.obstacles
+        obs = road.obstacles
         if obs:
             for ob in obs:
                 near = np.flatnonzero(np.abs(cx - ob.x) < 0.5 * (ob.length + tr.length.max()) + 1.0)
                 if len(near):
                     h = rect_overlap(
                         cx[near], cy[near], tr.heading[near], tr.length[near], tr.width[near],
-                        ob.x, ob.lane * self.road.lane_width, 0.0, ob.length, ob.width,
+                        ob.x, ob.lane * road.lane_width, 0.0, ob.length, ob.width,
                     )
                     hit[near[h]] = True
                     hit_obstacle[near[h]] = True
         # leaving the drivable surface: a main-road vehicle whose lane has
-        # ended, or a ramp vehicle past the ramp's end, has crashed
-        lane = self.road.lane_of(cy)
-        off = ~self.road.available(lane, cx)
-        # beyond the outer edge of the outermost lane (a learned policy can steer off)
-        off |= np.abs(cy - lane * self.road.lane_width) > 0.5 * self.road.lane_width + 0.5
+        # ended, or a ramp vehicle past the ramp's end, has crashed; so has
+        # one beyond the outer edge of the outermost lane (a learned policy
+        # can steer off)
+        lane, off = road_check(cx, cy, road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends,
+                               road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, 0.5)
         exit_now = np.zeros(tr.n, dtype=bool)
         if self.road.n_exits:
             has = tr.exit >= 0
