@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from icv_envs.sim._kernels import drivable_lane_bits, segment_max, sweep_candidates
 from icv_envs.sim.road import Obstacle, RoadLayout
+from icv_envs.sim.traffic import LaneIndex, occupied_lanes, rect_overlap
 
 
 def _numpy_sweep(xs, ys, hxs, hys, reach):
@@ -244,3 +245,154 @@ def test_motion_record_equals_numpy(n, sorted_ids, seed):
     np.testing.assert_array_equal(m._s2[:k], s2[:k])
     with pytest.raises(ValueError, match="one length"):
         m.record(vid, v0[:-1] if n > 1 else v0[:0], v1, a, 0.04)
+
+
+# ------------------------------------------------- collisions compiled whole
+def _numpy_find_collisions(cx, cy, heading, length, width, period: float | None = None):
+    """The numpy find_collisions before it was compiled whole. All colliding pairs ``(i, j)`` (rows, i < j in x order).
+
+    Sweep and prune: sort by x; compare each vehicle with the vehicle ``k``
+    places ahead for k = 1, 2, ... while any such pair is closer in x than
+    the largest possible sum of half-extents. Axis-aligned bounding boxes
+    prune, the separating-axis test decides. O(N log N + N k_max)."""
+    n = len(cx)
+    if n < 2:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    if period is not None:
+        # ring: vehicles near the seam get a ghost one lap on; pairs found
+        # through a ghost are mapped back to real rows
+        near = np.flatnonzero(cx < 2.0 * float(np.max(length)) + 1.0)
+        if len(near):
+            idx = np.concatenate([np.arange(n), near])
+            gi, gj = _numpy_find_collisions(
+                np.concatenate([cx, cx[near] + period]), cy[idx], heading[idx], length[idx], width[idx]
+            )
+            a, b = idx[gi], idx[gj]
+            keep = a != b
+            pairs = {(min(x, y), max(x, y)) for x, y in zip(a[keep].tolist(), b[keep].tolist())}
+            if not pairs:
+                return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+            arr = np.array(sorted(pairs), dtype=np.int64)
+            return arr[:, 0], arr[:, 1]
+    c, s = np.abs(np.cos(heading)), np.abs(np.sin(heading))
+    hx = 0.5 * (length * c + width * s)
+    hy = 0.5 * (length * s + width * c)
+    order = np.argsort(cx, kind="stable")
+    xs, ys, hxs, hys = cx[order], cy[order], hx[order], hy[order]
+    reach = 2.0 * hxs.max()
+    a, k = _numpy_sweep(xs, ys, hxs, hys, reach)
+    if not len(a):
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    i = order[a]
+    j = order[a + k]
+    hit = rect_overlap(cx[i], cy[i], heading[i], length[i], width[i], cx[j], cy[j], heading[j], length[j], width[j])
+    return i[hit], j[hit]
+
+
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(0, 80), span=st.floats(5.0, 400.0), periodic=st.booleans(), seed=st.integers(0, 2**31))
+def test_collision_pairs_equal_the_numpy_code(n, span, periodic, seed):
+    """Dense traffic (many overlaps, ghosts at the seam of a short ring):
+    the compiled find_collisions finds the numpy code's pairs in its order."""
+    from icv_envs.sim.traffic import find_collisions
+
+    rng = np.random.default_rng(seed)
+    period = span if periodic else None
+    cx = rng.uniform(0, span, n)
+    cy = rng.integers(0, 3, n) * 4.0 + rng.normal(0, 1.2, n)
+    h = rng.normal(0, 0.4, n)
+    L, W = rng.uniform(4, 6, n), rng.uniform(1.8, 2.2, n)
+    got = find_collisions(cx, cy, h, L, W, period=period)
+    want = _numpy_find_collisions(cx, cy, h, L, W, period=period)
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, np.asarray(w, dtype=np.int64))
+
+
+# ------------------------------------------- lane index and leaders compiled
+def _numpy_lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool = False, ghost: float = 1000.0,
+               reserved_lane=None, length=None, heading=None):
+    """Build the lane-sorted index. On a ring (``periodic``), vehicles within
+    ``ghost`` metres of the seam are listed a second time one lap further
+    (``x + length`` and ``x - length``) so that searches see round the seam;
+    ``LaneIndex.x`` holds those unfolded positions (use it for gaps).
+
+    ``reserved_lane[i] >= 0`` lists vehicle ``i`` in that lane too: a vehicle
+    that has started a lane change holds its target lane before its body
+    reaches it (a turn signal), so two vehicles do not move into one gap.
+    ``length`` and ``heading`` give each vehicle's footprint (see
+    :func:`occupied_lanes`)."""
+    rows, lanes = occupied_lanes(cy, width, lane_width, n_lanes, length=length, heading=heading)
+    if reserved_lane is not None:
+        res = np.flatnonzero((reserved_lane >= 0) & (reserved_lane < n_lanes))
+        if len(res):
+            pair = np.concatenate([rows, res]) * (n_lanes + 1) + np.concatenate([lanes, reserved_lane[res]])
+            _, first = np.unique(pair, return_index=True)
+            rows = np.concatenate([rows, res])[np.sort(first)]
+            lanes = np.concatenate([lanes, reserved_lane[res]])[np.sort(first)]
+    xs = cx[rows]
+    if periodic and len(rows):
+        L = float(road_length)
+        g = min(ghost, 0.5 * L)
+        lo, hi = xs < g, xs > L - g
+        rows = np.concatenate([rows, rows[lo], rows[hi]])
+        lanes = np.concatenate([lanes, lanes[lo], lanes[hi]])
+        xs = np.concatenate([xs, xs[lo] + L, xs[hi] - L])
+    offset = 4.0 * (abs(road_length) + 1e4)
+    keys = lanes * offset + xs
+    order = np.argsort(keys, kind="stable")
+    return LaneIndex(keys[order], rows[order], lanes[order], xs[order], offset)
+
+
+def _numpy_leaders(index, q_rows, q_lanes, cx, return_x: bool = False):
+    """Row of the nearest other vehicle at or ahead of vehicle ``q_rows``
+    (body-centre x greater or EQUAL) in lane ``q_lanes``; -1 if none. A
+    vehicle exactly alongside counts as a leader (at a negative gap), so two
+    vehicles that keep identical x (members of one sublayer) always see each
+    other. With ``return_x`` also the leader's (unfolded) position."""
+    q_rows = np.asarray(q_rows, dtype=np.int64)
+    q_lanes = np.asarray(q_lanes, dtype=np.int64)
+    out = np.full(len(q_rows), -1, dtype=np.int64)
+    xo = np.full(len(q_rows), np.inf)
+    nk = len(index.keys)
+    if not nk:
+        return (out, xo) if return_x else out
+    qk = q_lanes * index.offset + cx[q_rows]
+    pos = np.searchsorted(index.keys, qk, side="left")
+    todo = np.ones(len(q_rows), dtype=bool)
+    for j in range(3):  # skip the vehicle's own entry (it appears at most once per lane)
+        p = np.minimum(pos + j, nk - 1)
+        ok = todo & (pos + j < nk) & (index.lanes[p] == q_lanes) & (index.rows[p] != q_rows)
+        out[ok] = index.rows[p[ok]]
+        xo[ok] = index.x[p[ok]]
+        todo &= ~ok & (pos + j < nk) & (index.lanes[p] == q_lanes)
+    return (out, xo) if return_x else out
+
+
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(0, 120), periodic=st.booleans(), footprint=st.booleans(), reserve=st.booleans(),
+       seed=st.integers(0, 2**31))
+def test_lane_index_and_leaders_equal_the_numpy_code(n, periodic, footprint, reserve, seed):
+    """The compiled index lists the numpy code's (row, lane, x) entries in
+    its order, with the same keys; leaders() finds the same rows and x."""
+    from icv_envs.sim.traffic import lane_index, leaders
+
+    rng = np.random.default_rng(seed)
+    L = 3000.0
+    cx = rng.uniform(0, L, n)
+    cx[: n // 4] = cx[n // 4: 2 * (n // 4)]  # vehicles exactly alongside (identical x)
+    cy = rng.uniform(-1.0, 13.0, n)
+    w, ln, h = rng.uniform(1.8, 2.2, n), rng.uniform(4, 6, n), rng.normal(0, 0.3, n)
+    res = np.where(rng.random(n) < 0.3, rng.integers(-1, 5, n), -1) if reserve else None
+    kw = dict(periodic=periodic, ghost=500.0, reserved_lane=res)
+    if footprint:
+        kw.update(length=ln, heading=h)
+    got = lane_index(cx, cy, w, 4.0, 4, L, **kw)
+    want = _numpy_lane_index(cx, cy, w, 4.0, 4, L, **kw)
+    for f in ("keys", "rows", "lanes", "x"):
+        np.testing.assert_array_equal(getattr(got, f), getattr(want, f))
+    assert got.offset == want.offset
+    q_rows = rng.integers(0, max(n, 1), 2 * n)
+    q_lanes = rng.integers(0, 4, 2 * n)
+    for a, b in zip(leaders(got, q_rows, q_lanes, cx, return_x=True),
+                    _numpy_leaders(want, q_rows, q_lanes, cx, return_x=True)):
+        np.testing.assert_array_equal(a, b)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.sim._kernels import sweep_candidates
+from icv_envs.sim._kernels import build_lane_index, collision_pairs, leader_rows
 
 __all__ = [
     "Traffic",
@@ -269,26 +269,17 @@ def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool =
     reaches it (a turn signal), so two vehicles do not move into one gap.
     ``length`` and ``heading`` give each vehicle's footprint (see
     :func:`occupied_lanes`)."""
-    rows, lanes = occupied_lanes(cy, width, lane_width, n_lanes, length=length, heading=heading)
-    if reserved_lane is not None:
-        res = np.flatnonzero((reserved_lane >= 0) & (reserved_lane < n_lanes))
-        if len(res):
-            pair = np.concatenate([rows, res]) * (n_lanes + 1) + np.concatenate([lanes, reserved_lane[res]])
-            _, first = np.unique(pair, return_index=True)
-            rows = np.concatenate([rows, res])[np.sort(first)]
-            lanes = np.concatenate([lanes, reserved_lane[res]])[np.sort(first)]
-    xs = cx[rows]
-    if periodic and len(rows):
-        L = float(road_length)
-        g = min(ghost, 0.5 * L)
-        lo, hi = xs < g, xs > L - g
-        rows = np.concatenate([rows, rows[lo], rows[hi]])
-        lanes = np.concatenate([lanes, lanes[lo], lanes[hi]])
-        xs = np.concatenate([xs, xs[lo] + L, xs[hi] - L])
-    offset = 4.0 * (abs(road_length) + 1e4)
-    keys = lanes * offset + xs
-    order = np.argsort(keys, kind="stable")
-    return LaneIndex(keys[order], rows[order], lanes[order], xs[order], offset)
+    f = np.float64
+    n = len(cx)
+    footprint = length is not None and heading is not None
+    width = np.broadcast_to(np.asarray(width, dtype=f), (n,))
+    length = np.broadcast_to(np.asarray(length if footprint else 0.0, dtype=f), (n,))
+    heading = np.broadcast_to(np.asarray(heading if footprint else 0.0, dtype=f), (n,))
+    res = np.zeros(0, dtype=np.int64) if reserved_lane is None else np.asarray(reserved_lane, dtype=np.int64)
+    keys, rows, lanes, xs, offset = build_lane_index(
+        np.asarray(cx, dtype=f), np.asarray(cy, dtype=f), width, length, heading, footprint, float(lane_width),
+        int(n_lanes), res, bool(periodic), float(road_length), float(ghost))
+    return LaneIndex(keys, rows, lanes, xs, offset)
 
 
 def leaders(index: LaneIndex, q_rows, q_lanes, cx, return_x: bool = False):
@@ -297,22 +288,10 @@ def leaders(index: LaneIndex, q_rows, q_lanes, cx, return_x: bool = False):
     vehicle exactly alongside counts as a leader (at a negative gap), so two
     vehicles that keep identical x (members of one sublayer) always see each
     other. With ``return_x`` also the leader's (unfolded) position."""
-    q_rows = np.asarray(q_rows, dtype=np.int64)
-    q_lanes = np.asarray(q_lanes, dtype=np.int64)
-    out = np.full(len(q_rows), -1, dtype=np.int64)
-    xo = np.full(len(q_rows), np.inf)
-    nk = len(index.keys)
-    if not nk:
-        return (out, xo) if return_x else out
-    qk = q_lanes * index.offset + cx[q_rows]
-    pos = np.searchsorted(index.keys, qk, side="left")
-    todo = np.ones(len(q_rows), dtype=bool)
-    for j in range(3):  # skip the vehicle's own entry (it appears at most once per lane)
-        p = np.minimum(pos + j, nk - 1)
-        ok = todo & (pos + j < nk) & (index.lanes[p] == q_lanes) & (index.rows[p] != q_rows)
-        out[ok] = index.rows[p[ok]]
-        xo[ok] = index.x[p[ok]]
-        todo &= ~ok & (pos + j < nk) & (index.lanes[p] == q_lanes)
+    q_rows = np.ascontiguousarray(q_rows, dtype=np.int64)
+    q_lanes = np.ascontiguousarray(np.broadcast_to(np.asarray(q_lanes, dtype=np.int64), q_rows.shape))
+    out, xo = leader_rows(index.keys, index.rows, index.lanes, index.x, float(index.offset), q_rows, q_lanes,
+                          np.asarray(cx, dtype=np.float64))
     return (out, xo) if return_x else out
 
 
@@ -357,39 +336,14 @@ def find_collisions(cx, cy, heading, length, width, period: float | None = None)
     Sweep and prune: sort by x; compare each vehicle with the vehicle ``k``
     places ahead for k = 1, 2, ... while any such pair is closer in x than
     the largest possible sum of half-extents. Axis-aligned bounding boxes
-    prune, the separating-axis test decides. O(N log N + N k_max)."""
-    n = len(cx)
-    if n < 2:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    if period is not None:
-        # ring: vehicles near the seam get a ghost one lap on; pairs found
-        # through a ghost are mapped back to real rows
-        near = np.flatnonzero(cx < 2.0 * float(np.max(length)) + 1.0)
-        if len(near):
-            idx = np.concatenate([np.arange(n), near])
-            gi, gj = find_collisions(
-                np.concatenate([cx, cx[near] + period]), cy[idx], heading[idx], length[idx], width[idx]
-            )
-            a, b = idx[gi], idx[gj]
-            keep = a != b
-            pairs = {(min(x, y), max(x, y)) for x, y in zip(a[keep].tolist(), b[keep].tolist())}
-            if not pairs:
-                return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-            arr = np.array(sorted(pairs), dtype=np.int64)
-            return arr[:, 0], arr[:, 1]
-    c, s = np.abs(np.cos(heading)), np.abs(np.sin(heading))
-    hx = 0.5 * (length * c + width * s)
-    hy = 0.5 * (length * s + width * c)
-    order = np.argsort(cx, kind="stable")
-    xs, ys, hxs, hys = cx[order], cy[order], hx[order], hy[order]
-    reach = 2.0 * hxs.max()
-    a, k = sweep_candidates(xs, ys, hxs, hys, reach)  # compiled sweep (icv_envs.sim._kernels)
-    if not len(a):
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    i = order[a]
-    j = order[a + k]
-    hit = rect_overlap(cx[i], cy[i], heading[i], length[i], width[i], cx[j], cy[j], heading[j], length[j], width[j])
-    return i[hit], j[hit]
+    prune, the separating-axis test decides. O(N log N + N k_max). On a
+    ring (``period``) vehicles near the seam get a ghost one lap on; pairs
+    found through a ghost are mapped back to rows (deduplicated, sorted).
+    Compiled whole (:func:`icv_envs.sim._kernels.collision_pairs`)."""
+    f = np.float64
+    return collision_pairs(np.asarray(cx, dtype=f), np.asarray(cy, dtype=f), np.asarray(heading, dtype=f),
+                           np.asarray(length, dtype=f), np.asarray(width, dtype=f),
+                           -1.0 if period is None else float(period))
 
 
 # ---------------------------------------------------------------------- IDM
