@@ -396,3 +396,32 @@ def test_lane_index_and_leaders_equal_the_numpy_code(n, periodic, footprint, res
     for a, b in zip(leaders(got, q_rows, q_lanes, cx, return_x=True),
                     _numpy_leaders(want, q_rows, q_lanes, cx, return_x=True)):
         np.testing.assert_array_equal(a, b)
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(0, 200), seed=st.integers(0, 2**31))
+def test_headway_record_equals_numpy(n, seed):
+    """HeadwayStats.record (compiled) keeps what the numpy code kept."""
+    from icv_envs.sim.metrics import HEADWAY_BIN, STOPPED_SPEED, HeadwayStats
+
+    rng = np.random.default_rng(seed)
+    hs = HeadwayStats()
+    ref = {"min_gap": np.inf, "min_th": np.inf, "samples": 0, "hist": np.zeros_like(hs._hist)}
+    for _ in range(3):
+        gap = np.where(rng.random(n) < 0.2, np.inf, rng.uniform(-2.0, 300.0, n))
+        v = np.where(rng.random(n) < 0.2, rng.uniform(0, 0.2, n), rng.uniform(0, 30.0, n))
+        hs.record(gap, v)
+        has = np.isfinite(gap)
+        if has.any():
+            ref["min_gap"] = min(ref["min_gap"], float(gap[has].min()))
+            moving = has & (v >= STOPPED_SPEED)
+            if moving.any():
+                th = np.maximum(gap[moving], 0.0) / v[moving]
+                ref["min_th"] = min(ref["min_th"], float(th.min()))
+                b = np.minimum((th / HEADWAY_BIN).astype(np.int64), len(ref["hist"]) - 1)
+                ref["hist"] += np.bincount(b, minlength=len(ref["hist"]))
+                ref["samples"] += int(moving.sum())
+    assert (hs.min_gap, hs.min_time_headway, hs.samples) == (ref["min_gap"], ref["min_th"], ref["samples"])
+    np.testing.assert_array_equal(hs._hist, ref["hist"])
+    with pytest.raises(ValueError, match="one length"):
+        hs.record(np.zeros(3), np.zeros(2))

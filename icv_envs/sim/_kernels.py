@@ -27,7 +27,7 @@ import numpy as np
 
 __all__ = ["sweep_candidates", "segment_max", "drivable_lane_bits", "npy_mod", "kinematic_substep", "road_check",
            "pairwise_sum", "motion_record", "collision_pairs",
-           "build_lane_index", "leader_rows"]
+           "build_lane_index", "leader_rows", "headway_record"]
 
 
 @nb.njit(cache=True)
@@ -205,17 +205,24 @@ def kinematic_substep(x, y, heading, speed, accel, steer, crashed, stopped_for, 
 
 
 @nb.njit(cache=True)
-def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, edge_margin):
+def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, edge_margin,
+               road_end):
     """Per vehicle: the lane whose centre is nearest
     (:meth:`icv_envs.sim.road.RoadLayout.lane_of`) and whether the body
     centre is off the drivable surface there: the lane is not available at
     ``cx`` (:meth:`RoadLayout.available`: a main lane past its end or inside
     an obstacle's interval, a ramp lane outside every ramp interval) or
     more than ``lane_width / 2 + edge_margin`` beside the lane centre.
-    ``cx`` is already folded onto a ring."""
+    ``cx`` is already folded onto a ring. Also whether it has reached the
+    end of a straight road (``cx >= road_end``; ``inf`` on a ring), and
+    then it is not off the road. Returns ``(lane, off, at_end, n_off,
+    n_at_end)``."""
     n = cx.shape[0]
     lane = np.empty(n, dtype=np.int64)
     off = np.empty(n, dtype=np.bool_)
+    at_end = np.empty(n, dtype=np.bool_)
+    n_off = 0
+    n_end = 0
     for i in range(n):
         li = np.rint(cy[i] / lane_width)
         li = min(max(li, 0.0), total_lanes - 1.0)
@@ -235,8 +242,13 @@ def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_
                 if x >= ramp_iv[r, 0] and x <= ramp_iv[r, 1]:
                     ok = True
                     break
-        off[i] = (not ok) or abs(cy[i] - ln * lane_width) > 0.5 * lane_width + edge_margin
-    return lane, off
+        o = (not ok) or abs(cy[i] - ln * lane_width) > 0.5 * lane_width + edge_margin
+        e = x >= road_end
+        at_end[i] = e
+        off[i] = o and not e
+        n_off += off[i]
+        n_end += e
+    return lane, off, at_end, n_off, n_end
 
 
 @nb.njit(cache=True)
@@ -562,3 +574,30 @@ def leader_rows(keys, i_rows, i_lanes, i_x, offset, q_rows, q_lanes, cx):
                 xo[q] = i_x[p]
                 break
     return out, xo
+
+
+@nb.njit(cache=True)
+def headway_record(gap, v, hist, bin_width, stopped_speed):
+    """One call of :meth:`icv_envs.sim.metrics.HeadwayStats.record`: the
+    smallest finite ``gap`` (``inf``: none), the smallest time headway
+    ``max(gap, 0) / v`` over the vehicles with a leader moving at least
+    ``stopped_speed`` (``inf``: none), their count; each of those headways
+    is added to ``hist`` (in place) in bin ``min(int(th / bin_width),
+    len(hist) - 1)``."""
+    g_min = np.inf
+    th_min = np.inf
+    count = 0
+    last = hist.shape[0] - 1
+    for i in range(gap.shape[0]):
+        g = gap[i]
+        if not np.isfinite(g):
+            continue
+        if g < g_min:
+            g_min = g
+        if v[i] >= stopped_speed:
+            th = max(g, 0.0) / v[i]
+            if th < th_min:
+                th_min = th
+            hist[min(np.int64(th / bin_width), last)] += 1
+            count += 1
+    return g_min, th_min, count

@@ -64,7 +64,7 @@ import math
 
 import numpy as np
 
-from icv_envs.sim._kernels import motion_record
+from icv_envs.sim._kernels import headway_record, motion_record
 
 __all__ = [
     "STOPPED_SPEED",
@@ -175,18 +175,13 @@ class HeadwayStats:
         without one); ``speed[i]``: its speed."""
         gap = np.asarray(gap, dtype=np.float64)
         v = np.asarray(speed, dtype=np.float64)
-        has = np.isfinite(gap)
-        if not has.any():
-            return
-        self.min_gap = min(self.min_gap, float(gap[has].min()))
-        moving = has & (v >= STOPPED_SPEED)
-        if not moving.any():
-            return
-        th = np.maximum(gap[moving], 0.0) / v[moving]
-        self.min_time_headway = min(self.min_time_headway, float(th.min()))
-        b = np.minimum((th / HEADWAY_BIN).astype(np.int64), len(self._hist) - 1)
-        self._hist += np.bincount(b, minlength=len(self._hist)).astype(self._hist.dtype)
-        self.samples += int(moving.sum())
+        if not (gap.ndim == 1 and v.shape == gap.shape):
+            raise ValueError(f"gap and speed must be 1-D of one length; got shapes {gap.shape}, {v.shape}")
+        # compiled (icv_envs.sim._kernels.headway_record)
+        g_min, th_min, count = headway_record(gap, v, self._hist, HEADWAY_BIN, STOPPED_SPEED)
+        self.min_gap = min(self.min_gap, g_min)
+        self.min_time_headway = min(self.min_time_headway, th_min)
+        self.samples += count
 
     def percentile(self, q: float) -> float | None:
         """``q``-th percentile (0..100) of the recorded time headways: the

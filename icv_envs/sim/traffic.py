@@ -272,9 +272,14 @@ def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool =
     f = np.float64
     n = len(cx)
     footprint = length is not None and heading is not None
-    width = np.broadcast_to(np.asarray(width, dtype=f), (n,))
-    length = np.broadcast_to(np.asarray(length if footprint else 0.0, dtype=f), (n,))
-    heading = np.broadcast_to(np.asarray(heading if footprint else 0.0, dtype=f), (n,))
+
+    def vec(a):
+        a = np.asarray(a, dtype=f)
+        return a if a.shape == (n,) else np.broadcast_to(a, (n,))
+
+    width = vec(width)
+    length = vec(length if footprint else 0.0)
+    heading = vec(heading if footprint else 0.0)
     res = np.zeros(0, dtype=np.int64) if reserved_lane is None else np.asarray(reserved_lane, dtype=np.int64)
     keys, rows, lanes, xs, offset = build_lane_index(
         np.asarray(cx, dtype=f), np.asarray(cy, dtype=f), width, length, heading, footprint, float(lane_width),

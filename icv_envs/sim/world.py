@@ -162,16 +162,23 @@ class World:
         st = self.stats
         i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width,
                                period=road.length if road.periodic else None)
-        hit = np.zeros(tr.n, dtype=bool)
-        hit_obstacle = np.zeros(tr.n, dtype=bool)
-        if len(i):
-            hit[i] = True
-            hit[j] = True
-            for a, b in zip(tr.vid[i], tr.vid[j]):
-                events.collision_pairs.append((int(a), int(b)))
-        obs = road.obstacles
-        if obs:
-            for ob in obs:
+        # leaving the drivable surface: a main-road vehicle whose lane has
+        # ended, or a ramp vehicle past the ramp's end, has crashed; so has
+        # one beyond the outer edge of the outermost lane (a learned policy
+        # can steer off); one past the end of a straight road has left it
+        lane, off, at_end, n_off, n_end = road_check(
+            cx, cy, road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane, road._ob_lo,
+            road._ob_hi, road._ramp_iv, 0.5, np.inf if road.periodic else road.length)
+        hit = hit_obstacle = None
+        if len(i) or road.obstacles:
+            hit = np.zeros(tr.n, dtype=bool)
+            hit_obstacle = np.zeros(tr.n, dtype=bool)
+            if len(i):
+                hit[i] = True
+                hit[j] = True
+                for a, b in zip(tr.vid[i], tr.vid[j]):
+                    events.collision_pairs.append((int(a), int(b)))
+            for ob in road.obstacles:
                 near = np.flatnonzero(np.abs(cx - ob.x) < 0.5 * (ob.length + tr.length.max()) + 1.0)
                 if len(near):
                     h = rect_overlap(
@@ -180,46 +187,42 @@ class World:
                     )
                     hit[near[h]] = True
                     hit_obstacle[near[h]] = True
-        # leaving the drivable surface: a main-road vehicle whose lane has
-        # ended, or a ramp vehicle past the ramp's end, has crashed; so has
-        # one beyond the outer edge of the outermost lane (a learned policy
-        # can steer off)
-        lane, off = road_check(cx, cy, road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends,
-                               road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, 0.5)
-        exit_now = np.zeros(tr.n, dtype=bool)
-        if self.road.n_exits:
+        exit_now = None
+        if road.n_exits:
             has = tr.exit >= 0
             if has.any():
                 ex_x = np.full(tr.n, np.inf)
-                ex_x[has] = self.road.exit_position(tr.exit[has])
-                past = self.road.wrap(cx - ex_x)
-                exit_now = has & (lane == self.road.ramp_lane) & (past >= -1.0) & (past < 10.0)
+                ex_x[has] = road.exit_position(tr.exit[has])
+                past = road.wrap(cx - ex_x)
+                exit_now = has & (lane == road.ramp_lane) & (past >= -1.0) & (past < 10.0)
                 # a vehicle that drives past the end of its diverge segment on
                 # the main road has missed its exit (on a ring it tries again
                 # next time round)
                 de = np.full(tr.n, np.inf)
-                de[has] = self.road.diverge_end(tr.exit[has])
-                crossed = has & (lane < self.road.n_lanes) & (self.road.wrap(cx_before - de) < 0) & (
-                    self.road.wrap(cx - de) >= 0)
+                de[has] = road.diverge_end(tr.exit[has])
+                crossed = has & (lane < road.n_lanes) & (road.wrap(cx_before - de) < 0) & (road.wrap(cx - de) >= 0)
                 st["missed_exits"] += int(crossed.sum())
-        off &= ~exit_now
-        at_end = (cx >= self.road.length) & (not self.road.periodic)
-        off &= ~at_end
-        new_crash = (hit | off) & ~tr.crashed
-        if new_crash.any():
-            self.classify_collisions(i, j, (off | hit_obstacle) & new_crash, new_crash, cx, cy)
-            tr.crashed |= new_crash
-            events.crashed.update(int(v) for v in tr.vid[new_crash])
-            st["collisions"] += int(new_crash.sum())
-        if exit_now.any():
+                if exit_now.any():
+                    off &= ~exit_now
+                else:
+                    exit_now = None
+        if hit is not None or n_off:
+            new_crash = ((off | hit) if hit is not None else off) & ~tr.crashed
+            if new_crash.any():
+                hit_obstacle = hit_obstacle if hit_obstacle is not None else np.zeros(tr.n, dtype=bool)
+                self.classify_collisions(i, j, (off | hit_obstacle) & new_crash, new_crash, cx, cy)
+                tr.crashed |= new_crash
+                events.crashed.update(int(v) for v in tr.vid[new_crash])
+                st["collisions"] += int(new_crash.sum())
+        if exit_now is not None:
             events.exited.update(int(v) for v in tr.vid[exit_now])
             st["exited"] += int(exit_now.sum())
-        if at_end.any():
-            events.left_road.update(int(v) for v in tr.vid[at_end & ~exit_now])
-            st["left_road"] += int((at_end & ~exit_now).sum())
-        gone = exit_now | at_end
-        if gone.any():
-            tr.remove(gone)
+        if n_end:
+            left = at_end if exit_now is None else at_end & ~exit_now
+            events.left_road.update(int(v) for v in tr.vid[left])
+            st["left_road"] += int(left.sum())
+        if exit_now is not None or n_end:
+            tr.remove(at_end if exit_now is None else exit_now | at_end)
             self._index = None
 
     def set_expert_driven(self, vids, expert_mask, plan_mask=None) -> None:
