@@ -425,3 +425,70 @@ def test_headway_record_equals_numpy(n, seed):
     np.testing.assert_array_equal(hs._hist, ref["hist"])
     with pytest.raises(ValueError, match="one length"):
         hs.record(np.zeros(3), np.zeros(2))
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 50), seed=st.integers(0, 2**31))
+def test_quintic_equals_the_written_out_formula(n, seed):
+    """_quintic computes each power once; the values are those of the
+    formula written out term by term (as it was), bit for bit."""
+    from icv_envs.formation.control import _quintic
+
+    rng = np.random.default_rng(seed)
+    t, T = rng.uniform(-1, 60, n), rng.uniform(0.5, 60, n)
+    d0, v0, a0 = rng.uniform(-100, 100, n), rng.uniform(-15, 15, n), rng.uniform(-6, 3, n)
+    got = _quintic(t, T, d0, v0, a0)
+    t = np.minimum(np.maximum(t, 0.0), T)
+    c3 = -(20.0 * d0 + 12.0 * v0 * T + 3.0 * a0 * T ** 2) / (2.0 * T ** 3)
+    c4 = (30.0 * d0 + 16.0 * v0 * T + 3.0 * a0 * T ** 2) / (2.0 * T ** 4)
+    c5 = -(12.0 * d0 + 6.0 * v0 * T + a0 * T ** 2) / (2.0 * T ** 5)
+    want = (d0 + v0 * t + 0.5 * a0 * t ** 2 + c3 * t ** 3 + c4 * t ** 4 + c5 * t ** 5,
+            v0 + a0 * t + 3.0 * c3 * t ** 2 + 4.0 * c4 * t ** 3 + 5.0 * c5 * t ** 4,
+            a0 + 6.0 * c3 * t + 12.0 * c4 * t ** 2 + 20.0 * c5 * t ** 3,
+            6.0 * c3 + 24.0 * c4 * t + 60.0 * c5 * t ** 2)
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+    assert _quintic(t, T, d0, v0, a0, jerk=False)[3] is None
+
+
+# ------------------------------------------------ observation neighbours
+def _numpy_neighbours(road, rows, F, K, pd):
+    """The ``K`` nearest vehicles by longitudinal distance within ``pd``
+    (round the ring each vehicle at most once), nearest first; ties: rear first."""
+    n = len(F)
+    cx = F[:, 1]
+    order = np.argsort(cx, kind="stable")
+    rank = np.empty(n, dtype=np.int64)
+    rank[order] = np.arange(n)
+    offs = np.concatenate([np.arange(-K, 0), np.arange(1, K + 1)])
+    cand_rank = rank[rows][:, None] + offs[None, :]
+    if road.periodic:  # round the ring: ranks wrap, each vehicle at most once
+        valid = np.abs(offs)[None, :] <= (n - 1) // 2 + (offs[None, :] > 0) * ((n - 1) % 2)
+        cand_rank = np.mod(cand_rank, n)
+    else:
+        valid = (cand_rank >= 0) & (cand_rank < n)
+    cand = order[np.clip(cand_rank, 0, n - 1)]
+    dist = np.abs(road.wrap(cx[cand] - cx[rows][:, None]))
+    dist = np.where(valid & (dist < pd), dist, np.inf)
+    pick = np.argsort(dist, axis=1, kind="stable")[:, :K]
+    sel = np.take_along_axis(cand, pick, axis=1)
+    present = np.isfinite(np.take_along_axis(dist, pick, axis=1))
+    return sel, present
+
+
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(2, 60), K=st.integers(1, 8), periodic=st.booleans(), seed=st.integers(0, 2**31))
+def test_nearest_along_road_equals_the_numpy_code(n, K, periodic, seed):
+    from icv_envs.sim._kernels import nearest_along_road
+
+    rng = np.random.default_rng(seed)
+    road = RoadLayout(3, 1000.0, 4.0, periodic=periodic)
+    F = np.zeros((n, 3))
+    F[:, 1] = rng.uniform(0, 1000.0, n)
+    F[: n // 3, 1] = F[n // 3: 2 * (n // 3), 1]  # ties
+    rows = rng.permutation(n)[: rng.integers(1, n + 1)]
+    pd = float(rng.choice([30.0, 150.0, 600.0]))
+    got = nearest_along_road(np.ascontiguousarray(F[:, 1]), rows.astype(np.int64), K, pd, periodic, 1000.0)
+    want = _numpy_neighbours(road, rows, F, K, pd)
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)

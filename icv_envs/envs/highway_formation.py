@@ -38,6 +38,7 @@ from icv_envs.envs.observations import merge_observation_config
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
+from icv_envs.sim._kernels import nearest_along_road
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.road import Obstacle, OffRamp, OnRamp, RoadLayout
 from icv_envs.sim.world import StepEvents, World
@@ -525,26 +526,10 @@ class HighwayFormationEnv(IcvAgentsEnv):
     def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
         """The ``K`` nearest vehicles by longitudinal distance within ``pd``
         (round the ring each vehicle at most once), nearest first; ties: rear first."""
-        w = self.world
-        n = len(F)
-        cx = F[:, 1]
-        order = np.argsort(cx, kind="stable")
-        rank = np.empty(n, dtype=np.int64)
-        rank[order] = np.arange(n)
-        offs = np.concatenate([np.arange(-K, 0), np.arange(1, K + 1)])
-        cand_rank = rank[rows][:, None] + offs[None, :]
-        if w.road.periodic:  # round the ring: ranks wrap, each vehicle at most once
-            valid = np.abs(offs)[None, :] <= (n - 1) // 2 + (offs[None, :] > 0) * ((n - 1) % 2)
-            cand_rank = np.mod(cand_rank, n)
-        else:
-            valid = (cand_rank >= 0) & (cand_rank < n)
-        cand = order[np.clip(cand_rank, 0, n - 1)]
-        dist = np.abs(w.road.wrap(cx[cand] - cx[rows][:, None]))
-        dist = np.where(valid & (dist < pd), dist, np.inf)
-        pick = np.argsort(dist, axis=1, kind="stable")[:, :K]
-        sel = np.take_along_axis(cand, pick, axis=1)
-        present = np.isfinite(np.take_along_axis(dist, pick, axis=1))
-        return sel, present
+        road = self.world.road
+        # compiled (icv_envs.sim._kernels.nearest_along_road)
+        return nearest_along_road(np.ascontiguousarray(F[:, 1]), np.asarray(rows, dtype=np.int64), int(K), float(pd),
+                                  bool(road.periodic), float(road.length))
 
     def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
         """Per-agent reward: weighted sum of progress (speed / v_max), safety

@@ -164,17 +164,23 @@ def longitudinal_feedback(
 
 
 # ------------------------------------------------------------ join profile
-def _quintic(t, T, d0, v0, a0):
-    """Offset, speed and acceleration of the quintic from ``(d0, v0, a0)`` at
-    ``t = 0`` to ``(0, 0, 0)`` at ``t = T`` (clamped to 0 after ``T``)."""
+def _quintic(t, T, d0, v0, a0, jerk: bool = True):
+    """Offset, speed and acceleration (and with ``jerk`` the jerk) of the
+    quintic from ``(d0, v0, a0)`` at ``t = 0`` to ``(0, 0, 0)`` at ``t = T``
+    (clamped to 0 after ``T``). Each power is computed once (the same
+    values as writing it out in every term)."""
     t = np.minimum(np.maximum(t, 0.0), T)
-    c3 = -(20.0 * d0 + 12.0 * v0 * T + 3.0 * a0 * T ** 2) / (2.0 * T ** 3)
-    c4 = (30.0 * d0 + 16.0 * v0 * T + 3.0 * a0 * T ** 2) / (2.0 * T ** 4)
-    c5 = -(12.0 * d0 + 6.0 * v0 * T + a0 * T ** 2) / (2.0 * T ** 5)
-    d = d0 + v0 * t + 0.5 * a0 * t ** 2 + c3 * t ** 3 + c4 * t ** 4 + c5 * t ** 5
-    v = v0 + a0 * t + 3.0 * c3 * t ** 2 + 4.0 * c4 * t ** 3 + 5.0 * c5 * t ** 4
-    a = a0 + 6.0 * c3 * t + 12.0 * c4 * t ** 2 + 20.0 * c5 * t ** 3
-    j = 6.0 * c3 + 24.0 * c4 * t + 60.0 * c5 * t ** 2
+    T2, T3, T4, T5 = T ** 2, T ** 3, T ** 4, T ** 5
+    c3 = -(20.0 * d0 + 12.0 * v0 * T + 3.0 * a0 * T2) / (2.0 * T3)
+    c4 = (30.0 * d0 + 16.0 * v0 * T + 3.0 * a0 * T2) / (2.0 * T4)
+    c5 = -(12.0 * d0 + 6.0 * v0 * T + a0 * T2) / (2.0 * T5)
+    t2, t3, t4 = t ** 2, t ** 3, t ** 4
+    d = d0 + v0 * t + 0.5 * a0 * t2 + c3 * t3 + c4 * t4 + c5 * t ** 5
+    v = v0 + a0 * t + 3.0 * c3 * t2 + 4.0 * c4 * t3 + 5.0 * c5 * t4
+    a = a0 + 6.0 * c3 * t + 12.0 * c4 * t2 + 20.0 * c5 * t3
+    if not jerk:
+        return d, v, a, None
+    j = 6.0 * c3 + 24.0 * c4 * t + 60.0 * c5 * t2
     return d, v, a, j
 
 
@@ -193,7 +199,7 @@ def join_profile(t, T, d0, v0, a0):
     if np.any(~(T > 0)):
         raise ValueError(f"profile duration T must be > 0, got {T!r}")
     d, v, a, _ = _quintic(np.asarray(t, dtype=np.float64), T, np.asarray(d0, dtype=np.float64),
-                          np.asarray(v0, dtype=np.float64), np.asarray(a0, dtype=np.float64))
+                          np.asarray(v0, dtype=np.float64), np.asarray(a0, dtype=np.float64), jerk=False)
     return d, v, a
 
 

@@ -27,7 +27,8 @@ import numpy as np
 
 __all__ = ["sweep_candidates", "segment_max", "drivable_lane_bits", "npy_mod", "kinematic_substep", "road_check",
            "pairwise_sum", "motion_record", "collision_pairs",
-           "build_lane_index", "leader_rows", "headway_record"]
+           "build_lane_index", "leader_rows", "headway_record",
+           "nearest_along_road"]
 
 
 @nb.njit(cache=True)
@@ -601,3 +602,55 @@ def headway_record(gap, v, hist, bin_width, stopped_speed):
             hist[min(np.int64(th / bin_width), last)] += 1
             count += 1
     return g_min, th_min, count
+
+
+@nb.njit(cache=True)
+def nearest_along_road(cx, rows, K, pd, periodic, length):
+    """The observation's neighbour search
+    (:meth:`icv_envs.envs.highway_formation.HighwayFormationEnv._neighbours`)
+    compiled: for each query row, the ``K`` vehicles nearest by
+    longitudinal distance among the ``K`` before and ``K`` after it in the
+    x order (stable), within ``pd`` (round a ring of ``length`` each vehicle
+    at most once), nearest first, ties by candidate order (rear first).
+    Returns ``(sel, present)`` of shape ``(len(rows), K)``; absent slots
+    hold a candidate row and ``present`` False."""
+    n = cx.shape[0]
+    m = rows.shape[0]
+    order = np.argsort(cx, kind="mergesort")
+    rank = np.empty(n, dtype=np.int64)
+    for q in range(n):
+        rank[order[q]] = q
+    C = 2 * K
+    offs = np.empty(C, dtype=np.int64)
+    for q in range(K):
+        offs[q] = q - K
+        offs[K + q] = q + 1
+    sel = np.empty((m, K), dtype=np.int64)
+    present = np.empty((m, K), dtype=np.bool_)
+    cand = np.empty(C, dtype=np.int64)
+    dist = np.empty(C)
+    half = 0.5 * length
+    lim_lo = (n - 1) // 2
+    lim_hi = (n - 1) // 2 + (n - 1) % 2
+    for r in range(m):
+        row = rows[r]
+        x0 = cx[row]
+        for c in range(C):
+            o = offs[c]
+            cr = rank[row] + o
+            if periodic:
+                valid = abs(o) <= (lim_hi if o > 0 else lim_lo)
+                cr = cr % n
+            else:
+                valid = cr >= 0 and cr < n
+            cand[c] = order[min(max(cr, 0), n - 1)]
+            d = cx[cand[c]] - x0
+            if periodic:
+                d = npy_mod(d + half, length) - half
+            d = abs(d)
+            dist[c] = d if (valid and d < pd) else np.inf
+        pick = np.argsort(dist, kind="mergesort")
+        for q in range(K):
+            sel[r, q] = cand[pick[q]]
+            present[r, q] = np.isfinite(dist[pick[q]])
+    return sel, present

@@ -157,9 +157,13 @@ class FormationManager:
     def _slot_x(self, traffic, rows) -> np.ndarray:
         # front targets of the formations these rows belong to only (next_gid
         # grows without bound over a long ring run)
-        g, inv = np.unique(traffic.group[rows], return_inverse=True)
-        anchors = np.array([self.anchor.get(int(k), np.nan) for k in g.tolist()], dtype=np.float64)
-        return anchors[inv.reshape(-1)] - traffic.tgt_behind[rows]
+        # (a lookup table over the formation ids, nan where none: the same
+        # values as a per-formation lookup, without a sort)
+        lut = np.full(self.next_gid + 1, np.nan)
+        if self.anchor:
+            lut[np.fromiter(self.anchor.keys(), dtype=np.int64, count=len(self.anchor))] = np.fromiter(
+                self.anchor.values(), dtype=np.float64, count=len(self.anchor))
+        return lut[traffic.group[rows]] - traffic.tgt_behind[rows]
 
     def _plan(self, traffic, road, rows, cx) -> np.ndarray:
         """Plan references for members ``rows`` from their current state;

@@ -294,7 +294,9 @@ def leaders(index: LaneIndex, q_rows, q_lanes, cx, return_x: bool = False):
     vehicles that keep identical x (members of one sublayer) always see each
     other. With ``return_x`` also the leader's (unfolded) position."""
     q_rows = np.ascontiguousarray(q_rows, dtype=np.int64)
-    q_lanes = np.ascontiguousarray(np.broadcast_to(np.asarray(q_lanes, dtype=np.int64), q_rows.shape))
+    q_lanes = np.asarray(q_lanes, dtype=np.int64)
+    if q_lanes.shape != q_rows.shape:
+        q_lanes = np.ascontiguousarray(np.broadcast_to(q_lanes, q_rows.shape))
     out, xo = leader_rows(index.keys, index.rows, index.lanes, index.x, float(index.offset), q_rows, q_lanes,
                           np.asarray(cx, dtype=np.float64))
     return (out, xo) if return_x else out
