@@ -194,12 +194,17 @@ def test_road_check_equals_lane_of_and_available(n, ramp, seed):
     road = RoadLayout(3, 2_000.0, 4.0, ends, ramps, [], obstacles)
     cx = rng.uniform(-20.0, 2_020.0, n)
     cy = rng.uniform(-4.0, 4.0 * road.total_lanes + 2.0, n)
-    lane, off = road_check(cx, cy, road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane,
-                           road._ob_lo, road._ob_hi, road._ramp_iv, 0.5)
+    lane, off, at_end, n_off, n_end = road_check(cx, cy, road.lane_width, road.n_lanes, road.total_lanes,
+                                                 road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi,
+                                                 road._ramp_iv, 0.5, road.length)
     want_lane = road.lane_of(cy)
     want_off = ~road.available(want_lane, cx) | (np.abs(cy - want_lane * road.lane_width) > 0.5 * road.lane_width + 0.5)
+    want_end = cx >= road.length
+    want_off &= ~want_end
     np.testing.assert_array_equal(lane, want_lane)
     np.testing.assert_array_equal(off, want_off)
+    np.testing.assert_array_equal(at_end, want_end)
+    assert (n_off, n_end) == (int(want_off.sum()), int(want_end.sum()))
 
 
 @settings(max_examples=80, deadline=None)
