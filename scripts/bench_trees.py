@@ -1,16 +1,28 @@
-"""Intersection step cost of two source trees, alternately, in one run (issue 10).
+"""Step cost of two source trees, alternately, in one run (issue 10).
 
     git worktree add /tmp/ref <commit>
-    python scripts/bench_trees.py /tmp/ref . [--reps 6] [--steps 1200] [--throughput 2200]
+    python scripts/bench_trees.py /tmp/ref . [--case intersection] [--reps 6] [--steps N] [--out FILE]
 
 Each repetition runs the reference tree, then the tree under test, each in a
-fresh process (``PYTHONPATH=<tree>``): multi-vp, the zones filled to 60
-vehicles, then ``--steps`` policy steps timed (process CPU time; every
-vehicle an agent, the expert's action from the infos, as ``icv-envs bench
-intersection``). Prints each pair's ratio (agent-steps per CPU second, test /
-reference) and their median; a shared machine moves single figures by 20%
-or more, the pairs' median much less. Both trees must drive the same
-vehicles (the agent-step counts are checked).
+fresh process (``PYTHONPATH=<tree>``), and times ``--steps`` policy steps
+(process CPU time) of one case:
+
+* ``intersection`` (default ``--steps 1200``): multi-vp at ``--throughput``
+  veh/h (2200), the zones filled to 60 vehicles first; every vehicle an
+  agent, the expert's action from the infos (as ``icv-envs bench
+  intersection``); agent-steps per CPU s;
+* ``ring`` (default ``--steps 500``, 100 s): HighwayRamps at VGR 1/3 under
+  the formation expert through the PettingZoo API, after 500 s of warm-up
+  (the steady state of ``icv-envs bench highway-ramps --vs-sumo``);
+  vehicle-steps (one vehicle, one physics step) per CPU s;
+* ``batched`` / ``batched-expert`` (default ``--steps 100``):
+  :class:`icv_envs.vector.BatchedWorlds`, 16 HighwayFormation worlds of 20
+  agents, zero actions / the expert's action for every agent (as the batched
+  part of ``icv-envs bench train``); agent-steps per CPU s.
+
+Prints each pair's ratio (test / reference) and their median; a shared
+machine moves single figures by 20% or more, the pairs' median much less.
+Both trees must simulate the same amount (the step counts are checked).
 """
 
 from __future__ import annotations
@@ -39,9 +51,56 @@ print(json.dumps({"cpu": time.process_time() - c0, "agent_steps": n}))
 """
 
 
-def _run(tree: Path, steps: int, tp: float) -> dict:
+RING = """
+import json, sys, time
+from icv_envs.envs.highway_ramps_v0 import parallel_env
+steps = int(sys.argv[1])
+env = parallel_env(vgr=1.0 / 3.0, duration=600.0, method="formation")
+env.reset(seed=0)
+for _ in range(2500):
+    ex = env.expert_actions()
+    env.step({a: ex[a] for a in env.agents})
+w = env.core.world
+v0, c0 = w.motion.vehicle_steps, time.process_time()
+for _ in range(steps):
+    ex = env.expert_actions()
+    env.step({a: ex[a] for a in env.agents})
+print(json.dumps({"cpu": time.process_time() - c0, "agent_steps": w.motion.vehicle_steps - v0}))
+"""
+
+BATCHED = """
+import json, sys, time
+import numpy as np
+from icv_envs.vector import BatchedWorlds
+steps, expert = int(sys.argv[1]), sys.argv[2] == "1"
+bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=expert)
+bw.reset()
+acts = np.zeros((16, bw.K, 2), dtype=np.float32)
+for _ in range(3):
+    bw.step(bw.expert_actions if expert else acts)
+c0, n = time.process_time(), 0
+for _ in range(steps):
+    if expert:
+        acts = bw.expert_actions
+    n += int(bw.mask.sum())
+    bw.step(acts)
+print(json.dumps({"cpu": time.process_time() - c0, "agent_steps": n}))
+"""
+
+CASES = {
+    "intersection": (CHILD, 1200, "agent-steps"),
+    "ring": (RING, 500, "vehicle-steps"),
+    "batched": (BATCHED, 100, "agent-steps"),
+    "batched-expert": (BATCHED, 100, "agent-steps"),
+}
+
+
+def _run(tree: Path, steps: int, tp: float, case: str = "intersection") -> dict:
     env = dict(os.environ, PYTHONPATH=str(tree))
-    out = subprocess.run([sys.executable, "-c", CHILD, str(steps), str(tp)], cwd=tree, env=env, check=True,
+    code = CASES[case][0]
+    extra = [str(tp)] if case == "intersection" else ["1" if case == "batched-expert" else "0"] if (
+        case.startswith("batched")) else []
+    out = subprocess.run([sys.executable, "-c", code, str(steps)] + extra, cwd=tree, env=env, check=True,
                          capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -50,26 +109,39 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("reference")
     p.add_argument("test")
+    p.add_argument("--case", choices=sorted(CASES), default="intersection")
     p.add_argument("--reps", type=int, default=6)
-    p.add_argument("--steps", type=int, default=1200)
-    p.add_argument("--throughput", type=float, default=2200.0)
+    p.add_argument("--steps", type=int, default=None, help="policy steps timed (default: per case, see above)")
+    p.add_argument("--throughput", type=float, default=2200.0, help="intersection case only (veh/h)")
+    p.add_argument("--out", default=None, help="also write the JSON line to this file")
     a = p.parse_args(argv)
+    if a.reps < 1:
+        raise SystemExit(f"--reps {a.reps}; allowed: an integer >= 1")
+    steps = CASES[a.case][1] if a.steps is None else a.steps
+    if steps < 1:
+        raise SystemExit(f"--steps {steps}; allowed: an integer >= 1")
+    unit = CASES[a.case][2]
     ref, test = Path(a.reference).resolve(), Path(a.test).resolve()
     ratios, rows = [], []
     for i in range(a.reps):
-        r, t = _run(ref, a.steps, a.throughput), _run(test, a.steps, a.throughput)
+        r, t = _run(ref, steps, a.throughput, a.case), _run(test, steps, a.throughput, a.case)
         if r["agent_steps"] != t["agent_steps"]:
-            raise SystemExit(f"the trees drive different vehicles ({r['agent_steps']} vs {t['agent_steps']} "
-                             f"agent-steps): not a like-for-like comparison")
+            raise SystemExit(f"the trees simulate different amounts ({r['agent_steps']} vs {t['agent_steps']} "
+                             f"{unit}): not a like-for-like comparison")
         sr, st = r["agent_steps"] / r["cpu"], t["agent_steps"] / t["cpu"]
         ratios.append(st / sr)
         rows.append({"reference": sr, "test": st, "ratio": st / sr})
-        print(f"rep {i + 1}: reference {sr:,.0f}, test {st:,.0f} agent-steps per CPU s, ratio {st / sr:.2f}",
+        print(f"rep {i + 1}: reference {sr:,.0f}, test {st:,.0f} {unit} per CPU s, ratio {st / sr:.2f}",
               flush=True)
-    res = {"median_ratio": statistics.median(ratios), "pairs": rows, "steps": a.steps,
-           "agent_steps": r["agent_steps"], "throughput": a.throughput}
+    res = {"case": a.case, "unit": f"{unit} per CPU s", "median_ratio": statistics.median(ratios), "pairs": rows,
+           "steps": steps, "amount": r["agent_steps"], "reference": str(ref), "test": str(test)}
+    if a.case == "intersection":
+        res["throughput"] = a.throughput
     print(f"median ratio test / reference over {a.reps} pairs: {res['median_ratio']:.2f}")
-    print(json.dumps(res))
+    line = json.dumps(res)
+    print(line)
+    if a.out:
+        Path(a.out).write_text(line + "\n")
     return 0
 
 
