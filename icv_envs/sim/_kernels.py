@@ -339,12 +339,21 @@ def motion_record(vid, v0, v1, commanded, stopped_speed, count, s1, s2):
     """One substep of :meth:`icv_envs.sim.metrics.MotionStats.record`: the
     per-vehicle speed moments ``count[vid] += 1``, ``s1[vid] += v1``,
     ``s2[vid] += v1^2`` (in place, in row order), and the sums of ``v1``,
-    ``|v1 - v0|`` and ``|commanded|`` (NumPy's pairwise order) and the count
-    of ``v1 < stopped_speed``."""
+    ``|v1 - v0|`` and ``|commanded|`` (NumPy's pairwise order), the count
+    of ``v1 < stopped_speed`` and the largest id. Nothing is accumulated
+    when an id is negative (the count is -1, then the id) or beyond the
+    arrays (-2, then the largest id)."""
     n = vid.shape[0]
     dv = np.empty(n)
     ac = np.empty(n)
     stopped = 0
+    top = -1
+    for i in range(n):
+        if vid[i] < 0:  # the caller raises
+            return 0.0, 0.0, 0.0, -1, vid[i]
+        top = max(top, vid[i])
+    if top >= count.shape[0]:  # the caller grows the arrays and calls again
+        return 0.0, 0.0, 0.0, -2, top
     for i in range(n):
         v = v1[i]
         dv[i] = abs(v - v0[i])
@@ -355,7 +364,7 @@ def motion_record(vid, v0, v1, commanded, stopped_speed, count, s1, s2):
         count[k] += 1
         s1[k] += v
         s2[k] += v * v
-    return pairwise_sum(v1, 0, n), pairwise_sum(dv, 0, n), pairwise_sum(ac, 0, n), stopped
+    return pairwise_sum(v1, 0, n), pairwise_sum(dv, 0, n), pairwise_sum(ac, 0, n), stopped, top
 
 
 @nb.njit(cache=True, inline="always")

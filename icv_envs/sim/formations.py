@@ -451,8 +451,13 @@ class FormationManager:
         # front target back for it would move the slot slower than the plan
         # assumes, so the reference would never pull the member up (a
         # positive feedback that left whole formations at the speed floor)
-        self._grow(int(traffic.vid[rr].max()) + 1)
-        d_ref = self._profile(traffic, rr)[0]
+        # (the profiles of all members in row order, the order every other
+        # caller in this step asks for: one evaluation, then the cache)
+        m = np.flatnonzero(grp >= 0)
+        self._grow(int(traffic.vid[m].max()) + 1)
+        at = np.empty(traffic.n, dtype=np.int64)
+        at[m] = np.arange(len(m))
+        d_ref = self._profile(traffic, m)[0][at[rr]]
         implied = segment_max(road.wrap(cx[rr] + tb - A[kk]) - d_ref, seg_start, seg_end)
         back = np.where(~chg & (implied < -self.max_anchor_lead), implied + self.max_anchor_lead, 0.0)
         r = np.array([room.get(g, np.nan) for g in gids])

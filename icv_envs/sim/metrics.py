@@ -125,14 +125,16 @@ class MotionStats:
         a = np.asarray(commanded, dtype=np.float64)
         if not dt > 0:
             raise ValueError(f"dt must be > 0, got {dt!r}")
-        if vid.min() < 0:
-            raise ValueError(f"vehicle ids must be >= 0, got {int(vid.min())}")
         if not (vid.ndim == 1 and v0.shape == v1.shape == a.shape == vid.shape):
             raise ValueError(f"vid, v_before, v_after and commanded must be 1-D of one length; got shapes "
                              f"{vid.shape}, {v0.shape}, {v1.shape}, {a.shape}")
-        self._grow(int(vid.max()) + 1)
         # compiled, with NumPy's summation order (icv_envs.sim._kernels.motion_record)
-        sv, sdv, sa, stopped = motion_record(vid, v0, v1, a, STOPPED_SPEED, self._n, self._s1, self._s2)
+        sv, sdv, sa, stopped, top = motion_record(vid, v0, v1, a, STOPPED_SPEED, self._n, self._s1, self._s2)
+        if stopped == -1:
+            raise ValueError(f"vehicle ids must be >= 0, got {int(top)}")
+        if stopped == -2:
+            self._grow(int(top) + 1)
+            sv, sdv, sa, stopped, top = motion_record(vid, v0, v1, a, STOPPED_SPEED, self._n, self._s1, self._s2)
         self.vehicle_steps += len(vid)
         self.speed_sum += sv
         self.realised_abs_accel_sum += sdv / float(dt)
