@@ -127,6 +127,7 @@ class FormationManager:
         self.time = 0.0
         self.plans = 0
         self._profile_cache = None  # (key, profiles): see _profile
+        self._bits_memo: dict[tuple, int] = {}  # lane set -> bit set (_hold_targets)
         # per vehicle id: the slot a plan was made for (group, metres behind
         # the front), the plan (start time, duration, initial offset, relative
         # speed, acceleration) and when the first plan for that slot ends
@@ -348,31 +349,41 @@ class FormationManager:
         free = self._eligible_free(traffic, road, cx) if traffic.n else np.zeros(0, dtype=np.int64)
         # joins
         if len(free) and gids:
-            for gid in gids:
-                if not len(free):
-                    break
-                size = int(counts[gid]) if gid < len(counts) else 0
-                if size == 0 or size >= self.max_size:
-                    continue
-                rel = wrap(cx[free] - self.anchor[gid])
-                near = free[(rel >= -self.length[gid] - self.join_distance) & (rel <= self.join_distance)]
-                near = near[: self.max_size - size]
-                if len(near):
-                    traffic.group[near] = gid
-                    changed.add(gid)
-                    free = np.setdiff1d(free, near)
+            # which free vehicle is within reach of which formation, all pairs
+            # at once (the same element-wise arithmetic as one formation at a
+            # time); then the formations in order take the vehicles still free
+            sizes = np.array([int(counts[g]) if g < len(counts) else 0 for g in gids], dtype=np.int64)
+            open_ = (sizes > 0) & (sizes < self.max_size)
+            if open_.any():
+                ko = np.flatnonzero(open_)
+                A = np.array([self.anchor[gids[k]] for k in ko.tolist()])
+                Lf = np.array([self.length[gids[k]] for k in ko.tolist()])
+                rel = wrap(cx[free][None, :] - A[:, None])
+                reach = (rel >= -Lf[:, None] - self.join_distance) & (rel <= self.join_distance)
+                still = np.ones(len(free), dtype=bool)
+                for q in np.flatnonzero(reach.any(axis=1)).tolist():
+                    gid = gids[int(ko[q])]
+                    near = free[reach[q] & still][: self.max_size - int(sizes[ko[q]])]
+                    if len(near):
+                        traffic.group[near] = gid
+                        changed.add(gid)
+                        still &= ~np.isin(free, near)
+                        if not still.any():
+                            break
+                free = free[still]
         # new formations (front-most candidates first)
         if self.create_new and len(free):
             on_main = free[road.lane_of(cy[free]) < road.n_lanes]
             for r in on_main[np.argsort(-cx[on_main], kind="stable")]:
                 if traffic.group[r] >= 0:
                     continue
+                # clear of every formation (those founded in this loop included)
                 clear = True
-                for gid in self.anchor:
-                    rel = float(wrap(cx[r] - self.anchor[gid]))
-                    if -self.length[gid] - self.new_formation_gap < rel < self.new_formation_gap:
-                        clear = False
-                        break
+                if self.anchor:
+                    A = np.fromiter(self.anchor.values(), dtype=np.float64, count=len(self.anchor))
+                    Lf = np.array([self.length[g] for g in self.anchor])
+                    rel = wrap(cx[r] - A)
+                    clear = not bool(np.any((-Lf - self.new_formation_gap < rel) & (rel < self.new_formation_gap)))
                 if clear:
                     gid = self.next_gid
                     self.next_gid += 1
@@ -469,9 +480,16 @@ class FormationManager:
         check = np.flatnonzero(has & ~chg)
         if len(check):
             bits = self._lane_bits(road, A[check], Lf[check])
-            for k, b in zip(check.tolist(), bits.tolist()):
-                if b != sum(1 << lane for lane in self.lanes[gids[k]]):
-                    changed.add(gids[k])
+            memo = self._bits_memo
+            want = np.empty(len(check), dtype=np.int64)
+            for q, k in enumerate(check.tolist()):
+                lanes = self.lanes[gids[k]]
+                b = memo.get(lanes)
+                if b is None:
+                    b = memo[lanes] = sum(1 << lane for lane in lanes)
+                want[q] = b
+            for k in check[bits != want].tolist():
+                changed.add(gids[k])
         # a member far from its target AFTER its plan should have brought it
         # there (the join profile's deadline) counts as stalled
         vid = traffic.vid[rr]
