@@ -128,6 +128,7 @@ class FormationManager:
         self.plans = 0
         self._profile_cache = None  # (key, profiles): see _profile
         self._bits_memo: dict[tuple, int] = {}  # lane set -> bit set (_hold_targets)
+        self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
         # per vehicle id: the slot a plan was made for (group, metres behind
         # the front), the plan (start time, duration, initial offset, relative
         # speed, acceleration) and when the first plan for that slot ends
@@ -143,6 +144,19 @@ class FormationManager:
         if self.allowed_lanes is not None:
             lanes = [lane for lane in lanes if lane in self.allowed_lanes]
         return tuple(lanes)
+
+    def _targets(self, n: int, n_lanes: int) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`~icv_envs.formation.targets.formation_targets` of this
+        manager's spacing and geometry, memoised (a pure function of the
+        member and lane counts; the arrays are read-only)."""
+        key = (n, n_lanes)
+        out = self._targets_memo.get(key)
+        if out is None:
+            out = formation_targets(n, n_lanes, self.spacing, self.geometry)
+            for arr in out:
+                arr.flags.writeable = False
+            self._targets_memo[key] = out
+        return out
 
     def _grow(self, size: int) -> None:
         if size <= self._cap:
@@ -238,13 +252,13 @@ class FormationManager:
         if not lanes:
             lanes = (0,)
         for _ in range(2):  # the length depends on the lane count and vice versa
-            tx, tl = formation_targets(n, len(lanes), self.spacing, self.geometry)
+            tx, tl = self._targets(n, len(lanes))
             length = float(tx.max()) if n else 0.0
             new = self._lane_set(road, anchor, max(length, self.length[gid])) or lanes
             if new == lanes:
                 break
             lanes = new
-        tx, tl = formation_targets(n, len(lanes), self.spacing, self.geometry)
+        tx, tl = self._targets(n, len(lanes))
         self.lanes[gid] = lanes
         self.length[gid] = float(tx.max())
         # vehicles in the formation frame: metres behind the front target and
