@@ -100,6 +100,7 @@ class Traffic:
         for f in _BOOL_FIELDS:
             setattr(self, f, np.zeros(0, dtype=bool))
         self.next_vid = 0
+        self._center = None  # (x, y, heading, cx, cy): see center()
 
     # ------------------------------------------------------------ bookkeeping
     @property
@@ -159,11 +160,27 @@ class Traffic:
         return np.searchsorted(self.vid, vids)
 
     def center(self) -> tuple[np.ndarray, np.ndarray]:
+        """Body centres ``(cx, cy)``, ``wheelbase / 2`` ahead of the rear
+        axle (``cx`` folded onto a ring). Kept until ``x``, ``y`` or
+        ``heading`` is replaced (the state arrays are never written in
+        place: every change assigns new arrays), so the dozen callers of a
+        step share one computation; the arrays are read-only."""
+        c = self._center
+        if c is not None and c[0] is self.x and c[1] is self.y and c[2] is self.heading:
+            return c[3], c[4]
         h = 0.5 * self.wheelbase
         cx = self.x + h * np.cos(self.heading)
         if self.period is not None:
             cx = np.mod(cx, self.period)
-        return cx, self.y + h * np.sin(self.heading)
+        return self.set_center(cx, self.y + h * np.sin(self.heading))
+
+    def set_center(self, cx: np.ndarray, cy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Record ``(cx, cy)`` as the body centres of the current state (the
+        compiled substep computes them with the new state)."""
+        cx.flags.writeable = False
+        cy.flags.writeable = False
+        self._center = (self.x, self.y, self.heading, cx, cy)
+        return cx, cy
 
     # --------------------------------------------------------------- dynamics
     def step(self, accel: np.ndarray, steer: np.ndarray, dt: float, v_max: float) -> None:

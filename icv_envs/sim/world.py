@@ -158,6 +158,7 @@ class World:
             tr.x, tr.y, tr.heading, tr.speed, np.asarray(accel, dtype=np.float64),
             np.asarray(steer, dtype=np.float64), tr.crashed, tr.stopped_for, tr.wheelbase, lat, self.dt,
             self.v_max, -1.0 if tr.period is None else tr.period)
+        cx, cy = tr.set_center(cx, cy)
         self.motion.record(tr.vid, v_before, tr.speed, tr.accel, self.dt)
         st = self.stats
         i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width,
