@@ -497,3 +497,43 @@ def test_nearest_along_road_equals_the_numpy_code(n, K, periodic, seed):
     want = _numpy_neighbours(road, rows, F, K, pd)
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
+
+
+# --------------------------------------------------- lane interval ends
+def _numpy_interval_end(self, lane, x):
+    end = np.full(lane.shape, -np.inf)  # lanes that do not exist end at once
+    main = (lane >= 0) & (lane < self.n_lanes)
+    if main.any():
+        lm, xm = lane[main], x[main]
+        e = self.lane_ends[lm].copy()
+        if len(self._ob_lane):
+            cand = np.where(
+                (lm[:, None] == self._ob_lane[None, :]) & (self._ob_hi[None, :] >= xm[:, None]),
+                self._ob_lo[None, :],
+                np.inf,
+            ).min(axis=1)
+            e = np.minimum(e, cand)
+        end[main] = e
+    ramp = lane == self.n_lanes
+    if ramp.any() and not len(self._ramp_iv):
+        end[ramp] = -np.inf
+    if ramp.any() and len(self._ramp_iv):
+        xr = x[ramp]
+        cand = np.where(self._ramp_iv[None, :, 1] >= xr[:, None], self._ramp_iv[None, :, 1], np.inf).min(axis=1)
+        end[ramp] = cand
+    return end
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(0, 80), ramp=st.booleans(), seed=st.integers(0, 2**31))
+def test_interval_end_equals_the_numpy_code(n, ramp, seed):
+    from icv_envs.sim.road import OnRamp
+
+    rng = np.random.default_rng(seed)
+    obstacles = [Obstacle(int(rng.integers(0, 3)), float(rng.uniform(0, 2_000)), 4.0) for _ in range(rng.integers(0, 4))]
+    ends = np.where(rng.random(3) < 0.4, rng.uniform(0, 2_000, 3), np.inf)
+    road = RoadLayout(3, 2_000.0, 4.0, ends, [OnRamp(300.0, 500.0), OnRamp(900.0, 1200.0)] if ramp else [], [],
+                      obstacles)
+    lane = rng.integers(-1, 5, (n, 2))
+    x = rng.uniform(-50.0, 2_050.0, (n, 2))
+    np.testing.assert_array_equal(road._interval_end(lane, x), _numpy_interval_end(road, lane, x))

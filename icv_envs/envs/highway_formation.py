@@ -489,10 +489,11 @@ class HighwayFormationEnv(IcvAgentsEnv):
         F[:, 0] = 1.0
         F[:, 1] = cx
         F[:, 2] = cy
-        F[:, 3] = tr.speed * np.cos(tr.heading)
-        F[:, 4] = tr.speed * np.sin(tr.heading)
-        F[:, 5] = np.cos(tr.heading)
-        F[:, 6] = np.sin(tr.heading)
+        ch, sh = np.cos(tr.heading), np.sin(tr.heading)
+        F[:, 3] = tr.speed * ch
+        F[:, 4] = tr.speed * sh
+        F[:, 5] = ch
+        F[:, 6] = sh
         F[:, 7] = np.where(member, w.road.wrap(np.where(member, x_ref, 0.0) - cx), 0.0)
         F[:, 8] = np.where(member, lane_ref * w.road.lane_width - cy, 0.0)
         F[:, 9] = np.where(member, v_ref - tr.speed, 0.0)

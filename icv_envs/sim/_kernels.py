@@ -46,7 +46,7 @@ import numpy as np
 __all__ = ["sweep_candidates", "segment_max", "drivable_lane_bits", "npy_mod", "kinematic_substep", "road_check",
            "pairwise_sum", "motion_record", "collision_pairs",
            "build_lane_index", "leader_rows", "headway_record",
-           "nearest_along_road"]
+           "nearest_along_road", "interval_ends"]
 
 
 @nb.njit(cache=True)
@@ -681,3 +681,35 @@ def nearest_along_road(cx, rows, K, pd, periodic, length):
             sel[r, q] = cand[pick[q]]
             present[r, q] = np.isfinite(dist[pick[q]])
     return sel, present
+
+
+@nb.njit(cache=True)
+def interval_ends(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """:meth:`icv_envs.sim.road.RoadLayout._interval_end` compiled, over
+    flat arrays: where the drivable stretch of ``lane`` containing (or
+    following) ``x`` ends. A main lane: its end, or the rear of the
+    nearest obstacle in it whose front is at or ahead of ``x``, whichever
+    comes first; the ramp lane (``n_lanes``): the end of the first ramp
+    interval whose end is at or ahead of ``x`` (``inf`` if none, ``-inf``
+    without ramps); any other lane: ``-inf``."""
+    n = lane.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        ln = lane[i]
+        xi = x[i]
+        if ln >= 0 and ln < n_lanes:
+            cand = np.inf
+            for o in range(ob_lane.shape[0]):
+                if ob_lane[o] == ln and ob_hi[o] >= xi and ob_lo[o] < cand:
+                    cand = ob_lo[o]
+            e = lane_ends[ln]
+            out[i] = e if e <= cand else cand
+        elif ln == n_lanes and ramp_iv.shape[0]:
+            cand = np.inf
+            for r in range(ramp_iv.shape[0]):
+                if ramp_iv[r, 1] >= xi and ramp_iv[r, 1] < cand:
+                    cand = ramp_iv[r, 1]
+            out[i] = cand
+        else:
+            out[i] = -np.inf
+    return out

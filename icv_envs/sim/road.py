@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from icv_envs.sim._kernels import interval_ends
+
 __all__ = ["OnRamp", "OffRamp", "Obstacle", "RoadLayout"]
 
 
@@ -217,27 +219,13 @@ class RoadLayout:
         return self._interval_end(lane, x)
 
     def _interval_end(self, lane, x) -> np.ndarray:
-        end = np.full(lane.shape, -np.inf)  # lanes that do not exist end at once
-        main = (lane >= 0) & (lane < self.n_lanes)
-        if main.any():
-            lm, xm = lane[main], x[main]
-            e = self.lane_ends[lm].copy()
-            if len(self._ob_lane):
-                cand = np.where(
-                    (lm[:, None] == self._ob_lane[None, :]) & (self._ob_hi[None, :] >= xm[:, None]),
-                    self._ob_lo[None, :],
-                    np.inf,
-                ).min(axis=1)
-                e = np.minimum(e, cand)
-            end[main] = e
-        ramp = lane == self.n_lanes
-        if ramp.any() and not len(self._ramp_iv):
-            end[ramp] = -np.inf
-        if ramp.any() and len(self._ramp_iv):
-            xr = x[ramp]
-            cand = np.where(self._ramp_iv[None, :, 1] >= xr[:, None], self._ramp_iv[None, :, 1], np.inf).min(axis=1)
-            end[ramp] = cand
-        return end
+        # compiled (icv_envs.sim._kernels.interval_ends; the numpy version is
+        # kept in tests/test_kernels.py as its reference)
+        shape = lane.shape
+        out = interval_ends(np.ascontiguousarray(lane, dtype=np.int64).reshape(-1),
+                            np.ascontiguousarray(x, dtype=np.float64).reshape(-1), self.n_lanes, self.lane_ends,
+                            self._ob_lane, self._ob_lo, self._ob_hi, self._ramp_iv)
+        return out.reshape(shape)
 
     def in_merge(self, x) -> np.ndarray:
         """Inside an on-ramp merge segment (ramp lane -> rightmost main lane allowed)."""
