@@ -537,3 +537,40 @@ def test_interval_end_equals_the_numpy_code(n, ramp, seed):
     lane = rng.integers(-1, 5, (n, 2))
     x = rng.uniform(-50.0, 2_050.0, (n, 2))
     np.testing.assert_array_equal(road._interval_end(lane, x), _numpy_interval_end(road, lane, x))
+
+
+def test_patched_join_profiles_equal_a_full_evaluation():
+    """FormationManager._profile re-evaluates only the members re-planned
+    since its cached answer; every answer equals a full evaluation."""
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+    from icv_envs.formation.control import join_profile
+
+    env = parallel_env(scenario="lane-drop")
+    env.reset(seed=3)
+    man, tr = env.core.world.manager, env.core.world.traffic
+    patched = 0
+    for _ in range(60):
+        ex = env.expert_actions()
+        c = man._profile_cache
+        plans_before = man.plans
+        env.step({a: ex[a] for a in env.agents})
+        tr = env.core.world.traffic
+        m = np.flatnonzero(tr.group >= 0)
+        if not len(m):
+            continue
+        c = man._profile_cache
+        if c is not None and c[0][1] == tr.vid[m].tobytes() and c[1] != man.plans:
+            patched += 1
+        got = man._profile(tr, m)
+        vid = tr.vid[m]
+        want = join_profile(man.time - man._p_t0[vid], man._p_T[vid], man._p_d0[vid], man._p_v0[vid], man._p_a0[vid])
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g, w)
+        # re-plan some members now and ask again: the patched answer is the full one
+        man._plan(tr, env.core.world.road, m[::3], tr.center()[0])
+        got = man._profile(tr, m)
+        want = join_profile(man.time - man._p_t0[vid], man._p_T[vid], man._p_d0[vid], man._p_v0[vid], man._p_a0[vid])
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g, w)
+        patched += 1
+    assert patched > 10

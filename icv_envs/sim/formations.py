@@ -133,7 +133,7 @@ class FormationManager:
         # the front), the plan (start time, duration, initial offset, relative
         # speed, acceleration) and when the first plan for that slot ends
         self._cap = 0
-        for name in ("_slot_gid",):
+        for name in ("_slot_gid", "_p_stamp"):
             setattr(self, name, np.zeros(0, dtype=np.int64))
         for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline"):
             setattr(self, name, np.zeros(0))
@@ -164,6 +164,7 @@ class FormationManager:
         new = max(size, 2 * self._cap, 256)
         pad = new - self._cap
         self._slot_gid = np.concatenate([self._slot_gid, np.full(pad, -1, dtype=np.int64)])
+        self._p_stamp = np.concatenate([self._p_stamp, np.zeros(pad, dtype=np.int64)])
         for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline"):
             setattr(self, name, np.concatenate([getattr(self, name), np.zeros(pad)]))
         self._p_T[self._cap:] = 1.0
@@ -207,23 +208,38 @@ class FormationManager:
         self._p_t0[vid], self._p_T[vid] = self.time, T
         self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
         self.plans += len(rows)
+        self._p_stamp[vid] = self.plans  # (which cached profiles this plan makes stale: _profile)
         return T
 
     def _profile(self, traffic, rows):
         """``join_profile`` of the members at ``rows`` now. Several callers
         ask for the same rows within one step (the expert, the observations,
         the manager's own update); the last answer is kept, keyed on the
-        clock, the count of plans made (it grows with every plan that writes
-        the plan arrays) and the vehicle ids: the only inputs."""
+        clock and the vehicle ids, with the count of plans made when it was
+        computed (it grows with every plan that writes the plan arrays).
+        When members were re-planned since, only their rows are evaluated
+        again (the profile is element-wise, so the patched arrays equal a
+        full evaluation)."""
         vid = traffic.vid[rows]
-        key = (self.time, self.plans, vid.tobytes())
-        if self._profile_cache is not None and self._profile_cache[0] == key:
-            return self._profile_cache[1]
-        out = join_profile(self.time - self._p_t0[vid], self._p_T[vid], self._p_d0[vid], self._p_v0[vid],
-                           self._p_a0[vid])
+        key = (self.time, vid.tobytes())
+        c = self._profile_cache
+        if c is not None and c[0] == key:
+            if c[1] == self.plans:
+                return c[2]
+            stale = np.flatnonzero(self._p_stamp[vid] > c[1])
+            out = tuple(arr.copy() for arr in c[2])
+            if len(stale):
+                sv = vid[stale]
+                part = join_profile(self.time - self._p_t0[sv], self._p_T[sv], self._p_d0[sv], self._p_v0[sv],
+                                    self._p_a0[sv])
+                for arr, p in zip(out, part):
+                    arr[stale] = p
+        else:
+            out = join_profile(self.time - self._p_t0[vid], self._p_T[vid], self._p_d0[vid], self._p_v0[vid],
+                               self._p_a0[vid])
         for arr in out:
             arr.flags.writeable = False
-        self._profile_cache = (key, out)
+        self._profile_cache = (key, self.plans, out)
         return out
 
     def create(self, traffic, rows, road, anchor: float | None = None) -> int:
