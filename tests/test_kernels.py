@@ -574,3 +574,75 @@ def test_patched_join_profiles_equal_a_full_evaluation():
             np.testing.assert_array_equal(g, w)
         patched += 1
     assert patched > 10
+
+
+# ------------------------------------------------ PET occupancy (intersection)
+def _numpy_pet_record(self, t, vid, pid, s, length):
+    """Occupancy update at time ``t`` for vehicles ``vid`` on paths ``pid``
+    at route coordinate ``s`` (listing the vehicles near the box is
+    enough: a vehicle not listed has left every area)."""
+    vid = np.asarray(vid, dtype=np.int64)
+    pid = np.asarray(pid, dtype=np.int64)
+    top = int(vid.max()) + 1 if len(vid) else 0
+    if top > len(self._occ):
+        grow = max(top, 2 * len(self._occ), 64) - len(self._occ)
+        self._occ = np.concatenate([self._occ, np.zeros((grow, self._K), dtype=bool)])
+        self._pid = np.concatenate([self._pid, np.zeros(grow, dtype=np.int64)])
+    ok = pid < len(self._lo)
+    vid, pid = vid[ok], pid[ok]
+    x = np.asarray(s, dtype=np.float64)[ok][:, None]
+    h = 0.5 * np.asarray(length, dtype=np.float64)[ok][:, None]
+    occ = (x - h < self._hi[pid]) & (x + h > self._lo[pid])
+    # only the listed vehicles and those inside an area until now can
+    # change (every other row is empty before and after): events are
+    # handled over those rows, in increasing id as over the whole table
+    cand = np.union1d(vid, self._busy)
+    at = np.searchsorted(cand, vid)
+    old = self._occ[cand]
+    new = np.zeros_like(old)
+    new[at] = occ
+    prev_pid = self._pid[cand]
+    self._pid[vid] = pid
+    for v, k in zip(*np.nonzero(old & ~new)):
+        q = prev_pid[v]
+        self._leave(t, int(self._ids[q, k]), int(self._side[q, k]))
+    for v, k in zip(*np.nonzero(new & ~old)):
+        q = self._pid[cand[v]]
+        self._enter(t, int(self._ids[q, k]), int(self._side[q, k]))
+    self._occ[cand] = new
+    self._busy = cand[new.any(axis=1)]
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31))
+def test_pet_record_equals_the_numpy_code(seed):
+    """PetStats.record (compiled transitions) produces the numpy code's PET
+    samples, counters and tables over a random sequence of updates."""
+    from icv_envs.sim.intersection_layout import IntersectionLayout
+    from icv_envs.sim.intersection_metrics import ConflictAreas, PetStats
+
+    rng = np.random.default_rng(seed)
+    areas = ConflictAreas(IntersectionLayout())
+    a, b = PetStats(areas), PetStats(areas)
+    P = a._lo.shape[0]
+    n_veh = 30
+    paths = rng.integers(0, P + 1, n_veh)  # P: a path without areas (skipped)
+    pos = rng.uniform(-40.0, 10.0, n_veh)
+    speed = rng.uniform(0.0, 3.0, n_veh)
+    for step in range(60):
+        pos = pos + speed
+        listed = np.flatnonzero(rng.random(n_veh) < 0.8)
+        vid = listed + 3
+        t = 0.04 * step
+        args = (t, vid, paths[listed], pos[listed], np.full(len(listed), 4.5))
+        a.record(*args)
+        _numpy_pet_record(b, *args)
+        if step % 10 == 9:  # re-routes: a vehicle's path changes
+            paths[rng.integers(0, n_veh)] = rng.integers(0, P)
+    assert a.samples == b.samples
+    np.testing.assert_array_equal(a.inside, b.inside)
+    np.testing.assert_array_equal(a.last_exit, b.last_exit)
+    assert a.pending == b.pending
+    np.testing.assert_array_equal(a._occ, b._occ)
+    np.testing.assert_array_equal(a._pid, b._pid)
+    np.testing.assert_array_equal(a._busy, b._busy)

@@ -46,7 +46,7 @@ import numpy as np
 __all__ = ["sweep_candidates", "segment_max", "drivable_lane_bits", "npy_mod", "kinematic_substep", "road_check",
            "pairwise_sum", "motion_record", "collision_pairs",
            "build_lane_index", "leader_rows", "headway_record",
-           "nearest_along_road", "interval_ends"]
+           "nearest_along_road", "interval_ends", "pet_transitions"]
 
 
 @nb.njit(cache=True)
@@ -713,3 +713,79 @@ def interval_ends(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
         else:
             out[i] = -np.inf
     return out
+
+
+@nb.njit(cache=True)
+def pet_transitions(vid, pid, s, length, lo, hi, occ, path, busy):
+    """The occupancy update of
+    :meth:`icv_envs.sim.intersection_metrics.PetStats.record`, compiled:
+    vehicles ``vid`` on paths ``pid`` (rows of ``lo``/``hi``, the conflict
+    areas' extents along each path; larger ids are skipped) at route
+    coordinate ``s`` occupy the areas their body ``[s - length/2, s +
+    length/2]`` overlaps (open intervals). Over the candidate ids (the
+    listed vehicles and ``busy``, those inside an area until now, sorted)
+    it returns the slots left, then the slots entered, each as ``(path,
+    slot)`` pairs in increasing (id, slot) order (the left ones on their
+    previous path), and the new ``busy``; the tables ``occ`` (per id, its
+    occupied slots) and ``path`` (per id, its path) are updated in place."""
+    P, K = lo.shape
+    m = 0
+    keep = np.empty(vid.shape[0], dtype=np.int64)
+    for i in range(vid.shape[0]):
+        if pid[i] < P:
+            keep[m] = i
+            m += 1
+    ids = np.empty(m + busy.shape[0], dtype=np.int64)
+    for q in range(m):
+        ids[q] = vid[keep[q]]
+    ids[m:] = busy
+    cand = np.unique(ids)
+    C = cand.shape[0]
+    new = np.zeros((C, K), dtype=np.bool_)
+    for q in range(m):
+        i = keep[q]
+        c = np.searchsorted(cand, vid[i])
+        x = s[i]
+        h = 0.5 * length[i]
+        p = pid[i]
+        for k in range(K):
+            new[c, k] = (x - h < hi[p, k]) and (x + h > lo[p, k])
+    prev = np.empty(C, dtype=np.int64)
+    for c in range(C):
+        prev[c] = path[cand[c]]
+    for q in range(m):
+        path[vid[keep[q]]] = pid[keep[q]]
+    n_l = 0
+    n_e = 0
+    for c in range(C):
+        for k in range(K):
+            o = occ[cand[c], k]
+            if o and not new[c, k]:
+                n_l += 1
+            elif new[c, k] and not o:
+                n_e += 1
+    left = np.empty((n_l, 2), dtype=np.int64)
+    entered = np.empty((n_e, 2), dtype=np.int64)
+    a = 0
+    b = 0
+    nb_ = 0
+    new_busy = np.empty(C, dtype=np.int64)
+    for c in range(C):
+        v = cand[c]
+        any_new = False
+        for k in range(K):
+            o = occ[v, k]
+            if o and not new[c, k]:
+                left[a, 0] = prev[c]
+                left[a, 1] = k
+                a += 1
+            elif new[c, k] and not o:
+                entered[b, 0] = path[v]
+                entered[b, 1] = k
+                b += 1
+            occ[v, k] = new[c, k]
+            any_new = any_new or new[c, k]
+        if any_new:
+            new_busy[nb_] = v
+            nb_ += 1
+    return left, entered, new_busy[:nb_]

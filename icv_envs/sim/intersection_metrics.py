@@ -95,6 +95,7 @@ import math
 
 import numpy as np
 
+from icv_envs.sim._kernels import pet_transitions
 from icv_envs.sim.metrics import STOPPED_SPEED, MotionStats  # one definition of the motion metrics
 
 __all__ = ["STOPPED_SPEED", "JAM_SECONDS", "QUEUE_GAP", "MotionStats", "ConflictAreas", "PetStats", "JamWatch",
@@ -247,29 +248,17 @@ class PetStats:
             grow = max(top, 2 * len(self._occ), 64) - len(self._occ)
             self._occ = np.concatenate([self._occ, np.zeros((grow, self._K), dtype=bool)])
             self._pid = np.concatenate([self._pid, np.zeros(grow, dtype=np.int64)])
-        ok = pid < len(self._lo)
-        vid, pid = vid[ok], pid[ok]
-        x = np.asarray(s, dtype=np.float64)[ok][:, None]
-        h = 0.5 * np.asarray(length, dtype=np.float64)[ok][:, None]
-        occ = (x - h < self._hi[pid]) & (x + h > self._lo[pid])
-        # only the listed vehicles and those inside an area until now can
-        # change (every other row is empty before and after): events are
-        # handled over those rows, in increasing id as over the whole table
-        cand = np.union1d(vid, self._busy)
-        at = np.searchsorted(cand, vid)
-        old = self._occ[cand]
-        new = np.zeros_like(old)
-        new[at] = occ
-        prev_pid = self._pid[cand]
-        self._pid[vid] = pid
-        for v, k in zip(*np.nonzero(old & ~new)):
-            q = prev_pid[v]
-            self._leave(t, int(self._ids[q, k]), int(self._side[q, k]))
-        for v, k in zip(*np.nonzero(new & ~old)):
-            q = self._pid[cand[v]]
-            self._enter(t, int(self._ids[q, k]), int(self._side[q, k]))
-        self._occ[cand] = new
-        self._busy = cand[new.any(axis=1)]
+        # compiled (icv_envs.sim._kernels.pet_transitions): which slots were
+        # left and entered, in increasing (id, slot) order, as the array code
+        # over the candidate rows did; the PET events in Python
+        left, entered, self._busy = pet_transitions(
+            vid, pid, np.asarray(s, dtype=np.float64), np.asarray(length, dtype=np.float64), self._lo, self._hi,
+            self._occ, self._pid, self._busy)
+        ids, side = self._ids, self._side
+        for q, k in left.tolist():
+            self._leave(t, int(ids[q, k]), int(side[q, k]))
+        for q, k in entered.tolist():
+            self._enter(t, int(ids[q, k]), int(side[q, k]))
 
     def _enter(self, t, a, k) -> None:
         o = 1 - k
