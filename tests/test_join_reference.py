@@ -65,7 +65,7 @@ def test_a_member_held_back_is_re_planned_from_where_it_is():
     w.manager.create(w.traffic, np.arange(2), w.road, anchor=1000.0)
     before = w.manager.plans
     # hold vehicle 1 back 20 m (as if traffic had stopped it)
-    w.traffic.x[1] -= 20.0
+    w.traffic.x = w.traffic.x - np.array([0.0, 20.0])
     w.manager.update(w.traffic, w.road, 0.2)
     assert w.manager.plans == before + 1
     x_ref, _, _, _ = w.manager.references(w.traffic)

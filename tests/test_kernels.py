@@ -646,3 +646,21 @@ def test_pet_record_equals_the_numpy_code(seed):
     np.testing.assert_array_equal(a._occ, b._occ)
     np.testing.assert_array_equal(a._pid, b._pid)
     np.testing.assert_array_equal(a._busy, b._busy)
+
+
+def test_center_cache_follows_the_state_and_refuses_in_place_writes():
+    """Traffic.center() is kept per state: a new x array gives new centres,
+    and an in-place write into the arrays it was computed from raises
+    (instead of leaving stale centres)."""
+    from icv_envs.sim.traffic import Traffic
+
+    tr = Traffic(2.8)
+    tr.add(np.array([10.0, 30.0]), np.array([0.0, 4.0]), np.array([20.0, 20.0]))
+    cx, _ = tr.center()
+    np.testing.assert_array_equal(cx, tr.x + 1.4)
+    with pytest.raises(ValueError, match="read-only"):
+        tr.x[1] -= 20.0
+    with pytest.raises(ValueError, match="read-only"):
+        cx[0] = 0.0
+    tr.x = tr.x - np.array([0.0, 20.0])
+    np.testing.assert_array_equal(tr.center()[0], np.array([11.4, 11.4]))

@@ -171,10 +171,10 @@ class FormationManager:
         self._cap = new
 
     def _slot_x(self, traffic, rows) -> np.ndarray:
-        # front targets of the formations these rows belong to only (next_gid
-        # grows without bound over a long ring run)
-        # (a lookup table over the formation ids, nan where none: the same
-        # values as a per-formation lookup, without a sort)
+        # each row's front target minus its place behind it, through a lookup
+        # table over the formation ids (nan where none; one entry per id ever
+        # made, a few thousand after an hour on the ring: cheaper than the
+        # sort a per-formation lookup needs)
         lut = np.full(self.next_gid + 1, np.nan)
         if self.anchor:
             lut[np.fromiter(self.anchor.keys(), dtype=np.int64, count=len(self.anchor))] = np.fromiter(

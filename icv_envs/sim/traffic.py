@@ -162,9 +162,12 @@ class Traffic:
     def center(self) -> tuple[np.ndarray, np.ndarray]:
         """Body centres ``(cx, cy)``, ``wheelbase / 2`` ahead of the rear
         axle (``cx`` folded onto a ring). Kept until ``x``, ``y`` or
-        ``heading`` is replaced (the state arrays are never written in
-        place: every change assigns new arrays), so the dozen callers of a
-        step share one computation; the arrays are read-only."""
+        ``heading`` is replaced, so the dozen callers of a step share one
+        computation. The centres, and the ``x``, ``y`` and ``heading``
+        arrays they were computed from, are read-only from then on: a
+        change of the state assigns new arrays (``tr.x = tr.x + dx``), and
+        writing into the old ones in place raises instead of leaving stale
+        centres."""
         c = self._center
         if c is not None and c[0] is self.x and c[1] is self.y and c[2] is self.heading:
             return c[3], c[4]
@@ -177,8 +180,8 @@ class Traffic:
     def set_center(self, cx: np.ndarray, cy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Record ``(cx, cy)`` as the body centres of the current state (the
         compiled substep computes them with the new state)."""
-        cx.flags.writeable = False
-        cy.flags.writeable = False
+        for arr in (cx, cy, self.x, self.y, self.heading):
+            arr.flags.writeable = False
         self._center = (self.x, self.y, self.heading, cx, cy)
         return cx, cy
 
@@ -197,7 +200,11 @@ class Traffic:
         The steering angle is first limited by speed so that the lateral
         acceleration ``v^2 tan(phi) / L`` stays within ``lat_accel_max``
         (:func:`limit_steering`, :data:`LAT_ACCEL_MAX`); ``steer`` records
-        the angle actually applied."""
+        the angle actually applied.
+
+        :meth:`icv_envs.sim.world.World.substep` runs the same operations
+        compiled (:func:`icv_envs.sim._kernels.kinematic_substep`, tested
+        against this method)."""
         self.accel = np.asarray(accel, dtype=np.float64)
         self.steer = limit_steering(np.asarray(steer, dtype=np.float64), self.speed, self.wheelbase,
                                     self.lat_accel_max)

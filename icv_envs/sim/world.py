@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from icv_envs.sim._kernels import kinematic_substep, road_check
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.metrics import HeadwayStats, MotionStats
-from icv_envs.sim._kernels import kinematic_substep, road_check
 from icv_envs.sim.road import RoadLayout
 from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, leaders, rect_overlap
 
