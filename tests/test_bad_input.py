@@ -137,3 +137,20 @@ def test_cli_bad_config_value(capsys):
     assert "lanes_count" in capsys.readouterr().err
     assert main(["run", "highway-formation", "--seconds", "1", "--config", "{not json"]) == 2
     assert "not valid JSON" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"kp": 0.3}, "kp = 0.3; allowed: < 0"),
+    ({"kv": float("nan")}, "kv = nan; allowed: a finite number"),
+    ({"steer_max": 2.0}, "steer_max = 2.0; allowed: in"),
+    ({"wheelbase": 0.0}, "wheelbase = 0.0; allowed: > 0"),
+    ({"comfort_accel": (0.5, 1.5)}, "allowed: lower < 0 < upper"),
+])
+def test_formation_expert_checks_its_parameters_once(kw, match):
+    """The expert calls the unchecked forms of the paper's functions every
+    step; a parameter those functions would refuse is refused when the
+    expert is made, naming the value."""
+    from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
+
+    with pytest.raises(ValueError, match=match):
+        FormationExpert(ExpertParams(**kw))

@@ -162,6 +162,13 @@ def lane_change_lateral(x, x0, y0, y1, length) -> tuple[np.ndarray, np.ndarray]:
         y1=_finite("y1", y1), length=_finite("length", length),
     )
     _check_length(d)
+    return _lane_change_lateral(xa, x0a, y0a, y1a, d)
+
+
+def _lane_change_lateral(xa, x0a, y0a, y1a, d) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`lane_change_lateral` without its input checks, for callers
+    whose arguments are already finite float64 arrays (or floats) that
+    broadcast, with ``d > 0`` (the experts, once per step)."""
     s = np.clip((xa - x0a) / d, 0.0, 1.0)
     t = 0.5 + np.sinh(np.arcsinh(4.0 * s - 2.0) / 3.0)
     # One Newton step on f(t) = t^3 - 1.5 t^2 + 1.5 t - s (f' >= 3/4).
@@ -229,6 +236,13 @@ def pure_pursuit_steering(
         heading=_finite("heading", heading), target_x=_finite("target_x", target_x),
         target_y=_finite("target_y", target_y),
     )
+    return _pure_pursuit_steering(rx, ry, th, tx, ty, wb, ms)
+
+
+def _pure_pursuit_steering(rx, ry, th, tx, ty, wb: float, ms: float) -> np.ndarray:
+    """:func:`pure_pursuit_steering` without its input checks, for callers
+    whose arguments are already finite float64 arrays that broadcast, with
+    ``wb > 0`` and ``0 < ms < pi/2`` floats (the experts, once per step)."""
     dx, dy = tx - rx, ty - ry
     ld = np.hypot(dx, dy)
     # sin(alpha) with alpha = atan2(dy, dx) - heading, without the atan2:

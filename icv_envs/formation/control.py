@@ -153,14 +153,20 @@ def longitudinal_feedback(
     va, vr = _finite("v", v), _finite("v_ref", v_ref)
     ar = _finite("a_ref", a_ref)
     try:
-        a = ar + kpa * (xa - xr) + kva * (va - vr)
+        return _longitudinal_feedback(xa, xr, va, vr, kpa, kva, lo, hi, ar)
     except ValueError:
         shapes = ", ".join(
             f"{n}{np.shape(s)}" for n, s in
             (("x", xa), ("x_ref", xr), ("v", va), ("v_ref", vr), ("kp", kpa), ("kv", kva))
         )
         raise ValueError(f"arguments are not broadcastable to a common shape: {shapes}") from None
-    return np.clip(a, lo, hi)
+
+
+def _longitudinal_feedback(x, x_ref, v, v_ref, kp, kv, a_min: float, a_max: float, a_ref) -> np.ndarray:
+    """:func:`longitudinal_feedback` without its input checks, for callers
+    whose arguments are already finite float64 arrays (or floats) that
+    broadcast, with gains < 0 and ``a_min < 0 < a_max`` (the experts)."""
+    return np.clip(a_ref + kp * (x - x_ref) + kv * (v - v_ref), a_min, a_max)
 
 
 # ------------------------------------------------------------ join profile

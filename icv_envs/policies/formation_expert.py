@@ -45,8 +45,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from icv_envs.formation.bezier import lane_change_lateral, pure_pursuit_steering
-from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, longitudinal_feedback
+from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steering, lane_change_lateral
+from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback
 from icv_envs.sim.traffic import LAT_ACCEL_MAX, followers, idm_acceleration, leaders
 
 
@@ -110,6 +110,7 @@ class FormationExpert:
 
     def __init__(self, params: ExpertParams | None = None) -> None:
         self.p = params or ExpertParams()
+        self._check_params()
         # shortest lane change at speed v: the Bezier's peak lateral
         # acceleration is BEZIER_PEAK * W v^2 / D^2, kept within the vehicle
         # model's bound (LAT_ACCEL_MAX): D >= v * sqrt(BEZIER_PEAK * W / a_y)
@@ -118,6 +119,30 @@ class FormationExpert:
         # limit tan(steer_max) / L: D >= sqrt(BEZIER_PEAK * W * L / tan(steer_max))
         self._lc_length_min = float(np.sqrt(BEZIER_PEAK * self.p.lane_width * self.p.wheelbase
                                             / np.tan(self.p.steer_max)))
+
+    def _check_params(self) -> None:
+        """The parameter checks the paper's functions make on every call,
+        made once here: :meth:`compute` calls their unchecked forms."""
+        p = self.p
+
+        def real(name):
+            v = getattr(p, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not np.isfinite(v):
+                raise ValueError(f"ExpertParams.{name} = {v!r}; allowed: a finite number")
+            return float(v)
+
+        if not real("wheelbase") > 0.0:
+            raise ValueError(f"ExpertParams.wheelbase = {p.wheelbase!r}; allowed: > 0 metres")
+        if not 0.0 < real("steer_max") < 0.5 * np.pi:
+            raise ValueError(f"ExpertParams.steer_max = {p.steer_max!r}; allowed: in (0, pi/2) rad")
+        for name in ("kp", "kv"):
+            if not real(name) < 0.0:
+                raise ValueError(f"ExpertParams.{name} = {getattr(p, name)!r}; allowed: < 0 (X points forward, "
+                                 f"a positive gain is unstable)")
+        lo, hi = max(real("a_min"), float(p.comfort_accel[0])), min(real("a_max"), float(p.comfort_accel[1]))
+        if not lo < 0.0 < hi:
+            raise ValueError(f"ExpertParams a_min / a_max / comfort_accel = {p.a_min!r} / {p.a_max!r} / "
+                             f"{p.comfort_accel!r} give feedback limits [{lo}, {hi}]; allowed: lower < 0 < upper")
 
     # ------------------------------------------------------------------ hooks
     def _lane_speeds(self, road, lane) -> np.ndarray:
@@ -206,7 +231,9 @@ class FormationExpert:
         active = tr.lc_lane >= 0
         if active.any():
             a_rows = np.flatnonzero(active)
-            y_plan, _ = lane_change_lateral(
+            # (the unchecked forms of the paper's functions: every argument
+            # here is a finite float64 state array, every length > 0)
+            y_plan, _ = _lane_change_lateral(
                 tr.x[a_rows], tr.lc_x0[a_rows], tr.lc_y0[a_rows], tr.lc_y1[a_rows], tr.lc_len[a_rows]
             )
             stray = np.abs(y_plan - tr.y[a_rows]) > p.replan_tolerance
@@ -349,12 +376,13 @@ class FormationExpert:
         py = lane * W
         if active.any():
             a_rows = np.flatnonzero(active)
-            yp, _ = lane_change_lateral(
+            yp, _ = _lane_change_lateral(
                 px[a_rows], tr.lc_x0[a_rows], tr.lc_y0[a_rows], tr.lc_y1[a_rows], tr.lc_len[a_rows]
             )
             py = py.astype(np.float64)
             py[a_rows] = yp
-        phi = pure_pursuit_steering(tr.x, tr.y, tr.heading, px, py, p.wheelbase, p.steer_max)
+        phi = _pure_pursuit_steering(tr.x, tr.y, tr.heading, px, np.asarray(py, dtype=np.float64),
+                                     float(p.wheelbase), float(p.steer_max))
 
         # ------------------------------------------------------ longitudinal
         lane_speed = self._lane_speeds(road, lane)
@@ -379,9 +407,9 @@ class FormationExpert:
             # falls more than 5 m off), so the error seen here stays small
             a_ref = world.manager.reference_accel(tr)[m]
             x_eff = cx[m] + road.wrap(x_ref[m] - cx[m])
-            acc[m] = longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], p.kp, p.kv,
-                                           max(p.a_min, p.comfort_accel[0]), min(p.a_max, p.comfort_accel[1]),
-                                           a_ref=a_ref)
+            acc[m] = _longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], float(p.kp), float(p.kv),
+                                            float(max(p.a_min, p.comfort_accel[0])),
+                                            float(min(p.a_max, p.comfort_accel[1])), a_ref)
             # control floor: do not command speeds below the configured minimum
             # (braking is faded out as v approaches v_min; the safety cap below still wins)
             acc[m] = np.maximum(acc[m], 1.0 * (p.v_min - v[m]))
