@@ -664,3 +664,46 @@ def test_center_cache_follows_the_state_and_refuses_in_place_writes():
         cx[0] = 0.0
     tr.x = tr.x - np.array([0.0, 20.0])
     np.testing.assert_array_equal(tr.center()[0], np.array([11.4, 11.4]))
+
+
+def _numpy_available(self, lane, x):
+    """Whether ``lane`` is drivable at ``x`` (vectorised, broadcasting)."""
+    lane, x = np.broadcast_arrays(np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64))
+    x = self.mod(x)
+    out = np.zeros(lane.shape, dtype=bool)
+    main = (lane >= 0) & (lane < self.n_lanes)
+    if main.any():
+        lm, xm = lane[main], x[main]
+        ok = (xm >= 0) & (xm < self.lane_ends[lm])
+        if len(self._ob_lane):
+            blocked = (
+                (lm[:, None] == self._ob_lane[None, :])
+                & (xm[:, None] >= self._ob_lo[None, :])
+                & (xm[:, None] <= self._ob_hi[None, :])
+            ).any(axis=1)
+            ok &= ~blocked
+        out[main] = ok
+    ramp = lane == self.n_lanes
+    if ramp.any() and len(self._ramp_iv):
+        xr = x[ramp]
+        out[ramp] = ((xr[:, None] >= self._ramp_iv[None, :, 0]) & (xr[:, None] <= self._ramp_iv[None, :, 1])).any(
+            axis=1
+        )
+    return out
+
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(0, 60), ramp=st.booleans(), periodic=st.booleans(), seed=st.integers(0, 2**31))
+def test_available_equals_the_numpy_code(n, ramp, periodic, seed):
+    from icv_envs.sim.road import OnRamp
+
+    rng = np.random.default_rng(seed)
+    obstacles = [Obstacle(int(rng.integers(0, 3)), float(rng.uniform(0, 2_000)), 4.0) for _ in range(rng.integers(0, 4))]
+    ends = np.full(3, np.inf) if periodic else np.where(rng.random(3) < 0.4, rng.uniform(0, 2_000, 3), np.inf)
+    road = RoadLayout(3, 2_000.0, 4.0, ends, [OnRamp(300.0, 500.0)] if ramp else [], [], obstacles, periodic=periodic)
+    lane = rng.integers(-1, 5, (n, 3))
+    x = rng.uniform(-2_050.0, 4_050.0, (n, 3))
+    x[:, 0] = np.round(x[:, 0])  # on interval ends too
+    np.testing.assert_array_equal(road.available(lane, x), _numpy_available(road, lane, x))
+    assert road.available(1, 10.0).shape == ()

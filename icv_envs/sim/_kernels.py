@@ -46,7 +46,8 @@ import numpy as np
 __all__ = ["sweep_candidates", "segment_max", "drivable_lane_bits", "npy_mod", "kinematic_substep", "road_check",
            "pairwise_sum", "motion_record", "collision_pairs",
            "build_lane_index", "leader_rows", "headway_record",
-           "nearest_along_road", "interval_ends", "pet_transitions"]
+           "nearest_along_road", "interval_ends", "pet_transitions",
+           "lanes_available"]
 
 
 @nb.njit(cache=True)
@@ -789,3 +790,30 @@ def pet_transitions(vid, pid, s, length, lo, hi, occ, path, busy):
             new_busy[nb_] = v
             nb_ += 1
     return left, entered, new_busy[:nb_]
+
+
+@nb.njit(cache=True)
+def lanes_available(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """:meth:`icv_envs.sim.road.RoadLayout.available` compiled, over flat
+    arrays (``x`` already folded onto a ring): a main lane from 0 to its end,
+    outside every obstacle's closed interval in it; the ramp lane
+    (``n_lanes``) inside a ramp interval (closed); any other lane never."""
+    n = lane.shape[0]
+    out = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        ln = lane[i]
+        xi = x[i]
+        if ln >= 0 and ln < n_lanes:
+            ok = xi >= 0.0 and xi < lane_ends[ln]
+            if ok:
+                for o in range(ob_lane.shape[0]):
+                    if ob_lane[o] == ln and xi >= ob_lo[o] and xi <= ob_hi[o]:
+                        ok = False
+                        break
+            out[i] = ok
+        elif ln == n_lanes:
+            for r in range(ramp_iv.shape[0]):
+                if xi >= ramp_iv[r, 0] and xi <= ramp_iv[r, 1]:
+                    out[i] = True
+                    break
+    return out

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from icv_envs.sim._kernels import interval_ends
+from icv_envs.sim._kernels import interval_ends, lanes_available
 
 __all__ = ["OnRamp", "OffRamp", "Obstacle", "RoadLayout"]
 
@@ -184,29 +184,13 @@ class RoadLayout:
         return np.mod(de - x, self.length) - (de - ds)
 
     def available(self, lane, x) -> np.ndarray:
-        """Whether ``lane`` is drivable at ``x`` (vectorised, broadcasting)."""
+        """Whether ``lane`` is drivable at ``x`` (vectorised, broadcasting;
+        compiled: :func:`icv_envs.sim._kernels.lanes_available`)."""
         lane, x = np.broadcast_arrays(np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64))
         x = self.mod(x)
-        out = np.zeros(lane.shape, dtype=bool)
-        main = (lane >= 0) & (lane < self.n_lanes)
-        if main.any():
-            lm, xm = lane[main], x[main]
-            ok = (xm >= 0) & (xm < self.lane_ends[lm])
-            if len(self._ob_lane):
-                blocked = (
-                    (lm[:, None] == self._ob_lane[None, :])
-                    & (xm[:, None] >= self._ob_lo[None, :])
-                    & (xm[:, None] <= self._ob_hi[None, :])
-                ).any(axis=1)
-                ok &= ~blocked
-            out[main] = ok
-        ramp = lane == self.n_lanes
-        if ramp.any() and len(self._ramp_iv):
-            xr = x[ramp]
-            out[ramp] = ((xr[:, None] >= self._ramp_iv[None, :, 0]) & (xr[:, None] <= self._ramp_iv[None, :, 1])).any(
-                axis=1
-            )
-        return out
+        out = lanes_available(np.ascontiguousarray(lane).reshape(-1), np.ascontiguousarray(x).reshape(-1),
+                              self.n_lanes, self.lane_ends, self._ob_lane, self._ob_lo, self._ob_hi, self._ramp_iv)
+        return out.reshape(lane.shape)
 
     def interval_end(self, lane, x) -> np.ndarray:
         """Distance-free position where the drivable stretch of ``lane``
