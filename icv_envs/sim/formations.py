@@ -45,6 +45,8 @@ Decisions the paper leaves open (docs/decisions.md), each a config value:
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from icv_envs.formation.assignment import assign_targets
@@ -434,7 +436,8 @@ class FormationManager:
             np.fill_diagonal(rel, np.inf)
             rel = np.where(rel > -Lf[:, None], rel, np.inf)
             nearest = rel.min(axis=1)
-            room = {g: float(r) - self.formation_gap for g, r in zip(gids, nearest) if np.isfinite(r)}
+            fin = np.isfinite(nearest)
+            room = dict(zip(itertools.compress(gids, fin.tolist()), (nearest[fin] - self.formation_gap).tolist()))
         self._hold_targets(traffic, road, gids, changed, room, cx, dt)
         for gid in sorted(changed):
             self._reform(traffic, road, gid, cx)
