@@ -64,6 +64,7 @@ import numpy as np
 from gymnasium import spaces
 
 from icv_envs.envs._config import pick_type, typed_options
+from icv_envs.sim._ufuncs import clip as uclip
 
 
 __all__ = ["ACTION_TYPES", "check_actions", "ActionType", "ContinuousAction", "DiscreteMetaAction", "FormationResidual",
@@ -76,7 +77,7 @@ def action_to_controls(action: np.ndarray, a_min=-6.0, a_max=3.0, steer_max=math
     Acceleration is piecewise linear so that 0 means coasting: ``u_a >= 0``
     gives ``u_a * a_max`` and ``u_a < 0`` gives ``-u_a * a_min`` (paper Sec.
     2.2 limits, [-6, 3] m/s^2). Steering is ``u_s * steer_max`` (30 deg)."""
-    action = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+    action = uclip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
     ua, us = action[..., 0], action[..., 1]
     a = np.where(ua >= 0, ua * a_max, -ua * a_min)
     return a, us * steer_max
@@ -86,7 +87,7 @@ def controls_to_action(a, phi, a_min=-6.0, a_max=3.0, steer_max=math.radians(30.
     """Inverse of :func:`action_to_controls` (clipped to the limits)."""
     a = np.asarray(a, dtype=np.float64)
     ua = np.where(a >= 0, a / a_max, -a / a_min)
-    return np.clip(np.stack([ua, np.asarray(phi) / steer_max], axis=-1), -1.0, 1.0)
+    return uclip(np.stack([ua, np.asarray(phi) / steer_max], axis=-1), -1.0, 1.0)
 
 
 def check_actions(actions, agents) -> np.ndarray:
@@ -121,7 +122,7 @@ def check_actions(actions, agents) -> np.ndarray:
             raise ValueError(f"action of {who} = {np.asarray(arr).tolist()} holds NaN or inf; allowed: finite values "
                              f"in [-1, 1]")
         out[i] = arr
-    np.clip(out, -1.0, 1.0, out=out)
+    uclip(out, -1.0, 1.0, out=out)
     return out
 
 
@@ -177,7 +178,7 @@ class ContinuousAction(ActionType):
     def controls(self, rows, actions) -> np.ndarray:
         if not len(rows):
             return np.zeros((0, 2))
-        return np.clip(_rows(actions), -1.0, 1.0)
+        return uclip(_rows(actions), -1.0, 1.0)
 
     def expert_action(self, expert_row):
         return np.asarray(expert_row, dtype=np.float32)
@@ -203,7 +204,7 @@ class FormationResidual(ContinuousAction):
         if not len(rows):
             return np.zeros((0, 2))
         ex = np.asarray(self.env.expert_actions(), dtype=np.float64)[rows]
-        return np.clip(ex + self.bound * np.clip(_rows(actions), -1.0, 1.0), -1.0, 1.0)
+        return uclip(ex + self.bound * uclip(_rows(actions), -1.0, 1.0), -1.0, 1.0)
 
     def expert_action(self, expert_row):
         return np.zeros(2, dtype=np.float32)

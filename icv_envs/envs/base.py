@@ -35,6 +35,7 @@ from highway_env.envs.common.abstract import AbstractEnv
 
 from icv_envs.envs.actions import ContinuousAction, action_factory, action_to_controls, check_actions
 from icv_envs.envs.observations import observation_factory
+from icv_envs.sim._ufuncs import clip as uclip
 
 __all__ = ["IcvAgentsEnv", "check_actions"]
 
@@ -425,7 +426,7 @@ class IcvAgentsEnv(AbstractEnv):
             more = f" (and {len(bad) - 1} more: {bad[1:10]}{' ...' if len(bad) > 10 else ''})" if len(bad) > 1 else ""
             raise ValueError(f"action of {bad[0]} = {arr[~finite][0].tolist()} holds NaN or inf{more}; "
                              f"allowed: finite values in [-1, 1]")
-        return np.clip(arr, -1.0, 1.0)
+        return uclip(arr, -1.0, 1.0)
 
     # ------------------------------------------- array -> PettingZoo dicts
     # The env builds observations, rewards and infos as arrays over its rows;

@@ -39,6 +39,7 @@ from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
 from icv_envs.sim._kernels import nearest_along_road
+from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.road import Obstacle, OffRamp, OnRamp, RoadLayout
 from icv_envs.sim.world import StepEvents, World
@@ -507,7 +508,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             if has.any():
                 F[has, 11] = road.exit_ahead(tr.exit[has], cx[has]) / 1000.0
         lane = road.lane_of(cy)
-        F[:, 12] = np.clip((road.interval_end(lane, cx) - cx) / 200.0, 0.0, 1.0)
+        F[:, 12] = uclip((road.interval_end(lane, cx) - cx) / 200.0, 0.0, 1.0)
         return F
 
     def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
@@ -548,7 +549,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         progress = tr.speed[rows] / vmax
         gap, _ = w.own_lane_gaps()
         headway = 2.0 + tr.speed * 1.0
-        safety = -np.clip(1.0 - gap[rows] / headway[rows], 0.0, 1.0)
+        safety = -uclip(1.0 - gap[rows] / headway[rows], 0.0, 1.0)
         safety = np.where(crashed_now, -1.0, safety)
         ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
         comfort = -0.5 * (ua[:, 0] ** 2 + ua[:, 1] ** 2)
@@ -574,7 +575,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             slot_of = {name: i for i, name in enumerate(slots)}
             idx = np.array([slot_of.get(f"icv_{v}", -1) for v in tr.vid])
             ok = idx >= 0
-            out[idx[ok]] = np.clip(F[ok] / scale, -1, 1)
+            out[idx[ok]] = uclip(F[ok] / scale, -1, 1)
         return out
 
     # ------------------------------------------------------------------ expert

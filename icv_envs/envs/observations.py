@@ -53,6 +53,7 @@ import numpy as np
 from gymnasium import spaces
 
 from icv_envs.envs._config import pick_type, typed_options
+from icv_envs.sim._ufuncs import clip as uclip
 
 __all__ = ["OBSERVATION_TYPES", "Kinematics", "OccupancyGrid", "observation_factory", "merge_observation_config"]
 
@@ -128,7 +129,7 @@ class Kinematics(ObservationType):
         if self.normalize:
             own = own / s_abs
             if self.clip:
-                own = np.clip(own, -1, 1)
+                own = uclip(own, -1, 1)
         out[:, 0, :] = own[:, self.idx]
         n = len(F)
         if V > 1 and n > 1:
@@ -141,7 +142,7 @@ class Kinematics(ObservationType):
             if self.normalize:
                 other = other / (s_abs if self.absolute else s_rel)
                 if self.clip:
-                    other = np.clip(other, -1, 1)
+                    other = uclip(other, -1, 1)
             other[~present] = 0.0
             out[:, 1:1 + K, :] = other[..., self.idx]
         return out
@@ -209,7 +210,7 @@ class OccupancyGrid(ObservationType):
             cx, cy = ix[o, j], iy[o, j]
             vals = np.stack([np.ones(len(o)), vx[o, j] / vmax2, vy[o, j] / vmax2, ch[o, j], sh[o, j]], axis=1)
             if self.clip:
-                vals = np.clip(vals, -1, 1)
+                vals = uclip(vals, -1, 1)
             out[o[:, None], np.arange(len(self.FEATURES))[None, :], cx[:, None], cy[:, None]] = vals
         return out[:, self.idx]
 

@@ -47,6 +47,7 @@ import numpy as np
 
 from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steering, lane_change_lateral
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback
+from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.sim.traffic import LAT_ACCEL_MAX, followers, idm_acceleration, leaders
 
 
@@ -150,7 +151,7 @@ class FormationExpert:
         p = self.p
         if p.lane_speeds is not None:
             table = np.asarray(p.lane_speeds, dtype=np.float64)
-            return table[np.clip(lane, 0, len(table) - 1)]
+            return table[uclip(lane, 0, len(table) - 1)]
         return np.where((lane == road.n_lanes) & road.has_ramp_lane, p.ramp_speed, p.desired_speed)
 
     def _desired_lanes(self, world, desired, lane, member, exiting, cx, v, index) -> np.ndarray:
@@ -165,7 +166,7 @@ class FormationExpert:
         p = self.p
         ua = np.where(a >= 0, a / p.a_max, -a / p.a_min)
         us = phi / p.steer_max
-        return np.clip(np.stack([ua, us], axis=1), -1.0, 1.0)
+        return uclip(np.stack([ua, us], axis=1), -1.0, 1.0)
 
     def compute(self, world) -> np.ndarray:
         p = self.p
@@ -255,10 +256,10 @@ class FormationExpert:
             w_rows = np.flatnonzero(want)
             nxt = lane[w_rows] + np.sign(desired[w_rows] - lane[w_rows])
             vw = v[w_rows]
-            length = np.clip(vw * p.lc_duration, p.lc_min_length, p.lc_max_length)
+            length = uclip(vw * p.lc_duration, p.lc_min_length, p.lc_max_length)
             xw = cx[w_rows]
             ok = (nxt >= 0) & (nxt < n_tot)
-            nxt = np.clip(nxt, 0, n_tot - 1)
+            nxt = uclip(nxt, 0, n_tot - 1)
             # the target lane must exist now; the body centre crosses the lane
             # line half way along the curve, which must come before the own
             # lane ends (half a body length to spare); and the manoeuvre plus
@@ -453,5 +454,5 @@ class FormationExpert:
         cap = np.full(n, np.inf)
         np.minimum.at(cap, q_rows, safe)
         acc = np.minimum(acc, cap)
-        acc = np.clip(acc, p.a_min, p.a_max)
+        acc = uclip(acc, p.a_min, p.a_max)
         return self._normalise(acc, phi)

@@ -61,6 +61,7 @@ from icv_envs.formation.control import (
 )
 from icv_envs.formation.targets import formation_targets
 from icv_envs.sim._kernels import drivable_lane_bits, segment_max
+from icv_envs.sim._ufuncs import clip as uclip
 
 __all__ = ["FormationManager"]
 
@@ -193,7 +194,7 @@ class FormationManager:
         lim = self.profile_limits
         d0 = road.wrap(cx[rows] - self._slot_x(traffic, rows))
         v0 = traffic.speed[rows] - self.speed
-        a0 = np.clip(traffic.accel[rows], -lim["decel"], lim["accel"])
+        a0 = uclip(traffic.accel[rows], -lim["decel"], lim["accel"])
         T = join_duration(d0, v0, a0, **lim, v_lo=self.profile_speeds[0] - self.speed,
                           v_hi=self.profile_speeds[1] - self.speed, max_duration=JOIN_MAX_DURATION)
         # no duration keeps a quintic inside the speed band when the member

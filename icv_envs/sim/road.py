@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from icv_envs.sim._kernels import interval_ends, lanes_available
+from icv_envs.sim._ufuncs import clip as uclip
 
 __all__ = ["OnRamp", "OffRamp", "Obstacle", "RoadLayout"]
 
@@ -154,7 +155,7 @@ class RoadLayout:
 
     def lane_of(self, y) -> np.ndarray:
         """Lane index whose centre is nearest to lateral position ``y``."""
-        return np.clip(np.rint(np.asarray(y) / self.lane_width), 0, self.total_lanes - 1).astype(np.int64)
+        return uclip(np.rint(np.asarray(y) / self.lane_width), 0, self.total_lanes - 1).astype(np.int64)
 
     # ---------------------------------------------------------------- ring
     def mod(self, x) -> np.ndarray:
