@@ -182,6 +182,13 @@ class IcvAgentsEnv(AbstractEnv):
         """Longitudinal differences as the observer sees them (round a ring)."""
         return dx
 
+    def _wrap_period(self) -> float | None:
+        """``-1.0`` when :meth:`_wrap_dx` is the identity, the ring's length
+        when it folds onto ``[-L/2, L/2)`` as ``RoadLayout.wrap`` does, or
+        ``None`` for any other fold (the observation then takes its array
+        path)."""
+        return -1.0 if type(self)._wrap_dx is IcvAgentsEnv._wrap_dx else None
+
     def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
         """Observations of the vehicles at traffic ``rows`` (the observation type's layout)."""
         rows = np.asarray(rows, dtype=np.int64)

@@ -525,6 +525,12 @@ class HighwayFormationEnv(IcvAgentsEnv):
     def _wrap_dx(self, dx):
         return self.world.road.wrap(dx)
 
+    def _wrap_period(self) -> float | None:
+        if type(self)._wrap_dx is not HighwayFormationEnv._wrap_dx:
+            return None  # a subclass folds differently: the array path
+        road = self.world.road
+        return float(road.length) if road.periodic else -1.0
+
     def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
         """The ``K`` nearest vehicles by longitudinal distance within ``pd``
         (round the ring each vehicle at most once), nearest first; ties: rear first."""

@@ -53,6 +53,7 @@ import numpy as np
 from gymnasium import spaces
 
 from icv_envs.envs._config import pick_type, typed_options
+from icv_envs.sim._kernels import kinematics_rows
 from icv_envs.sim._ufuncs import clip as uclip
 
 __all__ = ["OBSERVATION_TYPES", "Kinematics", "OccupancyGrid", "observation_factory", "merge_observation_config"]
@@ -121,19 +122,31 @@ class Kinematics(ObservationType):
     def observe_rows(self, rows: np.ndarray, F: np.ndarray) -> np.ndarray:
         env = self.env
         V = self.V
-        out = np.zeros((len(rows), V, len(self.idx)), dtype=np.float32)
         if not len(rows):
-            return out
+            return np.zeros((0, V, len(self.idx)), dtype=np.float32)
         s_abs, s_rel = env._obs_scales()
+        n = len(F)
+        if V > 1 and n > 1:
+            sel, present = env._neighbours(rows, F, V - 1, self.pd)
+        else:
+            sel, present = np.zeros((len(rows), 0), dtype=np.int64), np.zeros((len(rows), 0), dtype=bool)
+        period = env._wrap_period()
+        if period is not None:
+            # compiled (icv_envs.sim._kernels.kinematics_rows): the array
+            # code below, one pass
+            f = np.float64
+            return kinematics_rows(np.ascontiguousarray(F, dtype=f), np.asarray(rows, dtype=np.int64),
+                                   np.asarray(sel, dtype=np.int64), np.asarray(present, dtype=bool), self.idx, V,
+                                   np.asarray(s_abs, dtype=f), np.asarray(s_rel, dtype=f), self.absolute,
+                                   self.normalize, self.clip, float(period))
+        out = np.zeros((len(rows), V, len(self.idx)), dtype=np.float32)
         own = F[rows]
         if self.normalize:
             own = own / s_abs
             if self.clip:
                 own = uclip(own, -1, 1)
         out[:, 0, :] = own[:, self.idx]
-        n = len(F)
-        if V > 1 and n > 1:
-            sel, present = env._neighbours(rows, F, V - 1, self.pd)
+        if sel.shape[1]:
             K = sel.shape[1]
             other = F[sel].copy()
             if not self.absolute:

@@ -47,7 +47,7 @@ __all__ = ["sweep_candidates", "segment_max", "drivable_lane_bits", "npy_mod", "
            "pairwise_sum", "motion_record", "collision_pairs",
            "build_lane_index", "leader_rows", "headway_record",
            "nearest_along_road", "interval_ends", "pet_transitions",
-           "lanes_available"]
+           "lanes_available", "kinematics_rows"]
 
 
 @nb.njit(cache=True)
@@ -816,4 +816,51 @@ def lanes_available(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
                 if xi >= ramp_iv[r, 0] and xi <= ramp_iv[r, 1]:
                     out[i] = True
                     break
+    return out
+
+
+@nb.njit(cache=True)
+def kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, normalize, clip, period):
+    """The ``Kinematics`` observation
+    (:meth:`icv_envs.envs.observations.Kinematics.observe_rows`) compiled:
+    row 0 the observer's own features (``F[rows]``), rows ``1..K`` its
+    neighbours ``sel`` (zeros where not ``present``); unless ``absolute``,
+    a neighbour's x, y, vx, vy (columns 1-4) relative to the observer's,
+    its dx folded round a ring of length ``period`` (``period <= 0``: no
+    ring); with ``normalize`` divided by ``s_abs`` (own row, absolute) or
+    ``s_rel``, with ``clip`` clipped to [-1, 1]; the columns ``idx``, as
+    float32 in a ``(len(rows), V, len(idx))`` array (slots past ``K``
+    zeros). The same float64 operations as the array code, then one
+    rounding to float32."""
+    m = rows.shape[0]
+    J = idx.shape[0]
+    K = sel.shape[1]
+    out = np.zeros((m, V, J), dtype=np.float32)
+    half = 0.5 * period
+    for r in range(m):
+        o = rows[r]
+        for j in range(J):
+            val = F[o, idx[j]]
+            if normalize:
+                val = val / s_abs[idx[j]]
+                if clip:
+                    val = min(max(val, -1.0), 1.0)
+            out[r, 0, j] = val
+        for q in range(K):
+            if not present[r, q]:
+                continue
+            c = sel[r, q]
+            for j in range(J):
+                f = idx[j]
+                val = F[c, f]
+                if not absolute:
+                    if f >= 1 and f <= 4:
+                        val = val - F[o, f]
+                    if f == 1 and period > 0.0:
+                        val = npy_mod(val + half, period) - half
+                if normalize:
+                    val = val / (s_abs[f] if absolute else s_rel[f])
+                    if clip:
+                        val = min(max(val, -1.0), 1.0)
+                out[r, 1 + q, j] = val
     return out
