@@ -138,7 +138,8 @@ class FormationManager:
         self._cap = 0
         for name in ("_slot_gid", "_p_stamp"):
             setattr(self, name, np.zeros(0, dtype=np.int64))
-        for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline"):
+        for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline", "_p_fd", "_p_fv",
+                     "_p_fa"):
             setattr(self, name, np.zeros(0))
 
     # ---------------------------------------------------------------- helpers
@@ -168,9 +169,14 @@ class FormationManager:
         pad = new - self._cap
         self._slot_gid = np.concatenate([self._slot_gid, np.full(pad, -1, dtype=np.int64)])
         self._p_stamp = np.concatenate([self._p_stamp, np.zeros(pad, dtype=np.int64)])
-        for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline"):
+        for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline", "_p_fd", "_p_fv",
+                     "_p_fa"):
             setattr(self, name, np.concatenate([getattr(self, name), np.zeros(pad)]))
         self._p_T[self._cap:] = 1.0
+        # the profile's values once it has ended (t >= T), of the default plan
+        one, zero = np.ones(1), np.zeros(1)
+        fd, fv, fa = join_profile(one, one, zero, zero, zero)
+        self._p_fd[self._cap:], self._p_fv[self._cap:], self._p_fa[self._cap:] = fd[0], fv[0], fa[0]
         self._cap = new
 
     def _slot_x(self, traffic, rows) -> np.ndarray:
@@ -210,6 +216,10 @@ class FormationManager:
             T[stuck] = join_duration(d0[stuck], v0[stuck], a0[stuck], **lim)
         self._p_t0[vid], self._p_T[vid] = self.time, T
         self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
+        # the profile's values once it has ended (evaluated at t = T, where
+        # every later time is clamped to: the same numbers _profile would get)
+        T = np.asarray(T, dtype=np.float64)
+        self._p_fd[vid], self._p_fv[vid], self._p_fa[vid] = join_profile(T, T, d0, v0, a0)
         self.plans += len(rows)
         self._p_stamp[vid] = self.plans  # (which cached profiles this plan makes stale: _profile)
         return T
@@ -232,18 +242,28 @@ class FormationManager:
             stale = np.flatnonzero(self._p_stamp[vid] > c[1])
             out = tuple(arr.copy() for arr in c[2])
             if len(stale):
-                sv = vid[stale]
-                part = join_profile(self.time - self._p_t0[sv], self._p_T[sv], self._p_d0[sv], self._p_v0[sv],
-                                    self._p_a0[sv])
-                for arr, p in zip(out, part):
+                for arr, p in zip(out, self._eval_profiles(vid[stale])):
                     arr[stale] = p
         else:
-            out = join_profile(self.time - self._p_t0[vid], self._p_T[vid], self._p_d0[vid], self._p_v0[vid],
-                               self._p_a0[vid])
+            out = self._eval_profiles(vid)
         for arr in out:
             arr.flags.writeable = False
         self._profile_cache = (key, self.plans, out)
         return out
+
+    def _eval_profiles(self, vid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``join_profile`` of vehicles ``vid`` now: evaluated for the plans
+        still running, the stored end values for those that have ended
+        (``t >= T``: the quintic is evaluated at ``T`` then, so the values
+        are the same numbers; ``_plan`` stores them)."""
+        t = self.time - self._p_t0[vid]
+        T = self._p_T[vid]
+        run = np.flatnonzero(t < T)
+        d, v, a = self._p_fd[vid], self._p_fv[vid], self._p_fa[vid]
+        if len(run):
+            rv = vid[run]
+            d[run], v[run], a[run] = join_profile(t[run], T[run], self._p_d0[rv], self._p_v0[rv], self._p_a0[rv])
+        return d, v, a
 
     def create(self, traffic, rows, road, anchor: float | None = None) -> int:
         """Make a new formation of vehicles ``rows`` and assign them targets."""
