@@ -699,7 +699,7 @@ def test_available_equals_the_numpy_code(n, ramp, periodic, seed):
     from icv_envs.sim.road import OnRamp
 
     rng = np.random.default_rng(seed)
-    obstacles = [Obstacle(int(rng.integers(0, 3)), float(rng.uniform(0, 2_000)), 4.0) for _ in range(rng.integers(0, 4))]
+    obstacles = [Obstacle(int(rng.integers(0, 3)), float(rng.uniform(10, 1_990)), 4.0) for _ in range(rng.integers(0, 4))]
     ends = np.full(3, np.inf) if periodic else np.where(rng.random(3) < 0.4, rng.uniform(0, 2_000, 3), np.inf)
     road = RoadLayout(3, 2_000.0, 4.0, ends, [OnRamp(300.0, 500.0)] if ramp else [], [], obstacles, periodic=periodic)
     lane = rng.integers(-1, 5, (n, 3))

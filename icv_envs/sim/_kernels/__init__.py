@@ -1,0 +1,65 @@
+"""Compiled inner loops of the simulation core (numba, ``@njit(cache=True)``).
+
+What lives here: the loops that array operations cannot express without
+Python-level iteration (the collision sweep, which stops at the first
+sort-order offset with no pair in reach; the formation layer's segment
+reductions and drivable-lane windows), and the per-step work whose cost was
+the Python overhead of tens of small numpy calls rather than arithmetic
+(issue 10): the fused physics substep (:func:`kinematic_substep`,
+:func:`road_check`), the run statistics (:func:`motion_record`,
+:func:`headway_record`), collision detection as a whole
+(:func:`collision_pairs`), the lane-sorted index and leader search
+(:func:`build_lane_index`, :func:`leader_rows`) and the observation's
+neighbour search (:func:`nearest_along_road`). They take and return plain
+arrays (no Python objects inside), and they perform the same IEEE-754
+operations, in the same order, as the numpy code they replace (reductions
+included: :func:`pairwise_sum` is NumPy's own summation order), so
+trajectories stay bit-identical (``tests/test_trajectory_hash.py``; each
+kernel is also tested against the numpy code it replaced in
+``tests/test_kernels.py``). Floating-point reassociation (``fastmath``) is
+off for the same reason.
+
+Transcendental functions (``sin``, ``cos``, ``tan``, ``atan``) come from
+libm here, as in NumPy's float64 loops up to AVX2 (``X86_V3``), the level
+the reference fingerprints are pinned at. On an AVX-512 machine NumPy takes
+``tan`` and ``atan`` from its SIMD library, which can round the last bit
+differently; there the compiled substep's ``tan`` and ``atan`` are libm's
+(as on an AVX2 machine), not NumPy's SIMD ones. On the development machine
+(AVX-512) the 600 s ring run (HighwayRamps, formation method, VGR 1/3,
+seed 0) gave identical run metrics before and after the change.
+
+Why numba: the loops are short, data-dependent and branchy (early exits,
+variable-length outputs), which is what a JIT compiles well and what numpy
+vectorisation cannot do without materialising every candidate; ``cache=True``
+keeps the compiled code on disk, so only the first import on a machine pays
+the compile time (a few seconds). numba's cache does not hold recursive
+functions, so :func:`pairwise_sum` runs its halving on an explicit stack.
+"""
+
+from __future__ import annotations
+
+from icv_envs.sim._kernels.formation import segment_max, drivable_lane_bits
+from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows
+from icv_envs.sim._kernels.observation import nearest_along_road, kinematics_rows
+from icv_envs.sim._kernels.physics import npy_mod, kinematic_substep, road_check, interval_ends, lanes_available
+from icv_envs.sim._kernels.stats import pairwise_sum, motion_record, headway_record, pet_transitions
+
+__all__ = [
+    "npy_mod",
+    "kinematic_substep",
+    "road_check",
+    "interval_ends",
+    "lanes_available",
+    "sweep_candidates",
+    "collision_pairs",
+    "build_lane_index",
+    "leader_rows",
+    "nearest_along_road",
+    "kinematics_rows",
+    "pairwise_sum",
+    "motion_record",
+    "headway_record",
+    "pet_transitions",
+    "segment_max",
+    "drivable_lane_bits",
+]

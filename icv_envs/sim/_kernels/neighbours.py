@@ -1,0 +1,265 @@
+"""Who is near whom, compiled: the collision sweep and the whole
+collision detection, the lane-sorted index and its leader search (the
+rules every kernel here follows: :mod:`icv_envs.sim._kernels`)."""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+__all__ = ["sweep_candidates", "collision_pairs", "build_lane_index", "leader_rows"]
+
+
+@nb.njit(cache=True)
+def sweep_candidates(xs, ys, hxs, hys, reach):
+    """Broad phase of :func:`icv_envs.sim.traffic.find_collisions` over
+    vehicles sorted by ``xs``: pairs ``(a, a + k)`` whose axis-aligned
+    bounding boxes overlap, for ``k = 1, 2, ...`` until no pair ``k`` places
+    apart is closer in ``x`` than ``reach``. Returns the sorted positions
+    ``a`` and the offsets ``k``, ordered by ``k`` then ``a``."""
+    n = xs.shape[0]
+    cap = 2 * n + 16
+    out_a = np.empty(cap, dtype=np.int64)
+    out_k = np.empty(cap, dtype=np.int64)
+    m = 0
+    for k in range(1, n):
+        any_near = False
+        for a in range(n - k):
+            dx = xs[a + k] - xs[a]
+            if dx < reach:
+                any_near = True
+                if dx < hxs[a + k] + hxs[a] and abs(ys[a + k] - ys[a]) < hys[a + k] + hys[a]:
+                    if m == cap:
+                        cap *= 2
+                        na = np.empty(cap, dtype=np.int64)
+                        nk = np.empty(cap, dtype=np.int64)
+                        na[:m] = out_a[:m]
+                        nk[:m] = out_k[:m]
+                        out_a, out_k = na, nk
+                    out_a[m] = a
+                    out_k[m] = k
+                    m += 1
+        if not any_near:
+            break
+    return out_a[:m], out_k[:m]
+
+
+@nb.njit(cache=True, inline="always")
+def _rect_overlap(c1x, c1y, h1, l1, w1, c2x, c2y, h2, l2, w2):
+    """:func:`icv_envs.sim.traffic.rect_overlap` for one pair (same operations)."""
+    dx = c2x - c1x
+    dy = c2y - c1y
+    u1x = math.cos(h1)
+    u1y = math.sin(h1)
+    u2x = math.cos(h2)
+    u2y = math.sin(h2)
+    for k in range(4):
+        if k == 0:
+            ax, ay = u1x, u1y
+        elif k == 1:
+            ax, ay = -u1y, u1x
+        elif k == 2:
+            ax, ay = u2x, u2y
+        else:
+            ax, ay = -u2y, u2x
+        d = abs(dx * ax + dy * ay)
+        r1 = 0.5 * l1 * abs(ax * u1x + ay * u1y) + 0.5 * w1 * abs(-ax * u1y + ay * u1x)
+        r2 = 0.5 * l2 * abs(ax * u2x + ay * u2y) + 0.5 * w2 * abs(-ax * u2y + ay * u2x)
+        if not d < r1 + r2:
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def _collision_pairs_line(cx, cy, heading, length, width):
+    n = cx.shape[0]
+    hx = np.empty(n)
+    hy = np.empty(n)
+    for q in range(n):
+        c = abs(math.cos(heading[q]))
+        s = abs(math.sin(heading[q]))
+        hx[q] = 0.5 * (length[q] * c + width[q] * s)
+        hy[q] = 0.5 * (length[q] * s + width[q] * c)
+    order = np.argsort(cx, kind="mergesort")
+    xs = cx[order]
+    ys = cy[order]
+    hxs = hx[order]
+    hys = hy[order]
+    reach = 2.0 * hxs.max()
+    a, k = sweep_candidates(xs, ys, hxs, hys, reach)
+    out_i = np.empty(a.shape[0], dtype=np.int64)
+    out_j = np.empty(a.shape[0], dtype=np.int64)
+    m = 0
+    for p in range(a.shape[0]):
+        i = order[a[p]]
+        j = order[a[p] + k[p]]
+        if _rect_overlap(cx[i], cy[i], heading[i], length[i], width[i], cx[j], cy[j], heading[j], length[j],
+                         width[j]):
+            out_i[m] = i
+            out_j[m] = j
+            m += 1
+    return out_i[:m], out_j[:m]
+
+
+@nb.njit(cache=True)
+def collision_pairs(cx, cy, heading, length, width, period):
+    """:func:`icv_envs.sim.traffic.find_collisions` compiled whole: the
+    sweep-and-prune broad phase over the x order (stable sort), the
+    separating-axis test on the candidates, and on a ring (``period > 0``)
+    the ghosts one lap on of the vehicles near the seam, with the pairs
+    mapped back to rows, deduplicated as ``(min, max)`` and sorted. Same
+    pairs in the same order as the numpy code."""
+    n = cx.shape[0]
+    if n < 2:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    if period > 0.0:
+        lim = 2.0 * length.max() + 1.0
+        nn = 0
+        for q in range(n):
+            if cx[q] < lim:
+                nn += 1
+        if nn:
+            idx = np.empty(n + nn, dtype=np.int64)
+            ex = np.empty(n + nn)
+            for q in range(n):
+                idx[q] = q
+                ex[q] = cx[q]
+            p = n
+            for q in range(n):
+                if cx[q] < lim:
+                    idx[p] = q
+                    ex[p] = cx[q] + period
+                    p += 1
+            gi, gj = _collision_pairs_line(ex, cy[idx], heading[idx], length[idx], width[idx])
+            keys = np.empty(gi.shape[0], dtype=np.int64)
+            m = 0
+            for p in range(gi.shape[0]):
+                a = idx[gi[p]]
+                b = idx[gj[p]]
+                if a != b:
+                    keys[m] = min(a, b) * n + max(a, b)
+                    m += 1
+            keys = np.unique(keys[:m])
+            return keys // n, keys % n
+    return _collision_pairs_line(cx, cy, heading, length, width)
+
+
+@nb.njit(cache=True)
+def build_lane_index(cx, cy, width, length, heading, footprint, lane_width, n_lanes, reserved_lane, periodic,
+                     road_length, ghost):
+    """:func:`icv_envs.sim.traffic.lane_index` compiled: the (row, lane)
+    pairs of :func:`~icv_envs.sim.traffic.occupied_lanes` (offsets -1, 0, +1
+    from the nearest lane, each pass in row order; the rotated footprint
+    when ``footprint``), then the reserved lanes not already listed
+    (``reserved_lane[i]`` in ``[0, n_lanes)``; an empty array for none),
+    then on a ring the ghosts within ``ghost`` of the seam, sorted by
+    ``key = lane * offset + x`` (stable). Returns ``(keys, rows, lanes, x,
+    offset)``, the fields of :class:`~icv_envs.sim.traffic.LaneIndex`."""
+    n = cx.shape[0]
+    cap = 3 * n + n
+    rows = np.empty(cap, dtype=np.int64)
+    lanes = np.empty(cap, dtype=np.int64)
+    base = np.empty(n, dtype=np.int64)
+    reach = np.empty(n)
+    for i in range(n):
+        base[i] = np.int64(np.rint(cy[i] / lane_width))
+        if footprint:
+            half = 0.5 * (length[i] * abs(math.sin(heading[i])) + width[i] * abs(math.cos(heading[i])))
+        else:
+            half = 0.5 * width[i]
+        reach[i] = 0.5 * lane_width + half - 0.0
+    m = 0
+    for d in (-1, 0, 1):
+        for i in range(n):
+            lane = base[i] + d
+            if lane >= 0 and lane < n_lanes and abs(cy[i] - lane * lane_width) < reach[i]:
+                rows[m] = i
+                lanes[m] = lane
+                m += 1
+    m_occ = m
+    for i in range(reserved_lane.shape[0]):
+        r = reserved_lane[i]
+        if r >= 0 and r < n_lanes:
+            dup = False
+            for q in range(m_occ):
+                if rows[q] == i and lanes[q] == r:
+                    dup = True
+                    break
+            if not dup:
+                rows[m] = i
+                lanes[m] = r
+                m += 1
+    xs = np.empty(m)
+    for q in range(m):
+        xs[q] = cx[rows[q]]
+    if periodic and m:
+        L = road_length
+        g = min(ghost, 0.5 * L)
+        n_lo = 0
+        n_hi = 0
+        for q in range(m):
+            if xs[q] < g:
+                n_lo += 1
+            if xs[q] > L - g:
+                n_hi += 1
+        tot = m + n_lo + n_hi
+        r2 = np.empty(tot, dtype=np.int64)
+        l2 = np.empty(tot, dtype=np.int64)
+        x2 = np.empty(tot)
+        r2[:m] = rows[:m]
+        l2[:m] = lanes[:m]
+        x2[:m] = xs
+        p = m
+        for q in range(m):
+            if xs[q] < g:
+                r2[p] = rows[q]
+                l2[p] = lanes[q]
+                x2[p] = xs[q] + L
+                p += 1
+        for q in range(m):
+            if xs[q] > L - g:
+                r2[p] = rows[q]
+                l2[p] = lanes[q]
+                x2[p] = xs[q] - L
+                p += 1
+        rows_f, lanes_f, xs_f = r2, l2, x2
+    else:
+        rows_f, lanes_f, xs_f = rows[:m].copy(), lanes[:m].copy(), xs
+    offset = 4.0 * (abs(road_length) + 1e4)
+    k = rows_f.shape[0]
+    keys = np.empty(k)
+    for q in range(k):
+        keys[q] = lanes_f[q] * offset + xs_f[q]
+    order = np.argsort(keys, kind="mergesort")
+    return keys[order], rows_f[order], lanes_f[order], xs_f[order], offset
+
+
+@nb.njit(cache=True)
+def leader_rows(keys, i_rows, i_lanes, i_x, offset, q_rows, q_lanes, cx):
+    """:func:`icv_envs.sim.traffic.leaders` compiled: per query, the first
+    entry at or after ``q_lane * offset + cx[q_row]`` in the index that is
+    in the query's lane and is not the vehicle itself (its own entry is
+    skipped; at most 3 entries are looked at, as in the numpy code).
+    Returns the leader rows (-1: none) and their unfolded positions
+    (``inf``: none)."""
+    nq = q_rows.shape[0]
+    out = np.full(nq, -1, dtype=np.int64)
+    xo = np.full(nq, np.inf)
+    nk = keys.shape[0]
+    if nk == 0:
+        return out, xo
+    for q in range(nq):
+        ql = q_lanes[q]
+        qr = q_rows[q]
+        pos = np.searchsorted(keys, ql * offset + cx[qr])
+        for j in range(3):
+            p = pos + j
+            if p >= nk or i_lanes[p] != ql:
+                break
+            if i_rows[p] != qr:
+                out[q] = i_rows[p]
+                xo[q] = i_x[p]
+                break
+    return out, xo

@@ -1,0 +1,195 @@
+"""The physics substep and the road surface, compiled: the bicycle-model
+integration fused with the standing time and the body centres, the
+drivable-surface and road-end check, lane interval ends and availability
+(the rules every kernel here follows: :mod:`icv_envs.sim._kernels`)."""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+__all__ = ["npy_mod", "kinematic_substep", "road_check", "interval_ends", "lanes_available"]
+
+
+@nb.njit(cache=True, inline="always")
+def npy_mod(a, b):
+    """``numpy.mod`` of two floats, NumPy's own algorithm (``npy_divmod``):
+    ``fmod`` then a shift by ``b`` when the signs differ, ``+0`` with the
+    sign of ``b`` for an exact multiple."""
+    m = np.fmod(a, b)
+    if m != 0.0:
+        if (b < 0.0) != (m < 0.0):
+            m += b
+    else:
+        m = math.copysign(0.0, b)
+    return m
+
+
+@nb.njit(cache=True)
+def kinematic_substep(x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase, lat_accel_max,
+                      dt, v_max, period):
+    """One forward-Euler step of the rear-axle kinematic bicycle model for
+    every vehicle, fused (:meth:`icv_envs.sim.world.World.substep` with
+    :meth:`icv_envs.sim.traffic.Traffic.step` and
+    :func:`icv_envs.sim.traffic.limit_steering`, paper Sec. 2.2): a crashed
+    vehicle brakes at -6 m/s^2 with the wheels straight; the steering angle
+    is limited by the lateral acceleration ``v^2 tan(phi) / L <=
+    lat_accel_max`` (``lat_accel_max < 0``: no limit); speed is kept in
+    ``[0, v_max]``; ``x`` is folded onto a ring of length ``period``
+    (``period <= 0``: no ring). Also the standing time (speed < 0.1 m/s)
+    and the body centres of the new state (``wheelbase / 2`` ahead of the
+    rear axle, ``cx`` folded on a ring), as :meth:`Traffic.center`.
+
+    Returns ``(x, y, heading, speed, accel, steer, stopped_for, cx, cy)``
+    as new arrays (the inputs are not touched)."""
+    n = x.shape[0]
+    nx = np.empty(n)
+    ny = np.empty(n)
+    nh = np.empty(n)
+    nv = np.empty(n)
+    na = np.empty(n)
+    ns = np.empty(n)
+    nst = np.empty(n)
+    cx = np.empty(n)
+    cy = np.empty(n)
+    lat_wb = lat_accel_max * wheelbase
+    half = 0.5 * wheelbase
+    for i in range(n):
+        a = accel[i]
+        s = steer[i]
+        if crashed[i]:
+            a = -6.0
+            s = 0.0
+        v = speed[i]
+        if lat_accel_max >= 0.0:
+            v2 = max(v * v, 1e-9)
+            pm = math.atan(lat_wb / v2)
+            s = min(max(s, -pm), pm)
+        h = heading[i]
+        xi = x[i] + v * math.cos(h) * dt
+        nyi = y[i] + v * math.sin(h) * dt
+        hi = h + v * math.tan(s) / wheelbase * dt
+        vi = min(max(v + a * dt, 0.0), v_max)
+        if period > 0.0:
+            xi = npy_mod(xi, period)
+        nx[i] = xi
+        ny[i] = nyi
+        nh[i] = hi
+        nv[i] = vi
+        na[i] = a
+        ns[i] = s
+        nst[i] = stopped_for[i] + dt if vi < 0.1 else 0.0
+        c = xi + half * math.cos(hi)
+        if period > 0.0:
+            c = npy_mod(c, period)
+        cx[i] = c
+        cy[i] = nyi + half * math.sin(hi)
+    return nx, ny, nh, nv, na, ns, nst, cx, cy
+
+
+@nb.njit(cache=True)
+def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, edge_margin,
+               road_end):
+    """Per vehicle: the lane whose centre is nearest
+    (:meth:`icv_envs.sim.road.RoadLayout.lane_of`) and whether the body
+    centre is off the drivable surface there: the lane is not available at
+    ``cx`` (:meth:`RoadLayout.available`: a main lane past its end or inside
+    an obstacle's interval, a ramp lane outside every ramp interval) or
+    more than ``lane_width / 2 + edge_margin`` beside the lane centre.
+    ``cx`` is already folded onto a ring. Also whether it has reached the
+    end of a straight road (``cx >= road_end``; ``inf`` on a ring), and
+    then it is not off the road. Returns ``(lane, off, at_end, n_off,
+    n_at_end)``."""
+    n = cx.shape[0]
+    lane = np.empty(n, dtype=np.int64)
+    off = np.empty(n, dtype=np.bool_)
+    at_end = np.empty(n, dtype=np.bool_)
+    n_off = 0
+    n_end = 0
+    for i in range(n):
+        li = np.rint(cy[i] / lane_width)
+        li = min(max(li, 0.0), total_lanes - 1.0)
+        ln = np.int64(li)
+        lane[i] = ln
+        x = cx[i]
+        ok = False
+        if ln < n_lanes:
+            ok = x >= 0.0 and x < lane_ends[ln]
+            if ok:
+                for o in range(ob_lane.shape[0]):
+                    if ob_lane[o] == ln and x >= ob_lo[o] and x <= ob_hi[o]:
+                        ok = False
+                        break
+        elif ln == n_lanes:
+            for r in range(ramp_iv.shape[0]):
+                if x >= ramp_iv[r, 0] and x <= ramp_iv[r, 1]:
+                    ok = True
+                    break
+        o = (not ok) or abs(cy[i] - ln * lane_width) > 0.5 * lane_width + edge_margin
+        e = x >= road_end
+        at_end[i] = e
+        off[i] = o and not e
+        n_off += off[i]
+        n_end += e
+    return lane, off, at_end, n_off, n_end
+
+
+@nb.njit(cache=True)
+def interval_ends(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """:meth:`icv_envs.sim.road.RoadLayout._interval_end` compiled, over
+    flat arrays: where the drivable stretch of ``lane`` containing (or
+    following) ``x`` ends. A main lane: its end, or the rear of the
+    nearest obstacle in it whose front is at or ahead of ``x``, whichever
+    comes first; the ramp lane (``n_lanes``): the end of the first ramp
+    interval whose end is at or ahead of ``x`` (``inf`` if none, ``-inf``
+    without ramps); any other lane: ``-inf``."""
+    n = lane.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        ln = lane[i]
+        xi = x[i]
+        if ln >= 0 and ln < n_lanes:
+            cand = np.inf
+            for o in range(ob_lane.shape[0]):
+                if ob_lane[o] == ln and ob_hi[o] >= xi and ob_lo[o] < cand:
+                    cand = ob_lo[o]
+            e = lane_ends[ln]
+            out[i] = e if e <= cand else cand
+        elif ln == n_lanes and ramp_iv.shape[0]:
+            cand = np.inf
+            for r in range(ramp_iv.shape[0]):
+                if ramp_iv[r, 1] >= xi and ramp_iv[r, 1] < cand:
+                    cand = ramp_iv[r, 1]
+            out[i] = cand
+        else:
+            out[i] = -np.inf
+    return out
+
+
+@nb.njit(cache=True)
+def lanes_available(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """:meth:`icv_envs.sim.road.RoadLayout.available` compiled, over flat
+    arrays (``x`` already folded onto a ring): a main lane from 0 to its end,
+    outside every obstacle's closed interval in it; the ramp lane
+    (``n_lanes``) inside a ramp interval (closed); any other lane never."""
+    n = lane.shape[0]
+    out = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        ln = lane[i]
+        xi = x[i]
+        if ln >= 0 and ln < n_lanes:
+            ok = xi >= 0.0 and xi < lane_ends[ln]
+            if ok:
+                for o in range(ob_lane.shape[0]):
+                    if ob_lane[o] == ln and xi >= ob_lo[o] and xi <= ob_hi[o]:
+                        ok = False
+                        break
+            out[i] = ok
+        elif ln == n_lanes:
+            for r in range(ramp_iv.shape[0]):
+                if xi >= ramp_iv[r, 0] and xi <= ramp_iv[r, 1]:
+                    out[i] = True
+                    break
+    return out
