@@ -32,7 +32,8 @@ Why numba: the loops are short, data-dependent and branchy (early exits,
 variable-length outputs), which is what a JIT compiles well and what numpy
 vectorisation cannot do without materialising every candidate; ``cache=True``
 keeps the compiled code on disk, so only the first import on a machine pays
-the compile time (a few seconds). numba's cache does not hold recursive
+the compile time (measured: a HighwayRamps reset and 20 steps took 19.5 s
+in a fresh checkout, 1.6 s once the cache was written). numba's cache does not hold recursive
 functions, so :func:`pairwise_sum` runs its halving on an explicit stack.
 """
 
