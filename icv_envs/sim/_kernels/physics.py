@@ -89,6 +89,26 @@ def kinematic_substep(x, y, heading, speed, accel, steer, crashed, stopped_for, 
     return nx, ny, nh, nv, na, ns, nst, cx, cy
 
 
+@nb.njit(cache=True, inline="always")
+def _available1(ln, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """Whether lane ``ln`` is drivable at ``x`` (folded onto a ring): a main
+    lane from 0 to its end, outside every obstacle's closed interval in it;
+    the ramp lane (``n_lanes``) inside a ramp interval (closed); any other
+    lane never. One vehicle of :func:`road_check` and :func:`lanes_available`."""
+    if ln >= 0 and ln < n_lanes:
+        if not (x >= 0.0 and x < lane_ends[ln]):
+            return False
+        for o in range(ob_lane.shape[0]):
+            if ob_lane[o] == ln and x >= ob_lo[o] and x <= ob_hi[o]:
+                return False
+        return True
+    if ln == n_lanes:
+        for r in range(ramp_iv.shape[0]):
+            if x >= ramp_iv[r, 0] and x <= ramp_iv[r, 1]:
+                return True
+    return False
+
+
 @nb.njit(cache=True)
 def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, edge_margin,
                road_end):
@@ -114,19 +134,7 @@ def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_
         ln = np.int64(li)
         lane[i] = ln
         x = cx[i]
-        ok = False
-        if ln < n_lanes:
-            ok = x >= 0.0 and x < lane_ends[ln]
-            if ok:
-                for o in range(ob_lane.shape[0]):
-                    if ob_lane[o] == ln and x >= ob_lo[o] and x <= ob_hi[o]:
-                        ok = False
-                        break
-        elif ln == n_lanes:
-            for r in range(ramp_iv.shape[0]):
-                if x >= ramp_iv[r, 0] and x <= ramp_iv[r, 1]:
-                    ok = True
-                    break
+        ok = _available1(ln, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
         o = (not ok) or abs(cy[i] - ln * lane_width) > 0.5 * lane_width + edge_margin
         e = x >= road_end
         at_end[i] = e
@@ -171,25 +179,9 @@ def interval_ends(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
 @nb.njit(cache=True)
 def lanes_available(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
     """:meth:`icv_envs.sim.road.RoadLayout.available` compiled, over flat
-    arrays (``x`` already folded onto a ring): a main lane from 0 to its end,
-    outside every obstacle's closed interval in it; the ramp lane
-    (``n_lanes``) inside a ramp interval (closed); any other lane never."""
+    arrays (``x`` already folded onto a ring); the rule: :func:`_available1`."""
     n = lane.shape[0]
-    out = np.zeros(n, dtype=np.bool_)
+    out = np.empty(n, dtype=np.bool_)
     for i in range(n):
-        ln = lane[i]
-        xi = x[i]
-        if ln >= 0 and ln < n_lanes:
-            ok = xi >= 0.0 and xi < lane_ends[ln]
-            if ok:
-                for o in range(ob_lane.shape[0]):
-                    if ob_lane[o] == ln and xi >= ob_lo[o] and xi <= ob_hi[o]:
-                        ok = False
-                        break
-            out[i] = ok
-        elif ln == n_lanes:
-            for r in range(ramp_iv.shape[0]):
-                if xi >= ramp_iv[r, 0] and xi <= ramp_iv[r, 1]:
-                    out[i] = True
-                    break
+        out[i] = _available1(lane[i], x[i], n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     return out
