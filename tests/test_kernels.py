@@ -13,6 +13,20 @@ from icv_envs.sim.road import Obstacle, RoadLayout
 from icv_envs.sim.traffic import LaneIndex, occupied_lanes, rect_overlap
 
 
+def _random_road(rng, ramps=(), periodic=False, obstacles_below=4):
+    """A three-lane 2 km road for the road kernels' tests: up to
+    ``obstacles_below - 1`` random obstacles (inside [10, 1990] m on a ring,
+    off its seam), random lane ends on a straight road, on-ramps over
+    ``ramps`` ((start, end) pairs)."""
+    from icv_envs.sim.road import OnRamp
+
+    lo, hi = (10.0, 1_990.0) if periodic else (0.0, 2_000.0)
+    obstacles = [Obstacle(int(rng.integers(0, 3)), float(rng.uniform(lo, hi)), 4.0)
+                 for _ in range(rng.integers(0, obstacles_below))]
+    ends = np.full(3, np.inf) if periodic else np.where(rng.random(3) < 0.4, rng.uniform(0, 2_000, 3), np.inf)
+    return RoadLayout(3, 2_000.0, 4.0, ends, [OnRamp(a, b) for a, b in ramps], [], obstacles, periodic=periodic)
+
+
 def _numpy_sweep(xs, ys, hxs, hys, reach):
     n = len(xs)
     out_a, out_k = [], []
@@ -186,12 +200,7 @@ def test_road_check_equals_lane_of_and_available(n, ramp, seed):
     from icv_envs.sim._kernels import road_check
 
     rng = np.random.default_rng(seed)
-    obstacles = [Obstacle(int(rng.integers(0, 3)), float(rng.uniform(0, 2_000)), 4.0) for _ in range(rng.integers(0, 3))]
-    ends = np.where(rng.random(3) < 0.4, rng.uniform(0, 2_000, 3), np.inf)
-    from icv_envs.sim.road import OnRamp
-
-    ramps = [OnRamp(300.0, 500.0)] if ramp else []
-    road = RoadLayout(3, 2_000.0, 4.0, ends, ramps, [], obstacles)
+    road = _random_road(rng, [(300.0, 500.0)] if ramp else [], obstacles_below=3)
     cx = rng.uniform(-20.0, 2_020.0, n)
     cy = rng.uniform(-4.0, 4.0 * road.total_lanes + 2.0, n)
     lane, off, at_end, n_off, n_end = road_check(cx, cy, road.lane_width, road.n_lanes, road.total_lanes,
@@ -254,12 +263,7 @@ def test_motion_record_equals_numpy(n, sorted_ids, seed):
 
 # ------------------------------------------------- collisions compiled whole
 def _numpy_find_collisions(cx, cy, heading, length, width, period: float | None = None):
-    """The numpy find_collisions before it was compiled whole. All colliding pairs ``(i, j)`` (rows, i < j in x order).
-
-    Sweep and prune: sort by x; compare each vehicle with the vehicle ``k``
-    places ahead for k = 1, 2, ... while any such pair is closer in x than
-    the largest possible sum of half-extents. Axis-aligned bounding boxes
-    prune, the separating-axis test decides. O(N log N + N k_max)."""
+    """traffic.find_collisions as numpy code, before it was compiled whole (the reference)."""
     n = len(cx)
     if n < 2:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -315,17 +319,8 @@ def test_collision_pairs_equal_the_numpy_code(n, span, periodic, seed):
 
 # ------------------------------------------- lane index and leaders compiled
 def _numpy_lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool = False, ghost: float = 1000.0,
-               reserved_lane=None, length=None, heading=None):
-    """Build the lane-sorted index. On a ring (``periodic``), vehicles within
-    ``ghost`` metres of the seam are listed a second time one lap further
-    (``x + length`` and ``x - length``) so that searches see round the seam;
-    ``LaneIndex.x`` holds those unfolded positions (use it for gaps).
-
-    ``reserved_lane[i] >= 0`` lists vehicle ``i`` in that lane too: a vehicle
-    that has started a lane change holds its target lane before its body
-    reaches it (a turn signal), so two vehicles do not move into one gap.
-    ``length`` and ``heading`` give each vehicle's footprint (see
-    :func:`occupied_lanes`)."""
+                      reserved_lane=None, length=None, heading=None):
+    """traffic.lane_index as numpy code, before it was compiled (the reference)."""
     rows, lanes = occupied_lanes(cy, width, lane_width, n_lanes, length=length, heading=heading)
     if reserved_lane is not None:
         res = np.flatnonzero((reserved_lane >= 0) & (reserved_lane < n_lanes))
@@ -349,11 +344,7 @@ def _numpy_lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic:
 
 
 def _numpy_leaders(index, q_rows, q_lanes, cx, return_x: bool = False):
-    """Row of the nearest other vehicle at or ahead of vehicle ``q_rows``
-    (body-centre x greater or EQUAL) in lane ``q_lanes``; -1 if none. A
-    vehicle exactly alongside counts as a leader (at a negative gap), so two
-    vehicles that keep identical x (members of one sublayer) always see each
-    other. With ``return_x`` also the leader's (unfolded) position."""
+    """traffic.leaders as numpy code, before it was compiled (the reference)."""
     q_rows = np.asarray(q_rows, dtype=np.int64)
     q_lanes = np.asarray(q_lanes, dtype=np.int64)
     out = np.full(len(q_rows), -1, dtype=np.int64)
@@ -458,8 +449,7 @@ def test_quintic_equals_the_written_out_formula(n, seed):
 
 # ------------------------------------------------ observation neighbours
 def _numpy_neighbours(road, rows, F, K, pd):
-    """The ``K`` nearest vehicles by longitudinal distance within ``pd``
-    (round the ring each vehicle at most once), nearest first; ties: rear first."""
+    """HighwayFormationEnv._neighbours as numpy code, before it was compiled (the reference)."""
     n = len(F)
     cx = F[:, 1]
     order = np.argsort(cx, kind="stable")
@@ -527,13 +517,8 @@ def _numpy_interval_end(self, lane, x):
 @settings(max_examples=60, deadline=None)
 @given(n=st.integers(0, 80), ramp=st.booleans(), seed=st.integers(0, 2**31))
 def test_interval_end_equals_the_numpy_code(n, ramp, seed):
-    from icv_envs.sim.road import OnRamp
-
     rng = np.random.default_rng(seed)
-    obstacles = [Obstacle(int(rng.integers(0, 3)), float(rng.uniform(0, 2_000)), 4.0) for _ in range(rng.integers(0, 4))]
-    ends = np.where(rng.random(3) < 0.4, rng.uniform(0, 2_000, 3), np.inf)
-    road = RoadLayout(3, 2_000.0, 4.0, ends, [OnRamp(300.0, 500.0), OnRamp(900.0, 1200.0)] if ramp else [], [],
-                      obstacles)
+    road = _random_road(rng, [(300.0, 500.0), (900.0, 1200.0)] if ramp else [])
     lane = rng.integers(-1, 5, (n, 2))
     x = rng.uniform(-50.0, 2_050.0, (n, 2))
     np.testing.assert_array_equal(road._interval_end(lane, x), _numpy_interval_end(road, lane, x))
@@ -578,16 +563,10 @@ def test_patched_join_profiles_equal_a_full_evaluation():
 
 # ------------------------------------------------ PET occupancy (intersection)
 def _numpy_pet_record(self, t, vid, pid, s, length):
-    """Occupancy update at time ``t`` for vehicles ``vid`` on paths ``pid``
-    at route coordinate ``s`` (listing the vehicles near the box is
-    enough: a vehicle not listed has left every area)."""
+    """PetStats.record as numpy code, before its transitions were compiled (the reference)."""
     vid = np.asarray(vid, dtype=np.int64)
     pid = np.asarray(pid, dtype=np.int64)
-    top = int(vid.max()) + 1 if len(vid) else 0
-    if top > len(self._occ):
-        grow = max(top, 2 * len(self._occ), 64) - len(self._occ)
-        self._occ = np.concatenate([self._occ, np.zeros((grow, self._K), dtype=bool)])
-        self._pid = np.concatenate([self._pid, np.zeros(grow, dtype=np.int64)])
+    self._fit(vid)
     ok = pid < len(self._lo)
     vid, pid = vid[ok], pid[ok]
     x = np.asarray(s, dtype=np.float64)[ok][:, None]
@@ -696,12 +675,8 @@ def _numpy_available(self, lane, x):
 @settings(max_examples=60, deadline=None)
 @given(n=st.integers(0, 60), ramp=st.booleans(), periodic=st.booleans(), seed=st.integers(0, 2**31))
 def test_available_equals_the_numpy_code(n, ramp, periodic, seed):
-    from icv_envs.sim.road import OnRamp
-
     rng = np.random.default_rng(seed)
-    obstacles = [Obstacle(int(rng.integers(0, 3)), float(rng.uniform(10, 1_990)), 4.0) for _ in range(rng.integers(0, 4))]
-    ends = np.full(3, np.inf) if periodic else np.where(rng.random(3) < 0.4, rng.uniform(0, 2_000, 3), np.inf)
-    road = RoadLayout(3, 2_000.0, 4.0, ends, [OnRamp(300.0, 500.0)] if ramp else [], [], obstacles, periodic=periodic)
+    road = _random_road(rng, [(300.0, 500.0)] if ramp else [], periodic=periodic)
     lane = rng.integers(-1, 5, (n, 3))
     x = rng.uniform(-2_050.0, 4_050.0, (n, 3))
     x[:, 0] = np.round(x[:, 0])  # on interval ends too

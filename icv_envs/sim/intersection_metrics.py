@@ -243,11 +243,7 @@ class PetStats:
         enough: a vehicle not listed has left every area)."""
         vid = np.asarray(vid, dtype=np.int64)
         pid = np.asarray(pid, dtype=np.int64)
-        top = int(vid.max()) + 1 if len(vid) else 0
-        if top > len(self._occ):
-            grow = max(top, 2 * len(self._occ), 64) - len(self._occ)
-            self._occ = np.concatenate([self._occ, np.zeros((grow, self._K), dtype=bool)])
-            self._pid = np.concatenate([self._pid, np.zeros(grow, dtype=np.int64)])
+        self._fit(vid)
         # compiled (icv_envs.sim._kernels.pet_transitions): which slots were
         # left and entered, in increasing (id, slot) order, as the array code
         # over the candidate rows did; the PET events in Python
@@ -259,6 +255,14 @@ class PetStats:
             self._leave(t, int(ids[q, k]), int(side[q, k]))
         for q, k in entered.tolist():
             self._enter(t, int(ids[q, k]), int(side[q, k]))
+
+    def _fit(self, vid: np.ndarray) -> None:
+        """Grow the per-id tables to hold ids ``vid`` (at least doubling)."""
+        top = int(vid.max()) + 1 if len(vid) else 0
+        if top > len(self._occ):
+            grow = max(top, 2 * len(self._occ), 64) - len(self._occ)
+            self._occ = np.concatenate([self._occ, np.zeros((grow, self._K), dtype=bool)])
+            self._pid = np.concatenate([self._pid, np.zeros(grow, dtype=np.int64)])
 
     def _enter(self, t, a, k) -> None:
         o = 1 - k
