@@ -87,19 +87,19 @@ for _ in range(steps):
 print(json.dumps({"cpu": time.process_time() - c0, "agent_steps": n}))
 """
 
+# case -> (child code, default steps, unit, the child's arguments after the step count; ``{tp}``: --throughput)
 CASES = {
-    "intersection": (CHILD, 1200, "agent-steps"),
-    "ring": (RING, 500, "vehicle-steps"),
-    "batched": (BATCHED, 100, "agent-steps"),
-    "batched-expert": (BATCHED, 100, "agent-steps"),
+    "intersection": (CHILD, 1200, "agent-steps", ("{tp}",)),
+    "ring": (RING, 500, "vehicle-steps", ()),
+    "batched": (BATCHED, 100, "agent-steps", ("0",)),
+    "batched-expert": (BATCHED, 100, "agent-steps", ("1",)),
 }
 
 
 def _run(tree: Path, steps: int, tp: float, case: str = "intersection") -> dict:
     env = dict(os.environ, PYTHONPATH=str(tree))
-    code = CASES[case][0]
-    extra = [str(tp)] if case == "intersection" else ["1" if case == "batched-expert" else "0"] if (
-        case.startswith("batched")) else []
+    code, _, _, args = CASES[case]
+    extra = [a.format(tp=tp) for a in args]
     out = subprocess.run([sys.executable, "-c", code, str(steps)] + extra, cwd=tree, env=env, check=True,
                          capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
