@@ -24,9 +24,11 @@ libm here, as in NumPy's float64 loops up to AVX2 (``X86_V3``), the level
 the reference fingerprints are pinned at. On an AVX-512 machine NumPy takes
 ``tan`` and ``atan`` from its SIMD library, which can round the last bit
 differently; there the compiled substep's ``tan`` and ``atan`` are libm's
-(as on an AVX2 machine), not NumPy's SIMD ones. On the development machine
-(AVX-512) the 600 s ring run (HighwayRamps, formation method, VGR 1/3,
-seed 0) gave identical run metrics before and after the change.
+(as on an AVX2 machine), not NumPy's SIMD ones, and headings can drift by
+ulps from the array code's during lane changes. On the development machine
+(AVX-512), 22 of 24 fresh 600 s HighwayRamps runs reproduced the committed
+results exactly and 2 differed in the 13th-16th significant digit of the
+motion figures (README, "Speed").
 
 Why numba: the loops are short, data-dependent and branchy (early exits,
 variable-length outputs), which is what a JIT compiles well and what numpy
