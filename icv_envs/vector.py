@@ -45,6 +45,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from icv_envs.envs.actions import ContinuousAction
 from icv_envs.rl.envs import episode_finished
 
 __all__ = ["IcvVectorEnv", "BatchedWorlds"]
@@ -228,6 +229,12 @@ class BatchedWorlds:
         self.possible_agents = list(self.envs[0].possible_agents)
         self.K = K = len(self.possible_agents)
         self.slot_of = {a: k for k, a in enumerate(self.possible_agents)}
+        # vehicle id -> slot (agents are ``icv_<vid>``), for the array path
+        ids = [int(a[4:]) for a in self.possible_agents]
+        self._slot_of_vid = np.full(max(ids) + 1 if ids else 0, -1, dtype=np.int64)
+        self._slot_of_vid[ids] = np.arange(K)
+        # continuous actions take the array path (ParallelEnv.step_rows: no per-agent dicts)
+        self._rows = isinstance(self.envs[0].core._act_type, ContinuousAction)
         self.single_observation_space = self.envs[0].observation_space(self.possible_agents[0])
         self.single_action_space = self.envs[0].action_space(self.possible_agents[0])
         obs_shape = self.single_observation_space.shape
@@ -254,6 +261,15 @@ class BatchedWorlds:
         so = self.slot_of
         return np.fromiter((so[a] for a in agents), dtype=np.int64, count=len(agents))
 
+    def _slots_of_vid(self, vid: np.ndarray) -> np.ndarray:
+        lut = self._slot_of_vid
+        k = lut[vid] if len(vid) and int(vid.max()) < len(lut) else np.full(len(vid), -1, dtype=np.int64)
+        if len(k) and int(k.min()) < 0:
+            bad = vid[(vid >= len(lut)) | (k < 0)] if len(vid) else vid
+            raise ValueError(f"vehicles {bad[:5].tolist()} are not among possible_agents; the slot layout needs "
+                             f"every agent in possible_agents")
+        return k
+
     def _reset_world(self, b: int) -> None:
         env = self.envs[b]
         obs, _ = env.reset(seed=self.episode_seed(b, int(self._episode[b])))
@@ -275,8 +291,7 @@ class BatchedWorlds:
         self.expert_actions[b] = 0.0
         if env.agents:
             ex = env.core.expert_actions()
-            vid = env.core.world.traffic.vid if hasattr(env.core.world, "traffic") else env.core.world.fleet.vid
-            self.expert_actions[b, self._slots([f"icv_{v}" for v in vid.tolist()])] = ex
+            self.expert_actions[b, self._slots_of_vid(env.core._vehicles().vid)] = ex
 
     def _out(self, a):
         return a.copy() if self.copy else a
@@ -304,23 +319,19 @@ class BatchedWorlds:
         self.truncated[:] = False
         reset = np.zeros(self.num_worlds, dtype=bool)
         for b, env in enumerate(self.envs):
-            live = env.agents
-            if live:
-                k = self._slots(live)
-                obs, rew, term, trunc, _ = env.step(dict(zip(live, acts[b, k])))
+            if self._rows:  # arrays through (the same agents and values as the dicts)
+                out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid)])
+                self.obs[b] = 0.0
+                self.mask[b] = False
+                if len(out.vid):
+                    k = self._slots_of_vid(out.vid)
+                    self.obs[b, k] = out.obs
+                    self.rewards[b, k] = out.rewards
+                    self.terminated[b, k] = out.terminated
+                    self.truncated[b, k] = out.truncated
+                    self.mask[b, k[~(out.terminated | out.truncated)]] = True
             else:
-                obs, rew, term, trunc, _ = env.step({})
-            self.obs[b] = 0.0
-            self.mask[b] = False
-            if obs:
-                names = list(obs)
-                k = self._slots(names)
-                self.obs[b, k] = np.stack(list(obs.values()))
-                self.rewards[b, k] = np.fromiter(rew.values(), dtype=np.float64, count=len(names))
-                self.terminated[b, k] = np.fromiter(term.values(), dtype=bool, count=len(names))
-                self.truncated[b, k] = np.fromiter(trunc.values(), dtype=bool, count=len(names))
-            if env.agents:
-                self.mask[b, self._slots(env.agents)] = True
+                self._step_dicts(b, env, acts)
             if episode_finished(env):
                 self.final_obs[b] = self.obs[b]
                 self.truncated[b] |= self.mask[b]
@@ -333,6 +344,26 @@ class BatchedWorlds:
             info["expert_actions"] = self._out(self.expert_actions)
         return (self._out(self.obs), self.rewards.copy(), self.terminated.copy(), self.truncated.copy(),
                 self._out(self.mask), info)
+
+    def _step_dicts(self, b: int, env, acts: np.ndarray) -> None:
+        """World ``b``'s step through the PettingZoo dicts (action types other than continuous)."""
+        live = env.agents
+        if live:
+            k = self._slots(live)
+            obs, rew, term, trunc, _ = env.step(dict(zip(live, acts[b, k])))
+        else:
+            obs, rew, term, trunc, _ = env.step({})
+        self.obs[b] = 0.0
+        self.mask[b] = False
+        if obs:
+            names = list(obs)
+            k = self._slots(names)
+            self.obs[b, k] = np.stack(list(obs.values()))
+            self.rewards[b, k] = np.fromiter(rew.values(), dtype=np.float64, count=len(names))
+            self.terminated[b, k] = np.fromiter(term.values(), dtype=bool, count=len(names))
+            self.truncated[b, k] = np.fromiter(trunc.values(), dtype=bool, count=len(names))
+        if env.agents:
+            self.mask[b, self._slots(env.agents)] = True
 
     def close(self) -> None:
         for env in self.envs:

@@ -166,3 +166,71 @@ def test_batched_worlds_without_expert_never_compute_it_and_match_separate_envs(
 def test_expert_driven_check_is_validated():
     with pytest.raises(ValueError, match="expert_driven_check"):
         parallel_env(**CFG, expert_driven_check="no")
+
+
+def _dict_step_as_rows(env, acts):
+    """The PettingZoo dict step of ``env`` (rows of ``acts`` in vehicle order) as StepRows-like arrays."""
+    vid = env.core._vehicles().vid
+    obs, rew, term, trunc, _ = env.step({f"icv_{v}": acts[i] for i, v in enumerate(vid.tolist())})
+    names = list(obs)
+    return (np.array([int(a[4:]) for a in names], dtype=np.int64),
+            np.stack(list(obs.values())) if names else None, np.array([rew[a] for a in names]),
+            np.array([term[a] for a in names], dtype=bool), np.array([trunc[a] for a in names], dtype=bool))
+
+
+@pytest.mark.parametrize("module, config, steps", [
+    ("highway_formation_v0", {"vehicles_count": 12, "duration": 6.0}, 40),
+    ("highway_ramps_v0", {"duration": 60.0, "max_cycles": 275}, 300),
+    ("intersection_v0", {"duration": 56.0, "throughput": 2500.0}, 300),
+])
+def test_step_rows_equals_the_dict_step(module, config, steps):
+    """``ParallelEnv.step_rows`` (the batch's array path) reports the same
+    agents, in the dicts' key order, with the same observations, rewards,
+    terminations and truncations, and leaves the same ``agents``, as
+    ``step``; departures, late spawns and the end of the episode included."""
+    import importlib
+
+    mod = importlib.import_module(f"icv_envs.envs.{module}")
+    cfg = dict(config)
+    cycles = cfg.pop("max_cycles", None)
+    a, b = (mod.parallel_env(max_cycles=cycles, **cfg) for _ in range(2))
+    a.reset(seed=3)
+    b.reset(seed=3)
+    rng = np.random.default_rng(0)
+    seen_left = seen_done = 0
+    for t in range(steps):
+        if a.episode_over and not a.agents:
+            break
+        n = a.core._vehicles().n
+        acts = a.core.expert_actions().astype(np.float64) if t % 3 else rng.uniform(-1, 1, (n, 2))
+        want = _dict_step_as_rows(a, acts)
+        got = b.step_rows(acts)
+        np.testing.assert_array_equal(got.vid, want[0])
+        if want[1] is not None:
+            np.testing.assert_array_equal(got.obs, want[1])
+            assert got.obs.dtype == want[1].dtype
+        np.testing.assert_array_equal(got.rewards, want[2])
+        np.testing.assert_array_equal(got.terminated, want[3])
+        np.testing.assert_array_equal(got.truncated, want[4])
+        assert b.agents == a.agents
+        seen_left += int(len(got.vid) > b.core._vehicles().n)
+        seen_done += int(np.any(got.truncated))
+    # the case reached an end of episode, and on the open roads departures (seed 3: from step ~260)
+    assert seen_done and (seen_left or module == "highway_formation_v0")
+
+
+def test_step_rows_bad_input():
+    env = parallel_env(vehicles_count=4)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step_rows(np.zeros((4, 2)))
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"shape \(3, 2\); allowed: \(4, 2\)"):
+        env.step_rows(np.zeros((3, 2)))
+    bad = np.zeros((4, 2))
+    bad[2, 1] = np.nan
+    with pytest.raises(ValueError, match="icv_2 .*NaN or inf"):
+        env.step_rows(bad)
+    meta = parallel_env(vehicles_count=4, action={"type": "DiscreteMetaAction"})
+    meta.reset(seed=0)
+    with pytest.raises(ValueError, match="continuous actions.*DiscreteMetaAction"):
+        meta.step_rows(np.zeros((4, 2)))

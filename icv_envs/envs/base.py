@@ -27,6 +27,7 @@ import functools
 import itertools
 import math
 import operator
+from typing import NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -38,6 +39,17 @@ from icv_envs.envs.observations import observation_factory
 from icv_envs.sim._ufuncs import clip as uclip
 
 __all__ = ["IcvAgentsEnv", "check_actions"]
+
+
+class StepRows(NamedTuple):
+    """One multi-agent step as rows (:meth:`IcvAgentsEnv.ma_step_rows`):
+    every agent the PettingZoo dicts would name, in their key order."""
+
+    vid: np.ndarray  # (m,) int64 vehicle ids (agent ``icv_<vid>``)
+    obs: np.ndarray  # (m, ...) float32 observations
+    rewards: np.ndarray | None  # (m,) float64 (None on the dict path)
+    terminated: np.ndarray  # (m,) bool
+    truncated: np.ndarray  # (m,) bool
 
 
 class IcvAgentsEnv(AbstractEnv):
@@ -341,12 +353,15 @@ class IcvAgentsEnv(AbstractEnv):
         infos = self._ma_infos(agents, rows, {})
         self._fill_expert_labels(infos)
         observations = dict(zip(agents, obs))
-        self._last_obs = dict(observations)
+        self._last_obs = (veh.vid.copy(), obs)
         return observations, infos
 
-    def _ma_advance(self, acts: np.ndarray):
+    def _ma_advance(self, acts: np.ndarray, arrays: bool = False):
         """One policy step of the multi-agent API from normalised action rows
-        (see the comment above for the order); returns the five PettingZoo dicts."""
+        (see the comment above for the order); returns the five PettingZoo
+        dicts, or with ``arrays`` a :class:`StepRows` of the same agents and
+        values (the step's agents in vehicle order, then those that left,
+        then late spawns) and no infos (:meth:`ma_step_rows`)."""
         c = self.config
         w = self.world
         before = self._vehicles().vid.copy()
@@ -361,51 +376,117 @@ class IcvAgentsEnv(AbstractEnv):
         self._last_actions = self._realign_rows(before, acts, veh.vid)
         rows = np.arange(veh.n)
         step_vid = veh.vid.copy()
-        agents = [f"icv_{v}" for v in step_vid.tolist()]
         F = self._features() if veh.n else np.zeros((0, len(self.OBS_FEATURES)))  # once, for rewards and observations
         rew, parts = self._rewards_rows(rows, crashed_now, F)
         obs = self._observe_rows(rows, F)
         truncated_all = w.time >= float(c["duration"]) - 1e-9
-        observations, rewards, terms, truncs = self._agent_dicts(
-            agents, obs, rew, crashed_now, self._truncations(truncated_all, crashed_now))
-        infos = self._ma_infos(agents, rows, parts)  # expert labels at the end of the step
-        for i in np.flatnonzero(crashed_now).tolist():
-            infos[agents[i]]["crashed"] = True
-        for v in new:
-            rewards[f"icv_{v}"] = 0.0
+        trunc = self._truncations(truncated_all, crashed_now)
         # agents that left during the step report their last observation
-        # (their state just before they left)
-        gone_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
-        last = getattr(self, "_last_obs", {})
-        for vid, info in sorted(self._departed(events).items()):
-            a = f"icv_{vid}"
-            observations[a] = last.get(a, gone_obs).copy()
-            rewards[a] = 0.0
-            terms[a] = bool(info["exited"])
-            truncs[a] = bool(info["left_road"])
-            infos[a] = info
+        # (their state just before they left), reward 0
+        departed = sorted(self._departed(events).items())
+        gone_vid = np.fromiter((v for v, _ in departed), dtype=np.int64, count=len(departed))
+        gone_obs = self._last_obs_of(gone_vid)
+        if arrays:
+            infos = None
+            rew = np.array(rew, dtype=np.float64)
+            if new:
+                rew[np.isin(step_vid, np.asarray(new, dtype=np.int64))] = 0.0
+        else:
+            agents = [f"icv_{v}" for v in step_vid.tolist()]
+            observations, rewards, terms, truncs = self._agent_dicts(agents, obs, rew, crashed_now, trunc)
+            infos = self._ma_infos(agents, rows, parts)  # expert labels at the end of the step
+            for i in np.flatnonzero(crashed_now).tolist():
+                infos[agents[i]]["crashed"] = True
+            for v in new:
+                rewards[f"icv_{v}"] = 0.0
+            for (vid, info), o in zip(departed, gone_obs):
+                a = f"icv_{vid}"
+                observations[a] = o
+                rewards[a] = 0.0
+                terms[a] = bool(info["exited"])
+                truncs[a] = bool(info["left_road"])
+                infos[a] = info
         # crashed vehicles leave the road after reporting
         if crashed_now.any():
             w.remove_crashed_vehicles()
             self._after_removal()
         late = self._spawn_late()
+        late_vid = np.asarray(late, dtype=np.int64)
+        late_obs = np.zeros((0,) + self.observation_space.shape, dtype=np.float32)
         if late:
             rows2 = np.searchsorted(self._vehicles().vid, late)
-            o2 = self._observe_rows(rows2)
-            a2 = [f"icv_{v}" for v in late]
-            inf2 = self._ma_infos(a2, rows2, {})
-            for i, a in enumerate(a2):
-                observations[a] = o2[i]
-                rewards[a] = 0.0
-                terms[a] = False
-                truncs[a] = bool(truncated_all)
-                infos[a] = inf2[a]
-        self._fill_expert_labels(infos, agents, step_vid)
-        self._last_obs = {a: o for a, o in observations.items() if not (terms[a] or truncs[a])}
+            late_obs = self._observe_rows(rows2)
+            if not arrays:
+                a2 = [f"icv_{v}" for v in late]
+                inf2 = self._ma_infos(a2, rows2, {})
+                for i, a in enumerate(a2):
+                    observations[a] = late_obs[i]
+                    rewards[a] = 0.0
+                    terms[a] = False
+                    truncs[a] = bool(truncated_all)
+                    infos[a] = inf2[a]
+        # every agent reported this step as rows, in the dicts' key order
+        out = StepRows(
+            np.concatenate([step_vid, gone_vid, late_vid]),
+            np.concatenate([obs, gone_obs, late_obs]) if len(departed) or late else obs,
+            np.concatenate([rew, np.zeros(len(departed) + len(late))]) if arrays else None,
+            np.concatenate([crashed_now, np.array([bool(i["exited"]) for _, i in departed], dtype=bool),
+                            np.zeros(len(late), dtype=bool)]),
+            np.concatenate([np.broadcast_to(np.asarray(trunc, dtype=bool), (len(step_vid),)),
+                            np.array([bool(i["left_road"]) for _, i in departed], dtype=bool),
+                            np.full(len(late), bool(truncated_all))]),
+        )
+        if not arrays:
+            self._fill_expert_labels(infos, agents, step_vid)
+        keep = ~(out.terminated | out.truncated)
+        self._last_obs = (out.vid[keep], out.obs[keep])
         self._on_step_end(events)
         if self.render_mode == "human":
             self.render()
+        if arrays:
+            return out
         return observations, rewards, terms, truncs, infos
+
+    def _last_obs_of(self, vid: np.ndarray) -> np.ndarray:
+        """The observations the agents ``vid`` reported last (zeros for an
+        agent never observed), one copy per row."""
+        shape = self.observation_space.shape
+        out = np.zeros((len(vid),) + shape, dtype=np.float32)
+        last = getattr(self, "_last_obs", None)
+        if last is not None and len(vid) and len(last[0]):
+            lv, lo = last
+            order = np.argsort(lv, kind="stable")
+            pos = np.minimum(np.searchsorted(lv[order], vid), len(lv) - 1)
+            found = lv[order[pos]] == vid
+            out[found] = lo[order[pos[found]]]
+        return out
+
+    def ma_step_rows(self, actions) -> StepRows:
+        """:meth:`ma_step` with arrays in and out, for continuous action types
+        (the batch of :class:`icv_envs.vector.BatchedWorlds`): ``actions`` is
+        ``(n, 2)``, row ``i`` the action of the vehicle in traffic row ``i``
+        (vehicle ids ascending); returns the same agents and values as the
+        dicts of :meth:`ma_step` (no infos)."""
+        if self.world is None:
+            raise RuntimeError("call reset() before step()")
+        at = self._act_type
+        if not isinstance(at, ContinuousAction):
+            raise ValueError(f"ma_step_rows takes continuous actions; this env's action type is "
+                             f"{self.config['action'].get('type')!r} (use ma_step with a dict)")
+        n = self._vehicles().n
+        arr = np.asarray(actions, dtype=np.float64)
+        if arr.shape != (n, 2):
+            raise ValueError(f"actions have shape {arr.shape}; allowed: ({n}, 2), one row per live agent")
+        finite = np.isfinite(arr).all(axis=1)
+        if not finite.all():
+            i = int(np.flatnonzero(~finite)[0])
+            raise ValueError(f"action of icv_{int(self._vehicles().vid[i])} = {arr[i].tolist()} holds NaN or inf; "
+                             f"allowed: finite values in [-1, 1]")
+        acts = np.zeros((n, 2), dtype=np.float64)
+        if n:
+            rows = np.arange(n)
+            acts[rows] = at.controls(rows, uclip(arr, -1.0, 1.0))
+        return self._ma_advance(acts, arrays=True)
 
     def _check_actions(self, names: list, values: list) -> np.ndarray:
         """Continuous actions of all agents checked and converted at once: one

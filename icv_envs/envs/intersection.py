@@ -420,7 +420,7 @@ class IntersectionEnv(IcvAgentsEnv):
         self._ego_done = False
         self.warmup_collisions = 0
         self.warmup_jammed = 0
-        self._last_obs: dict = {}
+        self._last_obs = None
         self._series: list[dict] = []
         self._spawn_due()
         self.expert.update(world)

@@ -75,6 +75,23 @@ class CoreParallelEnv(ParallelEnv):
         self.agents = [a for a in obs if not (term[a] or trunc[a])]
         return obs, rew, term, trunc, infos
 
+    def step_rows(self, actions):
+        """:meth:`step` with arrays in and out (continuous action types):
+        ``actions (n, 2)``, one row per live vehicle in ascending id order
+        (``core.world``'s rows); returns the core's
+        :class:`~icv_envs.envs.base.StepRows` (the agents and values of
+        :meth:`step`'s dicts, no infos) and updates ``agents`` as
+        :meth:`step` does."""
+        if self.core.world is None:
+            raise RuntimeError("call reset() before step()")
+        out = self.core.ma_step_rows(actions)
+        self._cycles += 1
+        if self.max_cycles is not None and self._cycles >= self.max_cycles:
+            out = out._replace(truncated=~out.terminated)  # PettingZoo's max_cycles: every agent truncated
+        alive = ~(out.terminated | out.truncated)
+        self.agents = [f"icv_{v}" for v in out.vid[alive].tolist()]
+        return out
+
     @property
     def episode_over(self) -> bool:
         """True once the episode's time is up (``duration`` seconds, or
