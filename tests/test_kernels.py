@@ -715,3 +715,28 @@ def test_kinematics_kernel_equals_the_array_path(module, config, opts):
     assert got.dtype == want.dtype == np.float32
     np.testing.assert_array_equal(got, want)
     assert len(rows) > 3
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 50), seed=st.integers(0, 2**31))
+def test_quintic_rows_equal_quintic(n, seed):
+    """The compiled profile evaluation (stored coefficients, numpy's powers)
+    gives _quintic's values bit for bit, written to the rows asked for."""
+    from icv_envs.formation._kernels import quintic_rows
+    from icv_envs.formation.control import _quintic, _quintic_coeffs
+
+    rng = np.random.default_rng(seed)
+    m = n + 7  # plan arrays indexed by vehicle id, more ids than rows
+    T = rng.uniform(0.5, 60, m)
+    d0, v0, a0 = rng.uniform(-100, 100, m), rng.uniform(-15, 15, m), rng.uniform(-6, 3, m)
+    c3, c4, c5 = _quintic_coeffs(T, d0, v0, a0)
+    vid = rng.choice(m, n, replace=False)
+    t = rng.uniform(-1, 60, n)
+    tc = np.minimum(np.maximum(t, 0.0), T[vid])
+    at = rng.permutation(n + 3)[:n]
+    out = [np.full(n + 3, np.nan) for _ in range(3)]
+    quintic_rows(tc, tc ** 3, tc ** 4, tc ** 5, vid, d0, v0, a0, c3, c4, c5, at, *out)
+    want = _quintic(t, T[vid], d0[vid], v0[vid], a0[vid], jerk=False)[:3]
+    for g, w in zip(out, want):
+        np.testing.assert_array_equal(g[at], w)
+        assert np.isnan(np.delete(g, at)).all()

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["join_search"]
+__all__ = ["join_search", "quintic_rows"]
 
 
 @nb.njit(cache=True)
@@ -78,3 +78,23 @@ def join_search(lo, d0, v0, a0, hi_a, lo_a, v_hi, v_lo, jerk, max_duration, grow
                 lo_i = mid
         T[i] = hi_i
     return T
+
+
+@nb.njit(cache=True)
+def quintic_rows(t, t3, t4, t5, vid, d0, v0, a0, c3, c4, c5, at, d_out, v_out, a_out):
+    """The quintic's ``(d, d', d'')`` (``control._quintic`` with ``jerk``
+    off) for members ``vid`` at clamped times ``t`` with their powers
+    ``t3 = t**3``, ``t4``, ``t5`` (taken from numpy, so they are the same
+    numbers numpy's ``_quintic`` uses on any SIMD level), from the plan
+    arrays ``d0, v0, a0`` and coefficients ``c3, c4, c5`` indexed by vehicle
+    id, written to rows ``at`` of the outputs. Term by term the products and
+    sums of ``_quintic`` in its order (``t**2`` is numpy's exact square
+    ``t * t``): bit for bit its values."""
+    for i in range(len(t)):
+        ti, k, j = t[i], vid[i], at[i]
+        t2 = ti * ti
+        d, v, a = d0[k], v0[k], a0[k]
+        p3, p4, p5 = c3[k], c4[k], c5[k]
+        d_out[j] = d + v * ti + 0.5 * a * t2 + p3 * t3[i] + p4 * t4[i] + p5 * t5[i]
+        v_out[j] = v + a * ti + 3.0 * p3 * t2 + 4.0 * p4 * t3[i] + 5.0 * p5 * t4[i]
+        a_out[j] = a + 6.0 * p3 * ti + 12.0 * p4 * t2 + 20.0 * p5 * t3[i]

@@ -176,10 +176,7 @@ def _quintic(t, T, d0, v0, a0, jerk: bool = True):
     (clamped to 0 after ``T``). Each power is computed once (the same
     values as writing it out in every term)."""
     t = np.minimum(np.maximum(t, 0.0), T)
-    T2, T3, T4, T5 = T ** 2, T ** 3, T ** 4, T ** 5
-    c3 = -(20.0 * d0 + 12.0 * v0 * T + 3.0 * a0 * T2) / (2.0 * T3)
-    c4 = (30.0 * d0 + 16.0 * v0 * T + 3.0 * a0 * T2) / (2.0 * T4)
-    c5 = -(12.0 * d0 + 6.0 * v0 * T + a0 * T2) / (2.0 * T5)
+    c3, c4, c5 = _quintic_coeffs(T, d0, v0, a0)
     t2, t3, t4 = t ** 2, t ** 3, t ** 4
     d = d0 + v0 * t + 0.5 * a0 * t2 + c3 * t3 + c4 * t4 + c5 * t ** 5
     v = v0 + a0 * t + 3.0 * c3 * t2 + 4.0 * c4 * t3 + 5.0 * c5 * t4
@@ -188,6 +185,16 @@ def _quintic(t, T, d0, v0, a0, jerk: bool = True):
         return d, v, a, None
     j = 6.0 * c3 + 24.0 * c4 * t + 60.0 * c5 * t2
     return d, v, a, j
+
+
+def _quintic_coeffs(T, d0, v0, a0):
+    """The coefficients ``(c3, c4, c5)`` of :func:`_quintic`'s polynomial
+    (fixed per plan: a caller evaluating one plan many times keeps them)."""
+    T2, T3, T4, T5 = T ** 2, T ** 3, T ** 4, T ** 5
+    c3 = -(20.0 * d0 + 12.0 * v0 * T + 3.0 * a0 * T2) / (2.0 * T3)
+    c4 = (30.0 * d0 + 16.0 * v0 * T + 3.0 * a0 * T2) / (2.0 * T4)
+    c5 = -(12.0 * d0 + 6.0 * v0 * T + a0 * T2) / (2.0 * T5)
+    return c3, c4, c5
 
 
 def join_profile(t, T, d0, v0, a0):

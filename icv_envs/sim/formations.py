@@ -56,9 +56,11 @@ from icv_envs.formation.control import (
     PROFILE_DECEL,
     PROFILE_JERK,
     PROFILE_MIN_DURATION,
+    _quintic_coeffs,
     join_duration,
     join_profile,
 )
+from icv_envs.formation._kernels import quintic_rows
 from icv_envs.formation.targets import formation_targets
 from icv_envs.sim._kernels import drivable_lane_bits, segment_max
 from icv_envs.sim._ufuncs import clip as uclip
@@ -139,7 +141,7 @@ class FormationManager:
         for name in ("_slot_gid", "_p_stamp"):
             setattr(self, name, np.zeros(0, dtype=np.int64))
         for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline", "_p_fd", "_p_fv",
-                     "_p_fa"):
+                     "_p_fa", "_p_c3", "_p_c4", "_p_c5"):
             setattr(self, name, np.zeros(0))
 
     # ---------------------------------------------------------------- helpers
@@ -170,13 +172,15 @@ class FormationManager:
         self._slot_gid = np.concatenate([self._slot_gid, np.full(pad, -1, dtype=np.int64)])
         self._p_stamp = np.concatenate([self._p_stamp, np.zeros(pad, dtype=np.int64)])
         for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline", "_p_fd", "_p_fv",
-                     "_p_fa"):
+                     "_p_fa", "_p_c3", "_p_c4", "_p_c5"):
             setattr(self, name, np.concatenate([getattr(self, name), np.zeros(pad)]))
         self._p_T[self._cap:] = 1.0
         # the profile's values once it has ended (t >= T), of the default plan
         one, zero = np.ones(1), np.zeros(1)
         fd, fv, fa = join_profile(one, one, zero, zero, zero)
         self._p_fd[self._cap:], self._p_fv[self._cap:], self._p_fa[self._cap:] = fd[0], fv[0], fa[0]
+        c3, c4, c5 = _quintic_coeffs(one, zero, zero, zero)
+        self._p_c3[self._cap:], self._p_c4[self._cap:], self._p_c5[self._cap:] = c3[0], c4[0], c5[0]
         self._cap = new
 
     def _slot_x(self, traffic, rows) -> np.ndarray:
@@ -216,9 +220,11 @@ class FormationManager:
             T[stuck] = join_duration(d0[stuck], v0[stuck], a0[stuck], **lim)
         self._p_t0[vid], self._p_T[vid] = self.time, T
         self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
+        T = np.asarray(T, dtype=np.float64)
+        # the polynomial's coefficients, fixed for the plan (_eval_profiles)
+        self._p_c3[vid], self._p_c4[vid], self._p_c5[vid] = _quintic_coeffs(T, d0, v0, a0)
         # the profile's values once it has ended (evaluated at t = T, where
         # every later time is clamped to: the same numbers _profile would get)
-        T = np.asarray(T, dtype=np.float64)
         self._p_fd[vid], self._p_fv[vid], self._p_fa[vid] = join_profile(T, T, d0, v0, a0)
         self.plans += len(rows)
         self._p_stamp[vid] = self.plans  # (which cached profiles this plan makes stale: _profile)
@@ -261,8 +267,11 @@ class FormationManager:
         run = np.flatnonzero(t < T)
         d, v, a = self._p_fd[vid], self._p_fv[vid], self._p_fa[vid]
         if len(run):
-            rv = vid[run]
-            d[run], v[run], a[run] = join_profile(t[run], T[run], self._p_d0[rv], self._p_v0[rv], self._p_a0[rv])
+            # join_profile's quintic (compiled, from the plans' stored
+            # coefficients; the powers from numpy, as join_profile takes them)
+            tc = np.minimum(np.maximum(t[run], 0.0), T[run])
+            quintic_rows(tc, tc ** 3, tc ** 4, tc ** 5, vid[run], self._p_d0, self._p_v0, self._p_a0, self._p_c3,
+                         self._p_c4, self._p_c5, run, d, v, a)
         return d, v, a
 
     def create(self, traffic, rows, road, anchor: float | None = None) -> int:
