@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from icv_envs.sim._kernels import drivable_lane_bits, segment_max, sweep_candidates
+from icv_envs.sim._kernels import drivable_lane_bits, sweep_candidates
 from icv_envs.sim.road import Obstacle, RoadLayout
 from icv_envs.sim.traffic import LaneIndex, occupied_lanes, rect_overlap
 
@@ -59,15 +59,79 @@ def test_sweep_matches_numpy(n, span, seed):
     assert np.array_equal(a, a0) and np.array_equal(k, k0)
 
 
-@settings(max_examples=40, deadline=None)
-@given(sizes=st.lists(st.integers(0, 6), min_size=1, max_size=20), seed=st.integers(0, 2**31))
-def test_segment_max(sizes, seed):
-    v = np.random.default_rng(seed).normal(size=sum(sizes))
-    ends = np.cumsum(sizes)
-    starts = ends - np.array(sizes)
-    got = segment_max(v, starts, ends)
-    want = [v[s:e].max() if e > s else -np.inf for s, e in zip(starts, ends)]
-    assert np.array_equal(got, np.array(want))
+def _numpy_hold_targets(grp, gids, A, chg, r, tb, cx, d_members, vid, deadline, time, max_lead, brake_step,
+                        stall_error, road):
+    """The array code of FormationManager._hold_targets that
+    :func:`~icv_envs.sim._kernels.hold_targets` replaced (segments of a
+    stable sort by formation id, a segment maximum), frozen here."""
+    def seg_max(values, starts, ends):
+        out = np.full(len(starts), -np.inf)
+        for g in range(len(starts)):
+            for i in range(starts[g], ends[g]):
+                if values[i] > out[g]:
+                    out[g] = values[i]
+        return out
+
+    A = A.copy()
+    order_rows = np.argsort(grp, kind="stable")
+    sorted_g = grp[order_rows]
+    starts = np.searchsorted(sorted_g, gids, side="left")
+    ends = np.searchsorted(sorted_g, gids, side="right")
+    has = ends > starts
+    counts = ends - starts
+    seg_end = np.cumsum(counts)
+    seg_start = seg_end - counts
+    pos = np.arange(int(seg_end[-1])) - np.repeat(seg_start - starts, counts)
+    rr = order_rows[pos]
+    kk = np.repeat(np.arange(len(gids)), counts)
+    m = np.flatnonzero(grp >= 0)
+    at = np.empty(len(grp), dtype=np.int64)
+    at[m] = np.arange(len(m))
+    implied = seg_max(road.wrap(cx[rr] + tb[rr] - A[kk]) - d_members[at[rr]], seg_start, seg_end)
+    back = np.where(~chg & (implied < -max_lead), implied + max_lead, 0.0)
+    back = np.where(r < 0, np.minimum(back, r), back)
+    brake = has & (back < 0)
+    A[brake] = road.mod(A[brake] + np.maximum(back[brake], brake_step))
+    late_rows = (np.abs(road.wrap(cx[rr] - (A[kk] - tb[rr]))) > stall_error) & (time > deadline[vid[rr]])
+    late = seg_max(late_rows.astype(np.float64), seg_start, seg_end) > 0.5
+    return A, has, brake, late
+
+
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(1, 60), n_gids=st.integers(1, 12), periodic=st.booleans(), seed=st.integers(0, 2**31))
+def test_hold_targets_equals_the_array_code(n, n_gids, periodic, seed):
+    """Front-target brake and stall flags of the formation layer: the
+    compiled pass equals the array code it replaced, bit for bit (members
+    of ids not asked about, formations without members, re-forming ones,
+    no room / negative room, ring seams)."""
+    from icv_envs.sim._kernels import hold_targets
+
+    rng = np.random.default_rng(seed)
+    road = _random_road(rng, periodic=periodic)
+    L = float(road.length)
+    gids = np.sort(rng.choice(20, n_gids, replace=False)).tolist()
+    pool = np.array(gids + [-1, -1, 19 if 19 not in gids else -1])
+    grp = rng.choice(pool, n).astype(np.int64)
+    G = len(gids)
+    A = rng.uniform(0.0, L, G)
+    chg = rng.random(G) < 0.3
+    r = np.where(rng.random(G) < 0.3, np.nan, rng.uniform(-30.0, 60.0, G))
+    tb = rng.choice([0.0, 8.0, 16.0, 24.0], n)
+    cx = np.where(rng.random(n) < 0.5, A[rng.integers(0, G, n)] - tb + rng.normal(0, 30.0, n), rng.uniform(0, L, n))
+    cx = np.mod(cx, L) if periodic else cx
+    d_members = rng.normal(0.0, 20.0, int((grp >= 0).sum()))
+    vid = rng.permutation(n + 5)[:n].astype(np.int64)
+    deadline = rng.uniform(0.0, 100.0, n + 5)
+    time, max_lead, brake_step, stall_error = float(rng.uniform(0, 100)), 10.0, -0.04 * 2.0, 5.0
+    want = _numpy_hold_targets(grp, np.array(gids), A, chg, r, tb, cx, d_members, vid, deadline, time, max_lead,
+                               brake_step, stall_error, road)
+    slot = np.full(max(gids) + 1, -1, dtype=np.int64)
+    slot[gids] = np.arange(G)
+    A_got = A.copy()
+    has, brake, late = hold_targets(grp, slot, A_got, chg, r, tb, cx, d_members, vid, deadline, time, max_lead,
+                                    brake_step, stall_error, L if periodic else -1.0)
+    for g, w in zip((A_got, has, brake, late), want):
+        np.testing.assert_array_equal(g, w)
 
 
 @settings(max_examples=60, deadline=None)

@@ -62,7 +62,7 @@ from icv_envs.formation.control import (
 )
 from icv_envs.formation._kernels import quintic_rows
 from icv_envs.formation.targets import formation_targets
-from icv_envs.sim._kernels import drivable_lane_bits, segment_max
+from icv_envs.sim._kernels import drivable_lane_bits, hold_targets
 from icv_envs.sim._ufuncs import clip as uclip
 
 __all__ = ["FormationManager"]
@@ -495,30 +495,22 @@ class FormationManager:
         formation's window, or a member far from its target for
         ``stall_time`` (e.g. it joined ahead of the formation and its target
         lies beyond a member in its lane), marks it for re-forming. The
-        segment reductions and lane windows run in :mod:`icv_envs.sim._kernels`;
-        the arithmetic is the scalar code's, element by element."""
+        per-formation pass (lead, brake, stall test) and the lane windows run
+        in :mod:`icv_envs.sim._kernels`; the arithmetic is the scalar code's,
+        element by element."""
         if not traffic.n or not gids:
             return
         grp = traffic.group
-        order_rows = np.argsort(grp, kind="stable")
-        sorted_g = grp[order_rows]
-        starts = np.searchsorted(sorted_g, gids, side="left")
-        ends = np.searchsorted(sorted_g, gids, side="right")
-        has = ends > starts
-        if not has.any():
+        m = np.flatnonzero(grp >= 0)
+        if not len(m):
             return
         G = len(gids)
         A = np.array([self.anchor[g] for g in gids])
         Lf = np.array([self.length[g] for g in gids])
         chg = np.array([g in changed for g in gids])
-        # rows of every formation, concatenated in formation order
-        counts = ends - starts
-        seg_end = np.cumsum(counts)
-        seg_start = seg_end - counts
-        pos = np.arange(int(seg_end[-1])) - np.repeat(seg_start - starts, counts)
-        rr = order_rows[pos]
-        kk = np.repeat(np.arange(G), counts)
-        tb = traffic.tgt_behind[rr]
+        r = np.array([room.get(g, np.nan) for g in gids])
+        slot_of_gid = np.full(max(gids) + 1, -1, dtype=np.int64)
+        slot_of_gid[gids] = np.arange(G)
         # the lead of the front target over its members is measured against
         # each member's REFERENCE (slot + join profile), not its slot: a member
         # on its join plan is meant to be behind its slot, and holding the
@@ -527,18 +519,18 @@ class FormationManager:
         # positive feedback that left whole formations at the speed floor)
         # (the profiles of all members in row order, the order every other
         # caller in this step asks for: one evaluation, then the cache)
-        m = np.flatnonzero(grp >= 0)
         self._grow(int(traffic.vid[m].max()) + 1)
-        at = np.empty(traffic.n, dtype=np.int64)
-        at[m] = np.arange(len(m))
-        d_ref = self._profile(traffic, m)[0][at[rr]]
-        implied = segment_max(road.wrap(cx[rr] + tb - A[kk]) - d_ref, seg_start, seg_end)
-        back = np.where(~chg & (implied < -self.max_anchor_lead), implied + self.max_anchor_lead, 0.0)
-        r = np.array([room.get(g, np.nan) for g in gids])
-        back = np.where(r < 0, np.minimum(back, r), back)
-        brake = has & (back < 0)
+        d_ref = self._profile(traffic, m)[0]
+        # the lead, the brake and the stall test per formation, compiled
+        # (icv_envs.sim._kernels.hold_targets: the arithmetic of the array
+        # code it replaced, element by element)
+        has, brake, late = hold_targets(grp, slot_of_gid, A, chg, r, traffic.tgt_behind, cx, d_ref, traffic.vid,
+                                        self._p_deadline, float(self.time), float(self.max_anchor_lead),
+                                        -self.anchor_brake * dt, float(self.stall_error),
+                                        float(road.length) if road.periodic else -1.0)
+        if not has.any():
+            return
         if brake.any():
-            A[brake] = road.mod(A[brake] + np.maximum(back[brake], -self.anchor_brake * dt))
             self.anchor.update(zip([gids[k] for k in np.flatnonzero(brake)], A[brake].tolist()))
         check = np.flatnonzero(has & ~chg)
         if len(check):
@@ -554,11 +546,7 @@ class FormationManager:
             for k in check[bits != want].tolist():
                 changed.add(gids[k])
         # a member far from its target AFTER its plan should have brought it
-        # there (the join profile's deadline) counts as stalled
-        vid = traffic.vid[rr]
-        self._grow(int(vid.max()) + 1)
-        late_rows = (np.abs(road.wrap(cx[rr] - (A[kk] - tb))) > self.stall_error) & (self.time > self._p_deadline[vid])
-        late = segment_max(late_rows.astype(np.float64), seg_start, seg_end) > 0.5
+        # there (the join profile's deadline) counts as stalled (``late``)
         for k in np.flatnonzero(has).tolist():
             gid = gids[k]
             if gid in changed:

@@ -2,8 +2,8 @@
 
 What lives here: the loops that array operations cannot express without
 Python-level iteration (the collision sweep, which stops at the first
-sort-order offset with no pair in reach; the formation layer's segment
-reductions and drivable-lane windows), and the per-step work whose cost was
+sort-order offset with no pair in reach; the formation layer's
+front-target pass and drivable-lane windows), and the per-step work whose cost was
 the Python overhead of tens of small numpy calls rather than arithmetic
 (issue 10): the fused physics substep (:func:`kinematic_substep`,
 :func:`road_check`), the run statistics (:func:`motion_record`,
@@ -41,7 +41,7 @@ functions, so :func:`pairwise_sum` runs its halving on an explicit stack.
 
 from __future__ import annotations
 
-from icv_envs.sim._kernels.formation import segment_max, drivable_lane_bits
+from icv_envs.sim._kernels.formation import drivable_lane_bits, hold_targets
 from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows
 from icv_envs.sim._kernels.observation import nearest_along_road, kinematics_rows
 from icv_envs.sim._kernels.physics import npy_mod, kinematic_substep, road_check, interval_ends, lanes_available
@@ -63,6 +63,6 @@ __all__ = [
     "motion_record",
     "headway_record",
     "pet_transitions",
-    "segment_max",
     "drivable_lane_bits",
+    "hold_targets",
 ]

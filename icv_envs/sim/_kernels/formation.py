@@ -1,4 +1,4 @@
-"""The formation layer's segment reductions and drivable-lane windows,
+"""The formation layer's front-target pass and drivable-lane windows,
 compiled (the rules every kernel here follows:
 :mod:`icv_envs.sim._kernels`)."""
 
@@ -7,20 +7,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["segment_max", "drivable_lane_bits"]
+from icv_envs.sim._kernels.physics import npy_mod
 
-
-@nb.njit(cache=True)
-def segment_max(values, starts, ends):
-    """``max(values[starts[g]:ends[g]])`` per segment (``-inf`` if empty)."""
-    out = np.full(starts.shape[0], -np.inf)
-    for g in range(starts.shape[0]):
-        best = -np.inf
-        for i in range(starts[g], ends[g]):
-            if values[i] > best:
-                best = values[i]
-        out[g] = best
-    return out
+__all__ = ["drivable_lane_bits", "hold_targets"]
 
 
 @nb.njit(cache=True)
@@ -72,3 +61,73 @@ def drivable_lane_bits(a, span, x0, x1, periodic, length, lane_ends, ob_lane, ob
                 bits |= 1 << lane
         out[g] = bits
     return out
+
+
+@nb.njit(cache=True)
+def _wrap1(d, length):
+    """``RoadLayout.wrap`` of one float (``length < 0``: a straight road)."""
+    if length < 0.0:
+        return d
+    half = 0.5 * length
+    return npy_mod(d + half, length) - half
+
+
+@nb.njit(cache=True)
+def hold_targets(grp, slot_of_gid, A, chg, room, tb, cx, d_members, vid, deadline, time, max_lead, brake_step,
+                 stall_error, length):
+    """The array part of ``FormationManager._hold_targets`` in one pass per
+    quantity, over formations ``k`` (``slot_of_gid[gid] = k``, -1 for ids not
+    asked about) with front targets ``A`` (updated in place), re-forming
+    flags ``chg`` and room to the formation ahead ``room`` (nan: none):
+
+    * ``implied[k]``: the largest ``wrap(cx + tb - A[k]) - d`` over the
+      members (``d``: each member's join-profile offset, ``d_members`` in
+      ascending row order of the members ``grp >= 0``), ``-inf`` for none;
+    * the front target falls back by ``max(back, brake_step)`` (``brake_step
+      = -anchor_brake * dt``) where ``back`` (the lead beyond ``max_lead``
+      unless re-forming, capped by a negative room) is negative;
+    * ``late[k]``: some member is farther than ``stall_error`` from its slot
+      after its plan's deadline.
+
+    Rows are visited in ascending order, as the segment reductions over a
+    stable sort by formation id did; the arithmetic is theirs element by
+    element. Returns ``(has, brake, late)``; ``length``: the ring's length,
+    or -1 on a straight road."""
+    G = A.shape[0]
+    n = grp.shape[0]
+    implied = np.full(G, -np.inf)
+    has = np.zeros(G, dtype=np.bool_)
+    kk = np.full(n, -1, dtype=np.int64)
+    j = 0
+    for r in range(n):
+        g = grp[r]
+        if g < 0:
+            continue
+        dref = d_members[j]
+        j += 1
+        k = slot_of_gid[g] if g < slot_of_gid.shape[0] else -1
+        if k < 0:
+            continue
+        kk[r] = k
+        has[k] = True
+        val = _wrap1(cx[r] + tb[r] - A[k], length) - dref
+        if val > implied[k]:
+            implied[k] = val
+    brake = np.zeros(G, dtype=np.bool_)
+    for k in range(G):
+        back = implied[k] + max_lead if (not chg[k]) and implied[k] < -max_lead else 0.0
+        if room[k] < 0:
+            back = min(back, room[k])
+        if has[k] and back < 0:
+            brake[k] = True
+            step = back if back > brake_step else brake_step
+            x = A[k] + step
+            A[k] = npy_mod(x, length) if length >= 0.0 else x
+    late = np.zeros(G, dtype=np.bool_)
+    for r in range(n):
+        k = kk[r]
+        if k < 0:
+            continue
+        if abs(_wrap1(cx[r] - (A[k] - tb[r]), length)) > stall_error and time > deadline[vid[r]]:
+            late[k] = True
+    return has, brake, late
