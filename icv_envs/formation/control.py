@@ -220,9 +220,13 @@ _PROFILE_SAMPLES = np.linspace(0.0, 1.0, 201)  # where join_duration checks a pr
 _PROFILE_SAMPLES.flags.writeable = False
 
 
+JOIN_GROW = 1.05  # join_duration's default ratio between the last infeasible and the returned duration
+JOIN_SEARCH_CAP = 600.0  # join_duration's default max_duration [s]
+
+
 def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFILE_DECEL,
-                  jerk: float = PROFILE_JERK, t_min: float = PROFILE_MIN_DURATION, grow: float = 1.05,
-                  max_duration: float = 600.0, v_lo=-np.inf, v_hi=np.inf) -> np.ndarray:
+                  jerk: float = PROFILE_JERK, t_min: float = PROFILE_MIN_DURATION, grow: float = JOIN_GROW,
+                  max_duration: float = JOIN_SEARCH_CAP, v_lo=-np.inf, v_hi=np.inf) -> np.ndarray:
     """Shortest duration ``T >= t_min`` (to within a factor ``grow``) for which the profile of :func:`join_profile` keeps its
     acceleration within ``[-decel, accel]`` (widened to the initial
     acceleration ``a0`` if that lies outside), its jerk within ``+-jerk``
@@ -237,6 +241,13 @@ def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFI
     d0, v0, a0 = np.broadcast_arrays(*(np.atleast_1d(_finite(n, x)) for n, x in
                                        (("d0", d0), ("v0", v0), ("a0", a0))))
     d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
+    return _join_duration(d0, v0, a0, accel, decel, jerk, t_min, grow, max_duration, v_lo, v_hi)
+
+
+def _join_duration(d0, v0, a0, accel, decel, jerk, t_min, grow, max_duration, v_lo, v_hi) -> np.ndarray:
+    """:func:`join_duration` without its input checks, for callers whose
+    ``d0, v0, a0`` are already finite, contiguous float64 arrays of one
+    shape and whose limits are valid (the formation layer's plans)."""
     hi_a = np.maximum(accel, a0)
     lo_a = np.minimum(-decel, a0)
     vhi = np.maximum(np.broadcast_to(np.asarray(v_hi, dtype=np.float64), d0.shape), v0)

@@ -52,12 +52,14 @@ import numpy as np
 from icv_envs.formation.assignment import assign_targets
 from icv_envs.formation.control import (
     FEEDBACK_ERROR,
+    JOIN_GROW,
+    JOIN_SEARCH_CAP,
     PROFILE_ACCEL,
     PROFILE_DECEL,
     PROFILE_JERK,
     PROFILE_MIN_DURATION,
+    _join_duration,
     _quintic_coeffs,
-    join_duration,
     join_profile,
 )
 from icv_envs.formation._kernels import quintic_rows
@@ -205,8 +207,12 @@ class FormationManager:
         d0 = road.wrap(cx[rows] - self._slot_x(traffic, rows))
         v0 = traffic.speed[rows] - self.speed
         a0 = uclip(traffic.accel[rows], -lim["decel"], lim["accel"])
-        T = join_duration(d0, v0, a0, **lim, v_lo=self.profile_speeds[0] - self.speed,
-                          v_hi=self.profile_speeds[1] - self.speed, max_duration=JOIN_MAX_DURATION)
+        # (join_duration without its input checks: d0, v0, a0 are finite
+        # float64 arrays, the limits were checked when the manager was made)
+        d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
+        T = _join_duration(d0, v0, a0, lim["accel"], lim["decel"], lim["jerk"], lim["t_min"], JOIN_GROW,
+                           JOIN_MAX_DURATION, self.profile_speeds[0] - self.speed,
+                           self.profile_speeds[1] - self.speed)
         # no duration keeps a quintic inside the speed band when the member
         # must first reverse a large relative speed (a slow ramp vehicle
         # joining behind its slot: d0 < 0, v0 << 0 overshoots any band): the
@@ -217,15 +223,18 @@ class FormationManager:
         stuck = T >= JOIN_MAX_DURATION
         if np.any(stuck):
             T = np.asarray(T, dtype=np.float64).copy()
-            T[stuck] = join_duration(d0[stuck], v0[stuck], a0[stuck], **lim)
+            T[stuck] = _join_duration(d0[stuck], v0[stuck], a0[stuck], lim["accel"], lim["decel"], lim["jerk"],
+                                      lim["t_min"], JOIN_GROW, JOIN_SEARCH_CAP, -np.inf, np.inf)
         self._p_t0[vid], self._p_T[vid] = self.time, T
         self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
         T = np.asarray(T, dtype=np.float64)
         # the polynomial's coefficients, fixed for the plan (_eval_profiles)
         self._p_c3[vid], self._p_c4[vid], self._p_c5[vid] = _quintic_coeffs(T, d0, v0, a0)
         # the profile's values once it has ended (evaluated at t = T, where
-        # every later time is clamped to: the same numbers _profile would get)
-        self._p_fd[vid], self._p_fv[vid], self._p_fa[vid] = join_profile(T, T, d0, v0, a0)
+        # every later time is clamped to: the same numbers _profile would get;
+        # the quintic at t = T from the stored coefficients, written in place)
+        quintic_rows(T, T ** 3, T ** 4, T ** 5, vid, self._p_d0, self._p_v0, self._p_a0, self._p_c3, self._p_c4,
+                     self._p_c5, vid, self._p_fd, self._p_fv, self._p_fa)
         self.plans += len(rows)
         self._p_stamp[vid] = self.plans  # (which cached profiles this plan makes stale: _profile)
         return T
