@@ -135,11 +135,26 @@ class MotionStats:
         if stopped == -2:
             self._grow(int(top) + 1)
             sv, sdv, sa, stopped, top = motion_record(vid, v0, v1, a, STOPPED_SPEED, self._n, self._s1, self._s2)
-        self.vehicle_steps += len(vid)
+        self.add(len(vid), sv, sdv, sa, stopped, dt)
+
+    def add(self, n: int, sv: float, sdv: float, sa: float, stopped: int, dt: float) -> None:
+        """Add one substep's sums (``n`` vehicles; speeds, ``|dv|``,
+        ``|commanded|``; vehicles standing) whose per-vehicle moments were
+        already accumulated (:meth:`record`, or the compiled substeps of
+        :meth:`icv_envs.sim.world.World.substeps` after :meth:`reserve`)."""
+        self.vehicle_steps += n
         self.speed_sum += sv
         self.realised_abs_accel_sum += sdv / float(dt)
         self.commanded_abs_accel_sum += sa
         self.stopped_steps += stopped
+
+    def reserve(self, size: int) -> None:
+        """Room for the per-vehicle moments of ids ``< size``."""
+        self._grow(size)
+
+    def moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The per-vehicle arrays (count, sum of speeds, sum of squares), by id, updated in place."""
+        return self._n, self._s1, self._s2
 
     def per_vehicle_std(self) -> np.ndarray:
         """Speed standard deviation of every vehicle with >= 2 samples."""

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.sim._kernels import kinematic_substep, road_check
+from icv_envs.sim._kernels import kinematic_substep, quiet_substeps, road_check
 from icv_envs.sim.formations import FormationManager
-from icv_envs.sim.metrics import HeadwayStats, MotionStats
+from icv_envs.sim.metrics import STOPPED_SPEED, HeadwayStats, MotionStats
 from icv_envs.sim.road import RoadLayout
 from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, leaders, rect_overlap
 
@@ -29,6 +29,8 @@ JAM_STOP_TIME = 30.0
 #: the top speed, s0 + v_max T = 2 + 30 * 1 m (Treiber et al. 2000): a vehicle
 #: this far behind its leader (or the end of its lane) would accelerate.
 JAM_FREE_GAP = 32.0
+#: how far [m] a body centre may be beside its lane's outer half-width before it is off the road
+EDGE_MARGIN = 0.5
 
 
 class StepEvents:
@@ -160,7 +162,6 @@ class World:
             self.v_max, -1.0 if tr.period is None else tr.period)
         cx, cy = tr.set_center(cx, cy)
         self.motion.record(tr.vid, v_before, tr.speed, tr.accel, self.dt)
-        st = self.stats
         i, j = find_collisions(cx, cy, tr.heading, tr.length, tr.width,
                                period=road.length if road.periodic else None)
         # leaving the drivable surface: a main-road vehicle whose lane has
@@ -169,7 +170,70 @@ class World:
         # can steer off); one past the end of a straight road has left it
         lane, off, at_end, n_off, n_end = road_check(
             cx, cy, road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane, road._ob_lo,
-            road._ob_hi, road._ramp_iv, 0.5, np.inf if road.periodic else road.length)
+            road._ob_hi, road._ramp_iv, EDGE_MARGIN, np.inf if road.periodic else road.length)
+        self._substep_events(events, cx, cy, cx_before if tr.n and road.n_exits else None, i, j, lane, off, at_end,
+                             n_off, n_end)
+
+    def substeps(self, accel: np.ndarray, steer: np.ndarray, n: int, events: StepEvents) -> int:
+        """Up to ``n`` calls of :meth:`substep` with the same controls, the
+        quiet ones in one compiled pass (:func:`icv_envs.sim._kernels.quiet_substeps`),
+        stopping after the first substep with a collision, a vehicle leaving
+        the road or the road's end, or an exit (handled here as
+        :meth:`substep` does). Returns how many substeps ran; the state,
+        statistics and events are those of as many :meth:`substep` calls,
+        bit for bit. Roads with obstacles take :meth:`substep` one at a time."""
+        tr = self.traffic
+        road = self.road
+        if n <= 1 or not tr.n or road.obstacles:
+            self.substep(accel, steer, events)
+            return 1
+        nv = tr.n
+        cx0 = tr.center()[0]
+        self.motion.reserve(int(tr.vid.max()) + 1)
+        exit_id, ex_x, de = tr.exit, self._no_exit_x(nv), self._no_exit_x(nv)
+        has = exit_id >= 0 if road.n_exits else None
+        if has is not None and has.any():
+            ex_x = np.full(nv, np.inf)
+            ex_x[has] = road.exit_position(exit_id[has])
+            de = np.full(nv, np.inf)
+            de[has] = road.diverge_end(exit_id[has])
+        else:
+            exit_id = np.full(nv, -1, dtype=np.int64)
+        lat = -1.0 if tr.lat_accel_max is None else tr.lat_accel_max
+        (k, event, tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy, cx_before, sums,
+         stopped, missed, i, j, lane, off, at_end, n_off, n_end) = quiet_substeps(
+            int(n), tr.x, tr.y, tr.heading, tr.speed, np.asarray(accel, dtype=np.float64),
+            np.asarray(steer, dtype=np.float64), tr.crashed, tr.stopped_for, tr.wheelbase, lat, self.dt, self.v_max,
+            road.length if road.periodic else -1.0, tr.vid, tr.length, tr.width, STOPPED_SPEED, *self.motion.moments(),
+            road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi,
+            road._ramp_iv, EDGE_MARGIN, np.inf if road.periodic else road.length, exit_id, ex_x, de,
+            road.ramp_lane, cx0)
+        for f in range(k):  # the clock and the run statistics, substep by substep as substep() adds them
+            self.time += self.dt
+            self.motion.add(nv, sums[f, 0], sums[f, 1], sums[f, 2], int(stopped[f]), self.dt)
+        self.stats["missed_exits"] += int(missed)
+        self._index = None
+        cx, cy = tr.set_center(cx, cy)
+        if event:
+            self._substep_events(events, cx, cy, cx_before if road.n_exits else None, i, j, lane, off, at_end,
+                                 n_off, n_end)
+        return int(k)
+
+    @staticmethod
+    def _no_exit_x(n: int) -> np.ndarray:
+        return np.full(n, np.inf)
+
+    def _substep_events(self, events: StepEvents, cx, cy, cx_before, i, j, lane, off, at_end, n_off: int,
+                        n_end: int) -> None:
+        """What one substep's new state means (after :meth:`substep`'s
+        integration, collision pairs ``i, j`` and road check): obstacle
+        hits, exits and missed exits, crashes (classified), vehicles that
+        left at the road's end, and the removal of those that exited or
+        left. ``cx_before``: the body centres before the substep (roads with
+        exits), else None."""
+        tr = self.traffic
+        road = self.road
+        st = self.stats
         hit = hit_obstacle = None
         if len(i) or road.obstacles:
             hit = np.zeros(tr.n, dtype=bool)

@@ -6,7 +6,8 @@ sort-order offset with no pair in reach; the formation layer's
 front-target pass and drivable-lane windows), and the per-step work whose cost was
 the Python overhead of tens of small numpy calls rather than arithmetic
 (issue 10): the fused physics substep (:func:`kinematic_substep`,
-:func:`road_check`), the run statistics (:func:`motion_record`,
+:func:`road_check`) and the run of substeps in which nothing happens that
+the world must handle in Python (:func:`quiet_substeps`), the run statistics (:func:`motion_record`,
 :func:`headway_record`), collision detection as a whole
 (:func:`collision_pairs`), the lane-sorted index and leader search
 (:func:`build_lane_index`, :func:`leader_rows`) and the observation's
@@ -42,6 +43,7 @@ functions, so :func:`pairwise_sum` runs its halving on an explicit stack.
 from __future__ import annotations
 
 from icv_envs.sim._kernels.formation import drivable_lane_bits, hold_targets
+from icv_envs.sim._kernels.frames import quiet_substeps
 from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows
 from icv_envs.sim._kernels.observation import nearest_along_road, kinematics_rows
 from icv_envs.sim._kernels.physics import npy_mod, kinematic_substep, road_check, interval_ends, lanes_available
@@ -65,4 +67,5 @@ __all__ = [
     "pet_transitions",
     "drivable_lane_bits",
     "hold_targets",
+    "quiet_substeps",
 ]
