@@ -44,7 +44,7 @@ def main() -> None:
     parts = {
         "formation layer update (FormationManager.update)": "formations.py:update",
         "formation expert (FormationExpert.compute)": "formation_expert.py:compute",
-        "physics substeps (World.substep)": "world.py:substep",
+        "physics frames (World.substeps: every substep of the ring runs inside it)": "world.py:substeps",
         "observations (_observe_rows)": "base.py:_observe_rows",
         "features (_features)": "highway_formation.py:_features",
         "rewards (_rewards_rows)": "highway_formation.py:_rewards_rows",

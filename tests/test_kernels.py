@@ -487,6 +487,25 @@ def test_headway_record_equals_numpy(n, seed):
         hs.record(np.zeros(3), np.zeros(2))
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(_finite_f, st.floats(-25.0, 25.0), st.floats(-6.0, 3.0)), min_size=1, max_size=20),
+       st.floats(-30.0, 0.0), st.floats(0.0, 15.0), st.sampled_from([60.0, 120.0]))
+def test_banded_join_search_equals_two_join_duration_calls(rows, v_lo, v_hi, cap):
+    """The formation layer's plan durations in one compiled call equal
+    join_duration within the band, then without it where the band search
+    reached its cap (the two calls the manager made), bit for bit."""
+    from icv_envs.formation.control import _join_duration_banded, join_duration
+
+    d0, v0, a0 = (np.array(c, dtype=np.float64) for c in zip(*rows))
+    lim = dict(accel=1.5, decel=3.0, jerk=2.0, t_min=2.0)
+    want = join_duration(d0, v0, a0, **lim, v_lo=v_lo, v_hi=v_hi, max_duration=cap)
+    stuck = want >= cap
+    if stuck.any():
+        want[stuck] = join_duration(d0[stuck], v0[stuck], a0[stuck], **lim)
+    got = _join_duration_banded(d0, v0, a0, 1.5, 3.0, 2.0, 2.0, v_lo, v_hi, cap)
+    np.testing.assert_array_equal(got, want)
+
+
 @settings(max_examples=40, deadline=None)
 @given(n=st.integers(1, 50), seed=st.integers(0, 2**31))
 def test_quintic_equals_the_written_out_formula(n, seed):

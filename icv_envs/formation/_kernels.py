@@ -18,10 +18,12 @@ numpy code's, bit for bit (``tests/test_trajectory_hash.py``).
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
-__all__ = ["join_search", "quintic_rows"]
+__all__ = ["join_search", "join_search_banded", "quintic_rows"]
 
 
 @nb.njit(cache=True)
@@ -77,6 +79,46 @@ def join_search(lo, d0, v0, a0, hi_a, lo_a, v_hi, v_lo, jerk, max_duration, grow
             else:
                 lo_i = mid
         T[i] = hi_i
+    return T
+
+
+@nb.njit(cache=True)
+def join_search_banded(cb, d0, v0, a0, accel, decel, jerk, t_min, grow, cap, v_lo, v_hi, cap_free, tau):
+    """``control.join_duration_banded`` after its cube roots (``cb =
+    cbrt(60 |d0| / jerk)``, taken by numpy, whose SIMD ``cbrt`` may round
+    differently from libm's): the start of the search (``join_duration``'s
+    element-wise max/min of the estimates and limits, ``sqrt`` and the
+    divisions exactly rounded everywhere), :func:`join_search` within the
+    speed band ``[v_lo, v_hi]`` capped at ``cap``, and for members that
+    reach the cap the search again without the band, capped at
+    ``cap_free``. The same durations as those numpy expressions and two
+    ``join_duration`` calls, bit for bit."""
+    m = d0.shape[0]
+    amax = max(accel, decel)
+    lo = np.empty(m)
+    hi_a = np.empty(m)
+    lo_a = np.empty(m)
+    vhi = np.empty(m)
+    vlo = np.empty(m)
+    for i in range(m):
+        # np.maximum(a, b) is ``a if a >= b else b`` (np.minimum: ``<=``)
+        e1 = math.sqrt(5.7735 * abs(d0[i]) / amax)
+        e2 = cb[i]
+        e3 = abs(v0[i]) / amax
+        est = e1 if e1 >= e2 else e2
+        est = est if est >= e3 else e3
+        x = 0.7 * est
+        lo[i] = t_min if t_min >= x else x
+        hi_a[i] = accel if accel >= a0[i] else a0[i]
+        lo_a[i] = -decel if -decel <= a0[i] else a0[i]
+        vhi[i] = v_hi if v_hi >= v0[i] else v0[i]
+        vlo[i] = v_lo if v_lo <= v0[i] else v0[i]
+    T = join_search(lo, d0, v0, a0, hi_a, lo_a, vhi, vlo, jerk, cap, grow, tau)
+    stuck = np.flatnonzero(T >= cap)
+    if stuck.shape[0]:
+        free_hi = np.full(stuck.shape[0], np.inf)
+        T[stuck] = join_search(lo[stuck], d0[stuck], v0[stuck], a0[stuck], hi_a[stuck], lo_a[stuck], free_hi,
+                               -free_hi, jerk, cap_free, grow, tau)
     return T
 
 

@@ -32,7 +32,7 @@ import numbers
 
 import numpy as np
 
-from icv_envs.formation._kernels import join_search
+from icv_envs.formation._kernels import join_search, join_search_banded
 from icv_envs.formation._validate import finite
 
 __all__ = [
@@ -242,6 +242,21 @@ def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFI
                                        (("d0", d0), ("v0", v0), ("a0", a0))))
     d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
     return _join_duration(d0, v0, a0, accel, decel, jerk, t_min, grow, max_duration, v_lo, v_hi)
+
+
+def _join_duration_banded(d0, v0, a0, accel, decel, jerk, t_min, v_lo, v_hi, cap, grow=JOIN_GROW,
+                          cap_free=JOIN_SEARCH_CAP) -> np.ndarray:
+    """Join durations within a relative speed band, with a fallback: per
+    member ``join_duration(..., v_lo=v_lo, v_hi=v_hi, max_duration=cap)``,
+    and where that reaches ``cap`` (no duration keeps the quintic inside
+    the band) ``join_duration(..., max_duration=cap_free)`` without the
+    band, for 1-D float64 arrays ``d0, v0, a0`` whose values and limits are
+    valid (unchecked). One compiled call after numpy's cube roots
+    (:func:`icv_envs.formation._kernels.join_search_banded`); the durations
+    of those two calls, bit for bit."""
+    cb = np.cbrt(60.0 * np.abs(d0) / jerk)
+    return join_search_banded(cb, d0, v0, a0, float(accel), float(decel), float(jerk), float(t_min), float(grow),
+                              float(cap), float(v_lo), float(v_hi), float(cap_free), _PROFILE_SAMPLES)
 
 
 def _join_duration(d0, v0, a0, accel, decel, jerk, t_min, grow, max_duration, v_lo, v_hi) -> np.ndarray:

@@ -52,13 +52,11 @@ import numpy as np
 from icv_envs.formation.assignment import assign_targets
 from icv_envs.formation.control import (
     FEEDBACK_ERROR,
-    JOIN_GROW,
-    JOIN_SEARCH_CAP,
     PROFILE_ACCEL,
     PROFILE_DECEL,
     PROFILE_JERK,
     PROFILE_MIN_DURATION,
-    _join_duration,
+    _join_duration_banded,
     _quintic_coeffs,
     join_profile,
 )
@@ -207,12 +205,6 @@ class FormationManager:
         d0 = road.wrap(cx[rows] - self._slot_x(traffic, rows))
         v0 = traffic.speed[rows] - self.speed
         a0 = uclip(traffic.accel[rows], -lim["decel"], lim["accel"])
-        # (join_duration without its input checks: d0, v0, a0 are finite
-        # float64 arrays, the limits were checked when the manager was made)
-        d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
-        T = _join_duration(d0, v0, a0, lim["accel"], lim["decel"], lim["jerk"], lim["t_min"], JOIN_GROW,
-                           JOIN_MAX_DURATION, self.profile_speeds[0] - self.speed,
-                           self.profile_speeds[1] - self.speed)
         # no duration keeps a quintic inside the speed band when the member
         # must first reverse a large relative speed (a slow ramp vehicle
         # joining behind its slot: d0 < 0, v0 << 0 overshoots any band): the
@@ -220,11 +212,12 @@ class FormationManager:
         # member's own speed for minutes. Those members get the shortest
         # plan within the acceleration and jerk limits alone; the vehicle's
         # own speed limit and the re-plan rule handle the overshoot.
-        stuck = T >= JOIN_MAX_DURATION
-        if np.any(stuck):
-            T = np.asarray(T, dtype=np.float64).copy()
-            T[stuck] = _join_duration(d0[stuck], v0[stuck], a0[stuck], lim["accel"], lim["decel"], lim["jerk"],
-                                      lim["t_min"], JOIN_GROW, JOIN_SEARCH_CAP, -np.inf, np.inf)
+        # (one compiled search for both; unchecked: d0, v0, a0 are finite
+        # float64 arrays, the limits were checked when the manager was made)
+        d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
+        T = _join_duration_banded(d0, v0, a0, lim["accel"], lim["decel"], lim["jerk"], lim["t_min"],
+                                  self.profile_speeds[0] - self.speed, self.profile_speeds[1] - self.speed,
+                                  JOIN_MAX_DURATION)
         self._p_t0[vid], self._p_T[vid] = self.time, T
         self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
         T = np.asarray(T, dtype=np.float64)
