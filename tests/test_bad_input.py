@@ -154,3 +154,23 @@ def test_formation_expert_checks_its_parameters_once(kw, match):
 
     with pytest.raises(ValueError, match=match):
         FormationExpert(ExpertParams(**kw))
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"kp": 0.3}, "kp = 0.3; allowed: < 0"),
+    ({"kv": float("inf")}, "kv = inf; allowed: a finite number"),
+    ({"steer_max": -0.1}, "steer_max = -0.1; allowed: in"),
+    ({"wheelbase": -2.0}, "wheelbase = -2.0; allowed: > 0"),
+    ({"comfort": (0.5, 1.5)}, "comfort = 0.5 / 1.5; allowed: lower < 0 < upper"),
+    ({"comfort": (-3.0,)}, r"comfort = \(-3.0,\); allowed: a pair"),
+    ({"a_max": -1.0}, "a_min / a_max = -6.0 / -1.0; allowed: lower < 0 < upper"),
+])
+def test_platoon_expert_checks_its_parameters_once(kw, match):
+    """The intersection expert calls the unchecked steering and feedback
+    laws every step; a parameter they would refuse is refused when the
+    expert is made, naming the value."""
+    from icv_envs.policies.platoon_expert import PlatoonExpert, PlatoonParams
+    from icv_envs.sim.intersection_layout import IntersectionLayout
+
+    with pytest.raises(ValueError, match=match):
+        PlatoonExpert(IntersectionLayout(), PlatoonParams(**kw))

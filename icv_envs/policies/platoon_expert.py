@@ -143,8 +143,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from icv_envs.formation.bezier import lane_change_lateral, pure_pursuit_steering
-from icv_envs.formation.control import longitudinal_feedback
+from icv_envs.formation.bezier import _pure_pursuit_steering, lane_change_lateral
+from icv_envs.formation.control import _longitudinal_feedback
 from icv_envs.platoon.tree import DEFAULT_D_T
 from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
     MODE_FOLLOW,
@@ -232,6 +232,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         self.method = method
         self.layout = layout
         self.p = params or PlatoonParams()
+        self._check_params()
         self.frames = int(frames)
         self._next_id = 0
         self.formations: dict[int, dict] = {}  # approach formations
@@ -391,6 +392,31 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         if self._stamp != (world.step_count, f.n, f.next_vid):
             self.update(world)
 
+    def _check_params(self) -> None:
+        """The parameter checks that :func:`pure_pursuit_steering` and
+        :func:`longitudinal_feedback` make on every call, made once here:
+        :meth:`compute` calls their unchecked forms."""
+        p = self.p
+
+        def real(name, v):
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not np.isfinite(v):
+                raise ValueError(f"PlatoonParams.{name} = {v!r}; allowed: a finite number")
+            return float(v)
+
+        if not real("wheelbase", p.wheelbase) > 0.0:
+            raise ValueError(f"PlatoonParams.wheelbase = {p.wheelbase!r}; allowed: > 0 metres")
+        if not 0.0 < real("steer_max", p.steer_max) < 0.5 * np.pi:
+            raise ValueError(f"PlatoonParams.steer_max = {p.steer_max!r}; allowed: in (0, pi/2) rad")
+        for name in ("kp", "kv"):
+            if not real(name, getattr(p, name)) < 0.0:
+                raise ValueError(f"PlatoonParams.{name} = {getattr(p, name)!r}; allowed: < 0 (X points forward, "
+                                 f"a positive gain is unstable)")
+        if not (isinstance(p.comfort, (tuple, list)) and len(p.comfort) == 2):
+            raise ValueError(f"PlatoonParams.comfort = {p.comfort!r}; allowed: a pair (lower, upper) [m/s^2]")
+        for name, (lo, hi) in (("a_min / a_max", (p.a_min, p.a_max)), ("comfort", tuple(p.comfort))):
+            if not real(name, lo) < 0.0 < real(name, hi):
+                raise ValueError(f"PlatoonParams {name} = {lo!r} / {hi!r}; allowed: lower < 0 < upper [m/s^2]")
+
     def _steering(self, world, rs) -> np.ndarray:
         p = self.p
         f = world.fleet
@@ -421,7 +447,10 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
             up = rs.u[k] + ld[k]
             px[k] = o[:, 0] + up * d[:, 0] + lat * r[:, 0]
             py[k] = o[:, 1] + up * d[:, 1] + lat * r[:, 1]
-        return pure_pursuit_steering(f.x, f.y, f.heading, px, py, p.wheelbase, p.steer_max)
+        # (unchecked: the parameters were checked once, _check_params; the
+        # states and preview points are finite float64 arrays)
+        return _pure_pursuit_steering(f.x, f.y, f.heading, px, np.asarray(py, dtype=np.float64), float(p.wheelbase),
+                                      float(p.steer_max))
 
     def _longitudinal(self, world, rs) -> np.ndarray:
         p = self.p
@@ -433,13 +462,15 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         if len(fol):
             x = rs.u[fol]
             xr = x + np.clip(self._xref[fol] - x, -p.ref_error_clip, p.ref_error_clip)
-            acc[fol] = longitudinal_feedback(x, xr, v[fol], self._vref[fol], p.kp, p.kv, p.comfort[0], p.comfort[1])
+            acc[fol] = _longitudinal_feedback(x, xr, v[fol], self._vref[fol], float(p.kp), float(p.kv),
+                                              float(p.comfort[0]), float(p.comfort[1]), 0.0)
         tr = np.flatnonzero(m == MODE_TREE)
         if len(tr):
             x = -rs.X[tr]
             xr = x + np.clip(-self._xref[tr] - x, -p.ref_error_clip, p.ref_error_clip)
             lo = np.where(self._tight[tr], p.a_min, p.comfort[0])
-            a = longitudinal_feedback(x, xr, v[tr], self._vref[tr], p.kp, p.kv, p.a_min, p.a_max)
+            a = _longitudinal_feedback(x, xr, v[tr], self._vref[tr], float(p.kp), float(p.kv), float(p.a_min),
+                                       float(p.a_max), 0.0)
             a = np.clip(a, lo, p.a_max)
             vc = self._vcap[tr]
             self.stats["virtual_cap_binding"] += int((vc < a - 0.5).sum())
