@@ -134,6 +134,7 @@ class FormationManager:
         self._profile_cache = None  # (key, profiles): see _profile
         self._bits_memo: dict[tuple, int] = {}  # lane set -> bit set (_hold_targets)
         self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
+        self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_lane_bits)
         # per vehicle id: the slot a plan was made for (group, metres behind
         # the front), the plan (start time, duration, initial offset, relative
         # speed, acceleration) and when the first plan for that slot ends
@@ -568,13 +569,17 @@ class FormationManager:
         L = float(road.length)
         span = np.minimum(np.maximum(x1 - x0, 0.0), L)
         a = np.mod(x0, L)
-        allowed = np.ones(road.n_lanes, dtype=bool)
-        if self.allowed_lanes is not None:
-            allowed[:] = False
-            allowed[[lane for lane in self.allowed_lanes if lane < road.n_lanes]] = True
-        ob_lane = np.asarray(road._ob_lane, dtype=np.int64) if len(road._ob_lane) else np.zeros(0, dtype=np.int64)
-        ob_lo = np.asarray(road._ob_lo, dtype=np.float64) if len(road._ob_lane) else np.zeros(0)
-        ob_hi = np.asarray(road._ob_hi, dtype=np.float64) if len(road._ob_lane) else np.zeros(0)
+        allowed = self._allowed_memo.get(road.n_lanes)
+        if allowed is None:  # the lanes this manager may use, as a mask (fixed per lane count)
+            allowed = np.ones(road.n_lanes, dtype=bool)
+            if self.allowed_lanes is not None:
+                allowed[:] = False
+                allowed[[lane for lane in self.allowed_lanes if lane < road.n_lanes]] = True
+            allowed.flags.writeable = False
+            self._allowed_memo[road.n_lanes] = allowed
+        ob_lane = np.asarray(road._ob_lane, dtype=np.int64)
+        ob_lo = np.asarray(road._ob_lo, dtype=np.float64)
+        ob_hi = np.asarray(road._ob_hi, dtype=np.float64)
         return drivable_lane_bits(a, span, x0, x1, bool(road.periodic), L, road.lane_ends, ob_lane, ob_lo, ob_hi,
                                   allowed)
 
