@@ -143,7 +143,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from icv_envs.formation.bezier import _pure_pursuit_steering, lane_change_lateral
+from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steering
 from icv_envs.formation.control import _longitudinal_feedback
 from icv_envs.platoon.tree import DEFAULT_D_T
 from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
@@ -393,9 +393,11 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
             self.update(world)
 
     def _check_params(self) -> None:
-        """The parameter checks that :func:`pure_pursuit_steering` and
-        :func:`longitudinal_feedback` make on every call, made once here:
-        :meth:`compute` calls their unchecked forms."""
+        """The parameter checks that :func:`pure_pursuit_steering`,
+        :func:`longitudinal_feedback` and :func:`lane_change_lateral` (whose
+        lengths are ``clip(v * lc_duration, lc_min_length, lc_max_length)``)
+        make on every call, made once here: the expert calls their unchecked
+        forms."""
         p = self.p
 
         def real(name, v):
@@ -413,6 +415,9 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
                                  f"a positive gain is unstable)")
         if not (isinstance(p.comfort, (tuple, list)) and len(p.comfort) == 2):
             raise ValueError(f"PlatoonParams.comfort = {p.comfort!r}; allowed: a pair (lower, upper) [m/s^2]")
+        if not 0.0 < real("lc_min_length", p.lc_min_length) <= real("lc_max_length", p.lc_max_length):
+            raise ValueError(f"PlatoonParams lc_min_length / lc_max_length = {p.lc_min_length!r} / "
+                             f"{p.lc_max_length!r}; allowed: 0 < lc_min_length <= lc_max_length [m]")
         for name, (lo, hi) in (("a_min / a_max", (p.a_min, p.a_max)), ("comfort", tuple(p.comfort))):
             if not real(name, lo) < 0.0 < real(name, hi):
                 raise ValueError(f"PlatoonParams {name} = {lo!r} / {hi!r}; allowed: lower < 0 < upper [m/s^2]")
@@ -437,7 +442,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
             act = f.lc_lane[k] >= 0
             if act.any():
                 a = k[act]
-                lat_a, _ = lane_change_lateral(rs.u[a] + ld[a], f.lc_u0[a], f.lc_lat0[a], f.lc_lat1[a], f.lc_len[a])
+                lat_a, _ = _lane_change_lateral(rs.u[a] + ld[a], f.lc_u0[a], f.lc_lat0[a], f.lc_lat1[a], f.lc_len[a])
                 lat = lat.astype(np.float64)
                 lat[act] = lat_a
             leg = f.leg[k]
