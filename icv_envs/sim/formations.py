@@ -132,6 +132,8 @@ class FormationManager:
         self.time = 0.0
         self.plans = 0
         self._profile_cache = None  # (key, profiles): see _profile
+        self._version = 0  # bumped whenever the formation state may change (update, create): references' cache key
+        self._refs_cache = None  # (key, references): see references
         self._bits_memo: dict[tuple, int] = {}  # lane set -> bit set (_hold_targets)
         self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
         self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_lane_bits)
@@ -281,6 +283,7 @@ class FormationManager:
         """Make a new formation of vehicles ``rows`` and assign them targets."""
         rows = np.asarray(rows, dtype=np.int64)
         cx, _ = traffic.center()
+        self._version += 1
         gid = self.next_gid
         self.next_gid += 1
         self.anchor[gid] = float(cx[rows].max() if anchor is None else anchor)
@@ -381,6 +384,7 @@ class FormationManager:
         cx, cy = traffic.center()
         wrap = road.wrap
         changed: set[int] = set()
+        self._version += 1
         self.time += dt
         gids = list(self.anchor)
         if gids:  # one array operation for all front targets
@@ -487,6 +491,7 @@ class FormationManager:
             if self.count.get(gid, 0) == 0:
                 for d in (self.anchor, self.lanes, self.count, self.length, self.stalled_for):
                     d.pop(gid, None)
+        self._version += 1
         return sorted(changed)
 
     def _hold_targets(self, traffic, road, gids, changed: set, room: dict, cx, dt: float) -> None:
@@ -589,7 +594,23 @@ class FormationManager:
         The target is ``X_slot = anchor - x_g`` (paper Sec. 4 uses the same
         form) at the formation speed; the reference is the slot plus the
         member's join profile ``d(t)`` (module docstring), equal to the slot
-        once the profile has ended. Free vehicles get ``nan`` / ``-1``."""
+        once the profile has ended. Free vehicles get ``nan`` / ``-1``.
+
+        Computed once per state (the observations and the expert both ask):
+        the answer is kept, keyed on the clock, the vehicle ids and this
+        manager's state version (bumped by :meth:`update` and :meth:`create`,
+        the only writers of the formation state), and returned read-only."""
+        key = (self.time, self._version, id(traffic), traffic.vid.tobytes())
+        c = self._refs_cache
+        if c is not None and c[0] == key:
+            return c[1]
+        out = self._references(traffic)
+        for arr in out:
+            arr.flags.writeable = False
+        self._refs_cache = (key, out)
+        return out
+
+    def _references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         member = traffic.group >= 0
         x_ref = np.full(traffic.n, np.nan)
         v_ref = np.full(traffic.n, np.nan)
