@@ -187,7 +187,7 @@ class RoadLayout:
     def available(self, lane, x) -> np.ndarray:
         """Whether ``lane`` is drivable at ``x`` (vectorised, broadcasting;
         compiled: :func:`icv_envs.sim._kernels.lanes_available`)."""
-        lane, x = np.broadcast_arrays(np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64))
+        lane, x = self._lane_x(lane, x)
         x = self.mod(x)
         out = lanes_available(np.ascontiguousarray(lane).reshape(-1), np.ascontiguousarray(x).reshape(-1),
                               self.n_lanes, self.lane_ends, self._ob_lane, self._ob_lo, self._ob_hi, self._ramp_iv)
@@ -197,11 +197,19 @@ class RoadLayout:
         """Distance-free position where the drivable stretch of ``lane``
         containing (or following) ``x`` ends: the next lane end, obstacle rear
         or ramp end ahead of ``x`` (``inf`` if none). Vectorised."""
-        lane, x = np.broadcast_arrays(np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64))
+        lane, x = self._lane_x(lane, x)
         if self.periodic:
-            base = x - self.mod(x)
-            return self._interval_end(lane, self.mod(x)) + base
+            xm = self.mod(x)
+            return self._interval_end(lane, xm) + (x - xm)
         return self._interval_end(lane, x)
+
+    @staticmethod
+    def _lane_x(lane, x) -> tuple[np.ndarray, np.ndarray]:
+        """``lane`` (int64) and ``x`` (float64) as arrays of one shape (broadcast only when the shapes differ)."""
+        lane, x = np.asarray(lane, dtype=np.int64), np.asarray(x, dtype=np.float64)
+        if lane.shape != x.shape:
+            lane, x = np.broadcast_arrays(lane, x)
+        return lane, x
 
     def _interval_end(self, lane, x) -> np.ndarray:
         # compiled (icv_envs.sim._kernels.interval_ends; the numpy version is
