@@ -70,3 +70,32 @@ def test_a_member_held_back_is_re_planned_from_where_it_is():
     assert w.manager.plans == before + 1
     x_ref, _, _, _ = w.manager.references(w.traffic)
     assert abs(x_ref[1] - w.traffic.center()[0][1]) < 25.0 * 0.2 + 1e-6  # the new plan starts where it is
+
+
+def test_references_are_kept_per_state_and_refreshed_by_every_writer():
+    """references() answers from its cache only while the formation state
+    is the one it computed: create(), update() and a change of vehicles
+    each give a fresh answer equal to a computation from scratch; the
+    answer is read-only (a caller cannot corrupt the next caller's)."""
+    import pytest
+
+    w = make_world([1000.0, 980.0, 960.0], [0, 1, 2], [25.0, 25.0, 25.0])
+    m = w.manager
+    r0 = m.references(w.traffic)
+    assert r0[3].sum() == 0 and m.references(w.traffic) is r0  # no formation yet; same state: the kept answer
+    with pytest.raises(ValueError):
+        r0[0][0] = 1.0
+    m.create(w.traffic, np.arange(2), w.road, anchor=1000.0)
+    r1 = m.references(w.traffic)
+    assert r1 is not r0 and r1[3].sum() == 2
+    for _ in range(3):
+        w.substep(np.zeros(3), np.zeros(3), StepEvents())
+        m.update(w.traffic, w.road, 0.04)
+        got = m.references(w.traffic)
+        want = m._references(w.traffic)
+        for g, x in zip(got, want):
+            np.testing.assert_array_equal(g, x)
+    assert got[3].sum() == 3  # the free vehicle joined: the cache saw the update
+    w.traffic.remove(np.array([False, True, False]))
+    after = m.references(w.traffic)
+    assert len(after[0]) == 2
