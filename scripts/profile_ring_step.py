@@ -48,9 +48,9 @@ def main() -> None:
         "observations (_observe_rows)": "base.py:_observe_rows",
         "features (_features)": "highway_formation.py:_features",
         "rewards (_rewards_rows)": "highway_formation.py:_rewards_rows",
-        "info dicts (_info_dicts + _label_infos)": ("base.py:_info_dicts", "base.py:_label_infos"),
-        "obs/reward/termination dicts (_agent_dicts)": "base.py:_agent_dicts",
-        "action check (_check_actions)": "base.py:_check_actions",
+        "info dicts (_info_dicts + _label_infos)": ("dict_edge.py:_info_dicts", "dict_edge.py:_label_infos"),
+        "obs/reward/termination dicts (_agent_dicts)": "dict_edge.py:_agent_dicts",
+        "action check (_check_actions)": "dict_edge.py:_check_actions",
     }
 
     def cum(key: str) -> float:

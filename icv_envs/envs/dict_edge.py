@@ -1,0 +1,152 @@
+"""The array -> PettingZoo dict edge of the multi-agent step (issue 10,
+item 1): the envs build observations, rewards and infos as arrays over
+their vehicle rows; :class:`DictEdge` checks the agents' actions as one
+array and turns the rows into the per-agent dicts PettingZoo's API requires,
+once, at the edge. A mixin of :class:`icv_envs.envs.base.IcvAgentsEnv`,
+whose ``config``, ``_vehicles``, ``expert_actions`` and ``_check_action``
+it uses."""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import operator
+
+import numpy as np
+
+from icv_envs.sim._ufuncs import clip as uclip
+
+__all__ = ["DictEdge"]
+
+
+class DictEdge:
+    """Action check and per-agent dicts of :class:`~icv_envs.envs.base.IcvAgentsEnv` (module docstring)."""
+
+    def _check_actions(self, names: list, values: list) -> np.ndarray:
+        """Continuous actions of all agents checked and converted at once: one
+        array, one finiteness check, clipped to [-1, 1]. Anything the fast
+        path cannot take as one real ``(n, 2)`` array (a wrong shape, a
+        string, a dict, complex or boolean values) goes through the action
+        type's per-agent check, whose error names the agent; non-finite values
+        raise naming every bad agent."""
+        arr = None
+        # the fast path takes real numpy arrays only: np.array() of a mixed
+        # list would silently upcast one agent's bool / int-list action
+        # (the test runs in C: one map over the types, one over the dtype kinds)
+        if set(map(type, values)) == _NDARRAY_ONLY and set(map(_DTYPE_KIND, values)) <= _REAL_KINDS:
+            try:
+                arr = np.array(values)
+            except (ValueError, TypeError, OverflowError):
+                arr = None
+        if arr is None or arr.shape != (len(names), 2) or arr.dtype.kind not in "fiu":
+            arr = np.stack([self._check_action(v, a) for a, v in zip(names, values)])
+        else:
+            arr = arr.astype(np.float64, copy=False)
+        finite = np.isfinite(arr).all(axis=1)
+        if not finite.all():
+            bad = [names[i] for i in np.flatnonzero(~finite)]
+            more = f" (and {len(bad) - 1} more: {bad[1:10]}{' ...' if len(bad) > 10 else ''})" if len(bad) > 1 else ""
+            raise ValueError(f"action of {bad[0]} = {arr[~finite][0].tolist()} holds NaN or inf{more}; "
+                             f"allowed: finite values in [-1, 1]")
+        return uclip(arr, -1.0, 1.0)
+
+    # ------------------------------------------- array -> PettingZoo dicts
+    # The env builds observations, rewards and infos as arrays over its rows;
+    # these turn them into the per-agent dicts once, at the API's edge.
+    @staticmethod
+    def _agent_dicts(agents: list, obs: np.ndarray, rew: np.ndarray, term: np.ndarray, trunc) -> tuple:
+        """``(observations, rewards, terminations, truncations)`` dicts from
+        row arrays (``trunc`` an array or one bool for all)."""
+        observations = dict(zip(agents, obs))
+        rewards = dict(zip(agents, np.asarray(rew, dtype=np.float64).tolist()))
+        terms = dict(zip(agents, np.asarray(term, dtype=bool).tolist()))
+        if np.ndim(trunc) == 0:
+            truncs = dict.fromkeys(agents, bool(trunc))
+        else:
+            truncs = dict(zip(agents, np.asarray(trunc, dtype=bool).tolist()))
+        return observations, rewards, terms, truncs
+
+    @staticmethod
+    def _info_dicts(agents: list, columns: dict, parts: dict | None = None) -> dict:
+        """One info dict per agent from per-agent columns (lists aligned with
+        ``agents``) and the reward components (``info["rewards"]``); the
+        expert's labels are added by :meth:`_label_infos`."""
+        keys = list(columns)
+        vals = [columns[k] for k in keys]
+        pk = list(parts) if parts else []
+        vals += [np.asarray(parts[k], dtype=np.float64).tolist() for k in pk]
+        return _dict_builder(tuple(keys), tuple(pk))(agents, vals)
+
+    @staticmethod
+    def _realign_rows(before_vid: np.ndarray, values: np.ndarray, vid: np.ndarray) -> np.ndarray:
+        """``values`` (rows aligned with the sorted ids ``before_vid``) moved
+        to the rows of the sorted ids ``vid``; zeros for ids not in
+        ``before_vid`` (vehicles that appeared since)."""
+        if len(before_vid) == len(vid) and np.array_equal(before_vid, vid):  # nobody left or appeared
+            return values.copy()
+        out = np.zeros((len(vid),) + values.shape[1:], dtype=values.dtype)
+        if len(before_vid) and len(vid):
+            pos = np.minimum(np.searchsorted(before_vid, vid), len(before_vid) - 1)
+            ok = before_vid[pos] == vid
+            out[ok] = values[pos[ok]]
+        return out
+
+    def _fill_expert_labels(self, infos: dict, agents: list | None = None, agents_vid: np.ndarray | None = None) -> None:
+        """``infos[a]["expert_action"]`` for every agent of a step's infos,
+        from the state the next action is taken in: after the step's
+        removals and spawns, so each label is exactly what
+        :meth:`expert_actions` returns for the next step, and the expert is
+        computed once per step. Agents no longer on the road get zeros."""
+        if not self.config["expert_in_info"] or not infos:
+            return
+        veh = self._vehicles()
+        ex = self.expert_actions() if veh.n else np.zeros((0, 2), dtype=np.float32)
+        self._label_infos(infos, veh.vid, ex, agents, agents_vid)
+
+    @staticmethod
+    def _label_infos(infos: dict, vid: np.ndarray, ex: np.ndarray, agents: list | None = None,
+                     agents_vid: np.ndarray | None = None) -> None:
+        """Array -> dict edge of :meth:`_fill_expert_labels`: one row view of
+        a copy of ``ex`` per live agent (vehicle ``vid[i]``), zeros for the
+        others. ``agents`` (the first keys of ``infos``, in order) with their sorted vehicle
+        ids ``agents_vid`` are labelled by one aligned array (no agent names
+        are rebuilt: the step's agents are most of the infos); the other infos
+        (vehicles that appeared late in the step, agents that left) by name."""
+        rows = np.array(ex, dtype=np.float32, copy=True)
+        rest, unlabelled = vid, infos.values()
+        if agents is not None and len(agents):
+            # the step builds its infos from ``agents`` first, in order; only the keys after them can lack a label
+            unlabelled = itertools.islice(infos.values(), len(agents), None)
+            for a, row in zip(agents, DictEdge._realign_rows(vid, rows, agents_vid)):
+                infos[a]["expert_action"] = row
+            late = ~np.isin(vid, agents_vid)
+            rest, rows = vid[late], rows[late]
+        for a, row in zip([f"icv_{v}" for v in rest.tolist()], rows):
+            info = infos.get(a)
+            if info is not None:
+                info["expert_action"] = row
+        for info in unlabelled:
+            if "expert_action" not in info:
+                info["expert_action"] = np.zeros(2, dtype=np.float32)
+
+
+_NDARRAY_ONLY = {np.ndarray}
+_REAL_KINDS = {"f", "i", "u"}
+_DTYPE_KIND = operator.attrgetter("dtype.kind")
+
+
+@functools.lru_cache(maxsize=64)
+def _dict_builder(keys: tuple, reward_keys: tuple):
+    """A function ``(agents, columns) -> {agent: {key: value, ...}}`` for
+    these keys, written as one dict display per agent (about twice as fast
+    as ``dict(zip(keys, row))``; CPython builds a literal in one opcode). The
+    keys are the envs' own info names, never user input; ``repr`` quotes
+    them. ``reward_keys`` go into a nested ``"rewards"`` dict."""
+    names = [f"c{i}" for i in range(len(keys) + len(reward_keys))]
+    items = [f"{k!r}: {v}" for k, v in zip(keys, names)]
+    if reward_keys:
+        inner = ", ".join(f"{k!r}: {v}" for k, v in zip(reward_keys, names[len(keys):]))
+        items.append(f"'rewards': {{{inner}}}")
+    src = (f"lambda agents, cols: {{a: {{{', '.join(items)}}} "
+           f"for a, {', '.join(names) + ','} in zip(agents, *cols)}}")
+    return eval(src, {})  # noqa: S307 - the source is built from the repr of the envs' constant key names
