@@ -171,8 +171,8 @@ class World:
         lane, off, at_end, n_off, n_end = road_check(
             cx, cy, road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane, road._ob_lo,
             road._ob_hi, road._ramp_iv, EDGE_MARGIN, np.inf if road.periodic else road.length)
-        self._substep_events(events, cx, cy, cx_before if tr.n and road.n_exits else None, i, j, lane, off, at_end,
-                             n_off, n_end)
+        self._substep_events(events, cx, cy, cx_before if road.n_exits else None, i, j, lane, off, at_end, n_off,
+                             n_end)
 
     def substeps(self, accel: np.ndarray, steer: np.ndarray, n: int, events: StepEvents) -> int:
         """Up to ``n`` calls of :meth:`substep` with the same controls, the
@@ -190,15 +190,11 @@ class World:
         nv = tr.n
         cx0 = tr.center()[0]
         self.motion.reserve(int(tr.vid.max()) + 1)
-        exit_id, ex_x, de = tr.exit, self._no_exit_x(nv), self._no_exit_x(nv)
-        has = exit_id >= 0 if road.n_exits else None
-        if has is not None and has.any():
-            ex_x = np.full(nv, np.inf)
-            ex_x[has] = road.exit_position(exit_id[has])
-            de = np.full(nv, np.inf)
-            de[has] = road.diverge_end(exit_id[has])
+        marks = self._exit_marks()
+        if marks is None:
+            exit_id, ex_x, de = np.full(nv, -1, dtype=np.int64), np.full(nv, np.inf), np.full(nv, np.inf)
         else:
-            exit_id = np.full(nv, -1, dtype=np.int64)
+            exit_id, (ex_x, de) = tr.exit, marks
         lat = -1.0 if tr.lat_accel_max is None else tr.lat_accel_max
         (k, event, tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy, cx_before, sums,
          stopped, missed, i, j, lane, off, at_end, n_off, n_end) = quiet_substeps(
@@ -219,9 +215,22 @@ class World:
                                  n_off, n_end)
         return int(k)
 
-    @staticmethod
-    def _no_exit_x(n: int) -> np.ndarray:
-        return np.full(n, np.inf)
+    def _exit_marks(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Per vehicle, the position of its exit and the end of that exit's
+        diverge segment (``inf`` for vehicles without an exit), or None when
+        no vehicle has one (or the road has no exits)."""
+        tr = self.traffic
+        road = self.road
+        if not road.n_exits:
+            return None
+        has = tr.exit >= 0
+        if not has.any():
+            return None
+        ex_x = np.full(tr.n, np.inf)
+        ex_x[has] = road.exit_position(tr.exit[has])
+        de = np.full(tr.n, np.inf)
+        de[has] = road.diverge_end(tr.exit[has])
+        return ex_x, de
 
     def _substep_events(self, events: StepEvents, cx, cy, cx_before, i, j, lane, off, at_end, n_off: int,
                         n_end: int) -> None:
@@ -253,24 +262,21 @@ class World:
                     hit[near[h]] = True
                     hit_obstacle[near[h]] = True
         exit_now = None
-        if road.n_exits:
+        marks = self._exit_marks()
+        if marks is not None:
+            ex_x, de = marks
             has = tr.exit >= 0
-            if has.any():
-                ex_x = np.full(tr.n, np.inf)
-                ex_x[has] = road.exit_position(tr.exit[has])
-                past = road.wrap(cx - ex_x)
-                exit_now = has & (lane == road.ramp_lane) & (past >= -1.0) & (past < 10.0)
-                # a vehicle that drives past the end of its diverge segment on
-                # the main road has missed its exit (on a ring it tries again
-                # next time round)
-                de = np.full(tr.n, np.inf)
-                de[has] = road.diverge_end(tr.exit[has])
-                crossed = has & (lane < road.n_lanes) & (road.wrap(cx_before - de) < 0) & (road.wrap(cx - de) >= 0)
-                st["missed_exits"] += int(crossed.sum())
-                if exit_now.any():
-                    off &= ~exit_now
-                else:
-                    exit_now = None
+            past = road.wrap(cx - ex_x)
+            exit_now = has & (lane == road.ramp_lane) & (past >= -1.0) & (past < 10.0)
+            # a vehicle that drives past the end of its diverge segment on
+            # the main road has missed its exit (on a ring it tries again
+            # next time round)
+            crossed = has & (lane < road.n_lanes) & (road.wrap(cx_before - de) < 0) & (road.wrap(cx - de) >= 0)
+            st["missed_exits"] += int(crossed.sum())
+            if exit_now.any():
+                off &= ~exit_now
+            else:
+                exit_now = None
         if hit is not None or n_off:
             new_crash = ((off | hit) if hit is not None else off) & ~tr.crashed
             if new_crash.any():
