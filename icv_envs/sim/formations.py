@@ -73,6 +73,12 @@ JOIN_MAX_DURATION = 120.0
 
 
 class FormationManager:
+    # per vehicle id, float: the slot's place behind the front, the plan
+    # (start, duration, initial offset, relative speed, acceleration, deadline),
+    # its end values and its polynomial's coefficients (_plan, _eval_profiles)
+    _PLAN_FLOATS = ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline", "_p_fd", "_p_fv",
+                    "_p_fa", "_p_c3", "_p_c4", "_p_c5")
+
     def __init__(
         self,
         *,
@@ -143,8 +149,7 @@ class FormationManager:
         self._cap = 0
         for name in ("_slot_gid", "_p_stamp"):
             setattr(self, name, np.zeros(0, dtype=np.int64))
-        for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline", "_p_fd", "_p_fv",
-                     "_p_fa", "_p_c3", "_p_c4", "_p_c5"):
+        for name in self._PLAN_FLOATS:
             setattr(self, name, np.zeros(0))
 
     # ---------------------------------------------------------------- helpers
@@ -174,8 +179,7 @@ class FormationManager:
         pad = new - self._cap
         self._slot_gid = np.concatenate([self._slot_gid, np.full(pad, -1, dtype=np.int64)])
         self._p_stamp = np.concatenate([self._p_stamp, np.zeros(pad, dtype=np.int64)])
-        for name in ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline", "_p_fd", "_p_fv",
-                     "_p_fa", "_p_c3", "_p_c4", "_p_c5"):
+        for name in self._PLAN_FLOATS:
             setattr(self, name, np.concatenate([getattr(self, name), np.zeros(pad)]))
         self._p_T[self._cap:] = 1.0
         # the profile's values once it has ended (t >= T), of the default plan
@@ -223,7 +227,6 @@ class FormationManager:
                                   JOIN_MAX_DURATION)
         self._p_t0[vid], self._p_T[vid] = self.time, T
         self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
-        T = np.asarray(T, dtype=np.float64)
         # the polynomial's coefficients, fixed for the plan (_eval_profiles)
         self._p_c3[vid], self._p_c4[vid], self._p_c5[vid] = _quintic_coeffs(T, d0, v0, a0)
         # the profile's values once it has ended (evaluated at t = T, where
