@@ -244,3 +244,15 @@ def test_join_duration_bad_input():
         join_duration(float("nan"), 0.0, 0.0)
     with pytest.raises(ValueError, match="duration T must be > 0"):
         join_profile(0.0, 0.0, 1.0, 0.0, 0.0)
+
+
+def test_join_duration_refuses_a_nan_speed_band():
+    """The band may be +-inf (no bound) or arrays of the members' shape; NaN is refused, naming it."""
+    from icv_envs.formation.control import join_duration
+
+    with pytest.raises(ValueError, match="v_hi must be numbers"):
+        join_duration(10.0, 0.0, 0.0, v_hi=float("nan"))
+    with pytest.raises(ValueError, match="v_lo must be numbers"):
+        join_duration(np.array([10.0, 5.0]), 0.0, 0.0, v_lo=np.array([-1.0, np.nan]))
+    T = join_duration(np.array([10.0, 5.0]), 0.0, 0.0, v_lo=np.array([-1.0, -np.inf]), v_hi=np.inf)
+    assert T.shape == (2,) and np.all(np.isfinite(T))

@@ -90,16 +90,17 @@ def join_search(lo, d0, v0, a0, hi_a, lo_a, v_hi, v_lo, jerk, max_duration, grow
 
 
 @nb.njit(cache=True)
-def join_search_banded(cb, d0, v0, a0, accel, decel, jerk, t_min, grow, cap, v_lo, v_hi, cap_free, tau):
-    """``control.join_duration_banded`` after its cube roots (``cb =
+def join_search_banded(cb, d0, v0, a0, accel, decel, jerk, t_min, grow, cap, v_lo, v_hi, fallback, cap_free, tau):
+    """``control._join_duration_banded`` after its cube roots (``cb =
     cbrt(60 |d0| / jerk)``, taken by numpy, whose SIMD ``cbrt`` may round
-    differently from libm's): the start of the search (``join_duration``'s
-    element-wise max/min of the estimates and limits, ``sqrt`` and the
-    divisions exactly rounded everywhere), :func:`join_search` within the
-    speed band ``[v_lo, v_hi]`` capped at ``cap``, and for members that
-    reach the cap the search again without the band, capped at
-    ``cap_free``. The same durations as those numpy expressions and two
-    ``join_duration`` calls, bit for bit."""
+    differently from libm's): the start of the search (the rest-to-rest
+    estimate of the minimum-jerk move, the limits widened to the member's
+    own state: element-wise max/min, ``sqrt`` and the divisions, exactly
+    rounded everywhere), :func:`join_search` within the per-member speed
+    band ``[v_lo, v_hi]`` capped at ``cap``, and with ``fallback``, for
+    members that reach the cap, the search again without the band, capped
+    at ``cap_free``. The durations of the numpy search start this replaced
+    (``tests/test_kernels.py``), bit for bit."""
     m = d0.shape[0]
     amax = max(accel, decel)
     lo = np.empty(m)
@@ -118,9 +119,11 @@ def join_search_banded(cb, d0, v0, a0, accel, decel, jerk, t_min, grow, cap, v_l
         lo[i] = t_min if t_min >= x else x
         hi_a[i] = accel if accel >= a0[i] else a0[i]
         lo_a[i] = -decel if -decel <= a0[i] else a0[i]
-        vhi[i] = v_hi if v_hi >= v0[i] else v0[i]
-        vlo[i] = v_lo if v_lo <= v0[i] else v0[i]
+        vhi[i] = v_hi[i] if v_hi[i] >= v0[i] else v0[i]
+        vlo[i] = v_lo[i] if v_lo[i] <= v0[i] else v0[i]
     T = join_search(lo, d0, v0, a0, hi_a, lo_a, vhi, vlo, jerk, cap, grow, tau)
+    if not fallback:
+        return T
     stuck = np.flatnonzero(T >= cap)
     if stuck.shape[0]:
         free_hi = np.full(stuck.shape[0], np.inf)

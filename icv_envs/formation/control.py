@@ -32,7 +32,7 @@ import numbers
 
 import numpy as np
 
-from icv_envs.formation._kernels import join_search, join_search_banded
+from icv_envs.formation._kernels import join_search_banded
 from icv_envs.formation._validate import finite
 
 __all__ = [
@@ -238,50 +238,37 @@ def join_duration(d0, v0, a0, accel: float = PROFILE_ACCEL, decel: float = PROFI
             raise ValueError(f"{name} must be a finite number > 0, got {val!r}")
     if not grow > 1.0:
         raise ValueError(f"grow must be > 1, got {grow!r}")
+    for name, val in (("v_lo", v_lo), ("v_hi", v_hi)):
+        if np.any(np.isnan(np.asarray(val, dtype=np.float64))):
+            raise ValueError(f"{name} must be numbers (+-inf for no bound), got {val!r}")
     d0, v0, a0 = np.broadcast_arrays(*(np.atleast_1d(_finite(n, x)) for n, x in
                                        (("d0", d0), ("v0", v0), ("a0", a0))))
-    d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
-    return _join_duration(d0, v0, a0, accel, decel, jerk, t_min, grow, max_duration, v_lo, v_hi)
+    shape = d0.shape
+    d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64).reshape(-1) for x in (d0, v0, a0))
+    band = (np.broadcast_to(np.asarray(b, dtype=np.float64), shape).reshape(-1) for b in (v_lo, v_hi))
+    T = _join_duration_banded(d0, v0, a0, accel, decel, jerk, t_min, *band, max_duration, grow, cap_free=None)
+    return T.reshape(shape)
 
 
 def _join_duration_banded(d0, v0, a0, accel, decel, jerk, t_min, v_lo, v_hi, cap, grow=JOIN_GROW,
                           cap_free=JOIN_SEARCH_CAP) -> np.ndarray:
-    """Join durations within a relative speed band, with a fallback: per
-    member ``join_duration(..., v_lo=v_lo, v_hi=v_hi, max_duration=cap)``,
-    and where that reaches ``cap`` (no duration keeps the quintic inside
-    the band) ``join_duration(..., max_duration=cap_free)`` without the
-    band, for 1-D float64 arrays ``d0, v0, a0`` whose values and limits are
-    valid (unchecked). One compiled call after numpy's cube roots
-    (:func:`icv_envs.formation._kernels.join_search_banded`); the durations
-    of those two calls, bit for bit."""
+    """:func:`join_duration` without its input checks, for 1-D float64
+    arrays ``d0, v0, a0`` whose values and limits are valid; the speed band
+    ``v_lo, v_hi``: numbers or arrays of ``d0``'s length. With ``cap_free``
+    (the formation layer's plans), members whose banded search reaches
+    ``cap`` (no duration keeps the quintic inside the band) get
+    ``join_duration(..., max_duration=cap_free)`` without the band.
+
+    The search starts from 0.7 x the rest-to-rest estimate of the
+    minimum-jerk move (peak acceleration 5.77 d / T^2, jerk 60 d / T^3,
+    closing speed), doubles until feasible, then bisects (in log T) between
+    the last infeasible and the first feasible duration to a ratio of
+    ``grow``, the limits checked on every sample of ``_quintic(tau * T, T,
+    ...)``: one compiled call after numpy's cube roots
+    (:func:`icv_envs.formation._kernels.join_search_banded`)."""
+    n = d0.shape[0]
     cb = np.cbrt(60.0 * np.abs(d0) / jerk)
+    lo_v, hi_v = (np.ascontiguousarray(np.broadcast_to(np.asarray(b, dtype=np.float64), (n,))) for b in (v_lo, v_hi))
     return join_search_banded(cb, d0, v0, a0, float(accel), float(decel), float(jerk), float(t_min), float(grow),
-                              float(cap), float(v_lo), float(v_hi), float(cap_free), _PROFILE_SAMPLES)
-
-
-def _join_duration(d0, v0, a0, accel, decel, jerk, t_min, grow, max_duration, v_lo, v_hi) -> np.ndarray:
-    """:func:`join_duration` without its input checks, for callers whose
-    ``d0, v0, a0`` are already finite, contiguous float64 arrays of one
-    shape and whose limits are valid (the formation layer's plans)."""
-    hi_a = np.maximum(accel, a0)
-    lo_a = np.minimum(-decel, a0)
-    vhi = np.maximum(np.broadcast_to(np.asarray(v_hi, dtype=np.float64), d0.shape), v0)
-    vlo = np.minimum(np.broadcast_to(np.asarray(v_lo, dtype=np.float64), d0.shape), v0)
-    hi_a, lo_a = np.asarray(hi_a, dtype=np.float64), np.asarray(lo_a, dtype=np.float64)
-    tau = _PROFILE_SAMPLES
-
-    # start from (0.7 x) the rest-to-rest estimate of the minimum-jerk move
-    # (peak acceleration 5.77 d / T^2, jerk 60 d / T^3), double until
-    # feasible, then bisect (in log T) between the last infeasible and the
-    # first feasible duration to a ratio of ``grow`` (compiled, per member:
-    # formation/_kernels.py, the limits checked on every sample of
-    # _quintic(tau * T, T, ...))
-    ad = np.abs(d0)
-    est = np.maximum.reduce([np.sqrt(5.7735 * ad / max(accel, decel)), np.cbrt(60.0 * ad / jerk),
-                             np.abs(v0) / max(accel, decel)])
-    lo = np.ascontiguousarray(np.maximum(float(t_min), 0.7 * est), dtype=np.float64)
-    T = join_search(lo.reshape(-1), d0.reshape(-1), v0.reshape(-1), a0.reshape(-1), hi_a.reshape(-1),
-                    lo_a.reshape(-1), np.ascontiguousarray(vhi, dtype=np.float64).reshape(-1),
-                    np.ascontiguousarray(vlo, dtype=np.float64).reshape(-1), float(jerk), float(max_duration),
-                    float(grow), tau)
-    return T.reshape(lo.shape)
+                              float(cap), lo_v, hi_v, cap_free is not None,
+                              float(JOIN_SEARCH_CAP if cap_free is None else cap_free), _PROFILE_SAMPLES)
