@@ -867,3 +867,127 @@ def test_fused_substeps_equal_one_substep_at_a_time(module, config, seed, steps,
     fused, plain = run(True), run(False)
     assert fused[1] == plain[1] and fused[2] == plain[2] and fused[3] == plain[3] and fused[4] == plain[4]
     assert fused[0] == plain[0]
+
+
+def _numpy_intersection_events(lay, cx, cy, f, t):
+    """The per-frame event tests of ``IntersectionWorld.substep`` and its PET
+    candidate selection as the array code wrote them before they were
+    compiled (frozen here as the oracle); ``f`` a dict of the fleet's arrays
+    (updated the way the array code updated them)."""
+    from icv_envs.platoon.geometry import N_LANES
+    from icv_envs.sim.intersection_world import _OFFROAD_MARGIN, _OUT
+
+    b, w = lay.box_half, lay.lane_width
+    leg = f["leg"]
+    ox = b * _OUT[leg, 0]
+    oy = b * _OUT[leg, 1]
+    d = lay.app_dir[leg]
+    r = lay.app_right[leg]
+    u = (cx - ox) * d[:, 0] + (cy - oy) * d[:, 1]
+    lat_leg = (cx - ox) * r[:, 0] + (cy - oy) * r[:, 1]
+    n = len(cx)
+    crash = np.zeros(n, dtype=bool)
+    new_wrong = np.zeros(n, dtype=bool)
+    clear_all = np.zeros(n, dtype=bool)
+    newly = ~f["entered"] & (u >= 0.0)
+    if newly.any():
+        f["entered"] = f["entered"] | newly
+        f["plane"] = np.where(newly, np.clip(np.floor(lat_leg / w), 0, N_LANES - 1).astype(np.int64), f["plane"])
+        f["enter_time"] = np.where(newly, t, f["enter_time"])
+    appr = ~f["entered"]
+    crash |= appr & ((lat_leg < -_OFFROAD_MARGIN) | (lat_leg > N_LANES * w + _OFFROAD_MARGIN))
+    inside = np.maximum(np.abs(cx), np.abs(cy)) <= b
+    newdep = f["entered"] & ~f["departed"] & ~inside
+    if newdep.any():
+        k = np.flatnonzero(newdep)
+        proj = cx[k, None] * _OUT[None, :, 0] + cy[k, None] * _OUT[None, :, 1]
+        e = np.argmax(proj, axis=1)
+        f["exit_leg"][k] = e
+        f["departed"][k] = True
+        wrong = e != lay.exit_of[f["mv"][k]]
+        f["wrong_exit"][k[wrong]] = True
+        new_wrong[k[wrong]] = True
+    dep = f["departed"]
+    removed = np.zeros(n, dtype=bool)
+    if dep.any():
+        k = np.flatnonzero(dep)
+        e = f["exit_leg"][k]
+        past = cx[k] * _OUT[e, 0] + cy[k] * _OUT[e, 1] - b
+        lat_e = (cx[k] - b * _OUT[e, 0]) * lay.dep_right[e, 0] + (cy[k] - b * _OUT[e, 1]) * lay.dep_right[e, 1]
+        crash[k] |= (lat_e < -_OFFROAD_MARGIN) | (lat_e > N_LANES * w + _OFFROAD_MARGIN)
+        clear_now = ~f["cleared"][k] & (past >= 0.5 * f["length"][k])
+        f["cleared"][k[clear_now]] = True
+        clear_all[k[clear_now]] = True
+        removed[k] = past >= lay.departure_length
+    in_box = f["entered"] & ~f["departed"]
+    min_box = float(f["speed"][in_box].min()) if in_box.any() else np.inf
+    left = appr & (u < -(lay.R3 - b + 50.0))
+    # _record_pet
+    near = (u >= -20.0) & ~f["departed"]
+    if f["departed"].any():
+        k = np.flatnonzero(f["departed"])
+        e = f["exit_leg"][k]
+        past = cx[k] * _OUT[e, 0] + cy[k] * _OUT[e, 1] - lay.box_half
+        near[k] = past < 20.0
+    k = np.flatnonzero(near & ~f["crashed"])
+    plane = np.where(f["plane"][k] >= 0, f["plane"][k], f["tlane"][k])
+    pid = 3 * f["mv"][k] + plane
+    phase = np.where(f["departed"][k], 2, np.where(f["entered"][k], 1, 0))
+    s, _ = lay.project(pid, cx[k], cy[k], phase)
+    return u, lat_leg, crash, new_wrong, clear_all, removed, left, k, pid, s, min_box
+
+
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(0, 80), seed=st.integers(0, 2**31))
+def test_intersection_events_equal_the_array_code(n, seed):
+    """The compiled per-frame event tests of the intersection world
+    (``sim/_kernels/intersection.py``) against the array code they replaced,
+    over random fleets around and inside the box: every returned mask, the
+    PET rows, path ids and route coordinates (the turn arcs' finished by
+    ``arc_project``, as the world does), and every fleet array they update."""
+    from icv_envs.platoon.geometry import N_LANES
+    from icv_envs.sim._kernels.intersection import intersection_events
+    from icv_envs.sim.intersection_world import _OFFROAD_MARGIN, _OUT, IntersectionLayout
+
+    rng = np.random.default_rng(seed)
+    lay = IntersectionLayout()
+    mv = rng.integers(0, 12, n)
+    entered = rng.random(n) < 0.5
+    departed = entered & (rng.random(n) < 0.5)
+    f = {
+        "leg": lay.leg_of[mv].astype(np.int64), "mv": mv.astype(np.int64), "length": rng.uniform(3.0, 12.0, n),
+        "speed": rng.uniform(0.0, 15.0, n), "crashed": rng.random(n) < 0.1, "tlane": rng.integers(0, 3, n),
+        "entered": entered, "departed": departed, "cleared": departed & (rng.random(n) < 0.5),
+        "wrong_exit": departed & (rng.random(n) < 0.2), "exit_leg": np.where(departed, rng.integers(0, 4, n), -1),
+        "plane": np.where(entered, rng.integers(0, 3, n), np.where(rng.random(n) < 0.5, -1, rng.integers(0, 3, n))),
+        "enter_time": rng.uniform(0.0, 50.0, n),
+    }
+    reach = lay.box_half + rng.choice([5.0, 30.0, 900.0])
+    cx, cy = rng.uniform(-reach, reach, n), rng.uniform(-reach, reach, n)
+    on_axis = rng.random(n) < 0.3  # some on a leg's axis, where the departure and approach tests bite
+    cx[on_axis] = rng.uniform(-6 * lay.lane_width, 6 * lay.lane_width, int(on_axis.sum()))
+    # some on a whole-metre grid (lengths too), where the boundary cases of every test are hit exactly
+    grid = rng.random(n) < 0.4
+    cx[grid], cy[grid] = np.rint(cx[grid]), np.rint(cy[grid])
+    f["length"][grid] = rng.integers(3, 13, int(grid.sum()))
+    t = float(rng.uniform(0.0, 100.0))
+    ref = {k: np.array(v, copy=True) for k, v in f.items()}
+    want = _numpy_intersection_events(lay, cx, cy, ref, t)
+    got_f = {k: np.array(v, copy=True) for k, v in f.items()}
+    b = lay.box_half
+    got = intersection_events(
+        cx, cy, got_f["speed"], got_f["leg"], got_f["mv"], got_f["length"], got_f["crashed"], got_f["tlane"],
+        got_f["entered"], got_f["departed"], got_f["cleared"], got_f["wrong_exit"], got_f["exit_leg"],
+        got_f["plane"], got_f["enter_time"], _OUT, lay.app_dir, lay.app_right, lay.dep_right, lay.exit_of, b,
+        lay.lane_width, N_LANES, _OFFROAD_MARGIN, -(lay.R3 - b + 50.0), lay.departure_length, t,
+        lay.P0, lay.D0, lay.P1, lay.D1, lay.L, lay.arc)
+    u, lat, crash, new_wrong, clear_now, removed, left, rows, pid, s, arc, min_box = got
+    if arc.any():
+        k = np.flatnonzero(arc)
+        s[k] = lay.arc_project(pid[k], cx[rows[k]], cy[rows[k]])[0]
+    for name, a, b_ in zip(("u", "lat", "crash", "new_wrong", "clear_now", "removed", "left", "pet rows", "pet pid",
+                            "pet s"), (u, lat, crash, new_wrong, clear_now, removed, left, rows, pid, s), want):
+        assert a.dtype.kind == np.asarray(b_).dtype.kind and np.array_equal(a, b_), name
+    assert min_box == want[-1]
+    for k in f:
+        assert np.array_equal(got_f[k], ref[k]), k

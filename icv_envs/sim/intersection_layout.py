@@ -219,14 +219,18 @@ class IntersectionLayout:
         box = (phase == 1) & self.arc[pid]
         if box.any():
             k = np.flatnonzero(box)
-            q = pid[k]
-            qx = cx[k] - self.C[q, 0]
-            qy = cy[k] - self.C[q, 1]
-            ang = np.arctan2(qy, qx) - self.TH0[q]
-            ang = (ang + math.pi) % (2.0 * math.pi) - math.pi
-            s[k] = self.R[q] * ang * self.SGN[q]
-            lat[k] = self.SGN[q] * (np.hypot(qx, qy) - self.R[q])
+            s[k], lat[k] = self.arc_project(pid[k], cx[k], cy[k])
         return s, lat
+
+    def arc_project(self, q, cx, cy):
+        """:meth:`project` of points in the box onto the turn arcs ``q``
+        (path ids with ``arc``): the angle around the arc's centre, as arc
+        length from the stop line, and the signed offset to the right."""
+        qx = cx - self.C[q, 0]
+        qy = cy - self.C[q, 1]
+        ang = np.arctan2(qy, qx) - self.TH0[q]
+        ang = (ang + math.pi) % (2.0 * math.pi) - math.pi
+        return self.R[q] * ang * self.SGN[q], self.SGN[q] * (np.hypot(qx, qy) - self.R[q])
 
     # ---------------------------------------------------------------- network
     def to_network(self, approach_extra: float = 20.0):

@@ -59,6 +59,7 @@ from icv_envs.sim.intersection_metrics import (
     PetStats,
     collision_fault,
 )
+from icv_envs.sim._kernels.intersection import intersection_events
 from icv_envs.sim.traffic import bicycle_step, find_collisions
 
 __all__ = [
@@ -314,64 +315,35 @@ class IntersectionWorld:
         stt["abs_accel_sum"] += float(np.abs(f.accel).sum())
         self.motion.record(f.vid, v_before, f.speed, f.accel, self.dt)
         cx, cy = self.centers()
-        b, w = lay.box_half, lay.lane_width
-        leg = f.leg
-        ox = b * _OUT[leg, 0]
-        oy = b * _OUT[leg, 1]
-        d = lay.app_dir[leg]
-        r = lay.app_right[leg]
-        u = (cx - ox) * d[:, 0] + (cy - oy) * d[:, 1]
-        lat_leg = (cx - ox) * r[:, 0] + (cy - oy) * r[:, 1]
-        crash = np.zeros(f.n, dtype=bool)
-        # entering the box: the centre crosses the stop line
-        newly = ~f.entered & (u >= 0.0)
-        if newly.any():
-            f.entered = f.entered | newly
-            f.plane = np.where(newly, np.clip(np.floor(lat_leg / w), 0, N_LANES - 1).astype(np.int64), f.plane)
-            f.enter_time = np.where(newly, self.time, f.enter_time)
-        appr = ~f.entered
-        crash |= appr & ((lat_leg < -_OFFROAD_MARGIN) | (lat_leg > N_LANES * w + _OFFROAD_MARGIN))
-        # leaving the box square
-        inside = np.maximum(np.abs(cx), np.abs(cy)) <= b
-        newdep = f.entered & ~f.departed & ~inside
-        if newdep.any():
-            k = np.flatnonzero(newdep)
-            proj = cx[k, None] * _OUT[None, :, 0] + cy[k, None] * _OUT[None, :, 1]
-            e = np.argmax(proj, axis=1)
-            f.exit_leg[k] = e
-            f.departed[k] = True
-            wrong = e != lay.exit_of[f.mv[k]]
-            if wrong.any():
-                f.wrong_exit[k[wrong]] = True
-                stt["wrong_exits"] += int(wrong.sum())
-                events.wrong_exit.update(int(v) for v in f.vid[k[wrong]])
-        dep = f.departed
-        removed = np.zeros(f.n, dtype=bool)
-        if dep.any():
-            k = np.flatnonzero(dep)
-            e = f.exit_leg[k]
-            past = cx[k] * _OUT[e, 0] + cy[k] * _OUT[e, 1] - b
-            lat_e = (cx[k] - b * _OUT[e, 0]) * lay.dep_right[e, 0] + (cy[k] - b * _OUT[e, 1]) * lay.dep_right[e, 1]
-            crash[k] |= (lat_e < -_OFFROAD_MARGIN) | (lat_e > N_LANES * w + _OFFROAD_MARGIN)
-            clear_now = ~f.cleared[k] & (past >= 0.5 * f.length[k])
-            if clear_now.any():
-                kc = k[clear_now]
-                f.cleared[kc] = True
-                good = kc[~f.wrong_exit[kc]]
-                stt["cleared"] += len(good)
-                if len(good):
-                    pid = 3 * f.mv[good] + np.maximum(f.plane[good], 0)
-                    dist = -f.spawn_s[good] + lay.L[pid] + 0.5 * f.length[good]
-                    tt = self.time - f.spawn_time[good]
-                    stt["travel_time_sum"] += float(tt.sum())
-                    stt["delay_sum"] += float((tt - dist / self.v_free).sum())
-                events.cleared.update(int(v) for v in f.vid[kc])
-            removed[k] = past >= lay.departure_length
-        in_box = f.entered & ~f.departed
-        if in_box.any():
-            stt["min_speed_in_box"] = min(stt["min_speed_in_box"], float(f.speed[in_box].min()))
-        left = appr & (u < -(lay.R3 - b + 50.0))
-        self._record_pet(cx, cy, u)
+        b = lay.box_half
+        # the per-vehicle event tests and the PET candidates, compiled (sim/_kernels/intersection.py);
+        # what follows an event (stats, event sets) stays here
+        (u, lat_leg, crash, new_wrong, clear_now, removed, left, pet_rows, pet_pid, pet_s, pet_arc,
+         min_box) = intersection_events(
+            cx, cy, f.speed, f.leg, f.mv, f.length, f.crashed, f.tlane, f.entered, f.departed, f.cleared,
+            f.wrong_exit, f.exit_leg, f.plane, f.enter_time, _OUT, lay.app_dir, lay.app_right, lay.dep_right,
+            lay.exit_of, b, lay.lane_width, N_LANES, _OFFROAD_MARGIN, -(lay.R3 - b + 50.0),
+            lay.departure_length, self.time, lay.P0, lay.D0, lay.P1, lay.D1, lay.L, lay.arc)
+        if new_wrong.any():
+            stt["wrong_exits"] += int(new_wrong.sum())
+            events.wrong_exit.update(int(v) for v in f.vid[new_wrong])
+        if clear_now.any():
+            kc = np.flatnonzero(clear_now)
+            good = kc[~f.wrong_exit[kc]]
+            stt["cleared"] += len(good)
+            if len(good):
+                pid = 3 * f.mv[good] + np.maximum(f.plane[good], 0)
+                dist = -f.spawn_s[good] + lay.L[pid] + 0.5 * f.length[good]
+                tt = self.time - f.spawn_time[good]
+                stt["travel_time_sum"] += float(tt.sum())
+                stt["delay_sum"] += float((tt - dist / self.v_free).sum())
+            events.cleared.update(int(v) for v in f.vid[kc])
+        stt["min_speed_in_box"] = min(stt["min_speed_in_box"], min_box)
+        # conflict-area occupancy of the vehicles near the box (PET, icv_envs.sim.intersection_metrics)
+        if pet_arc.any():
+            k = np.flatnonzero(pet_arc)
+            pet_s[k] = lay.arc_project(pet_pid[k], cx[pet_rows[k]], cy[pet_rows[k]])[0]
+        self.pet.record(self.time, f.vid[pet_rows], pet_pid, pet_s, f.length[pet_rows])
         self.jams.record(self.time, self.dt, f.vid, f.speed, lambda rows: self._in_queue(rows, u, lat_leg),
                          dist=self.layout.box_half - u)
         # collisions
@@ -401,23 +373,6 @@ class IntersectionWorld:
             stt["removed"] += int((removed & gone).sum())
             stt["left_road"] += int((left & gone).sum())
             f.remove(gone)
-
-    def _record_pet(self, cx, cy, u) -> None:
-        """Conflict-area occupancy of the vehicles near the box (PET, :mod:`icv_envs.sim.intersection_metrics`)."""
-        f = self.fleet
-        lay = self.layout
-        near = (u >= -20.0) & ~f.departed
-        if f.departed.any():
-            k = np.flatnonzero(f.departed)
-            e = f.exit_leg[k]
-            past = cx[k] * _OUT[e, 0] + cy[k] * _OUT[e, 1] - lay.box_half
-            near[k] = past < 20.0
-        k = np.flatnonzero(near & ~f.crashed)
-        plane = np.where(f.plane[k] >= 0, f.plane[k], f.tlane[k])
-        pid = 3 * f.mv[k] + plane
-        phase = np.where(f.departed[k], 2, np.where(f.entered[k], 1, 0))
-        s, _ = lay.project(pid, cx[k], cy[k], phase)
-        self.pet.record(self.time, f.vid[k], pid, s, f.length[k])
 
     def _in_queue(self, rows, u, lat_leg) -> np.ndarray:
         """Is each of ``rows`` in a queue at the box (the :class:`~icv_envs.sim.intersection_metrics.JamWatch`

@@ -1,0 +1,132 @@
+"""The intersection world's per-frame event tests, compiled (issue 10): the
+rules of :mod:`icv_envs.sim.intersection_world` (entering the box, leaving
+it by an exit leg, clearing it, removal, leaving the drivable surface,
+driving back out of the approach road) and the selection and route
+coordinates of the vehicles near the box for the PET occupancy update. The
+rules every kernel here follows are in :mod:`icv_envs.sim._kernels`; the
+only transcendental of the projection (``arctan2`` on the turn arcs) stays
+in NumPy, so nothing here calls libm."""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+__all__ = ["intersection_events"]
+
+PET_REACH = 20.0  # metres before the stop line / past the box edge inside which a vehicle is a PET candidate
+
+
+@nb.njit(cache=True)
+def intersection_events(cx, cy, speed, leg, mv, length, crashed, tlane, entered, departed, cleared, wrong_exit,
+                        exit_leg, plane, enter_time, out, app_dir, app_right, dep_right, exit_of, box_half,
+                        lane_width, n_lanes, off_margin, left_u, departure_length, t,
+                        P0, D0, P1, D1, L, arc):
+    """One frame's events, in the order of ``IntersectionWorld.substep``,
+    for body centres ``(cx, cy)`` after the integration at time ``t``.
+
+    Updated in place (the fleet's own arrays): ``entered`` (and ``plane``,
+    ``enter_time`` of the vehicles whose centre crossed the stop line),
+    ``departed`` and ``exit_leg`` (those whose centre left the box square,
+    by the leg of largest outward projection), ``wrong_exit``, ``cleared``
+    (whole body past the box edge).
+
+    Returns ``(u, lat_leg, crash, new_wrong, clear_now, removed, left,
+    pet_rows, pet_pid, pet_s, pet_arc, min_box)``: the approach-axis
+    coordinates; per row, a crash by leaving the drivable surface, a wrong
+    exit this frame, cleared this frame, past ``departure_length``, driven
+    back out of the approach road (``u < left_u``); the not-crashed rows
+    within :data:`PET_REACH` of the box (sorted), their path ids and route
+    coordinates (``IntersectionLayout.project``; for rows with ``pet_arc``,
+    in the box on a turn, ``pet_s`` is left to the caller); the least speed
+    in the box (``inf`` if nobody is in it)."""
+    n = cx.shape[0]
+    u = np.empty(n)
+    lat = np.empty(n)
+    crash = np.zeros(n, dtype=np.bool_)
+    new_wrong = np.zeros(n, dtype=np.bool_)
+    clear_now = np.zeros(n, dtype=np.bool_)
+    removed = np.zeros(n, dtype=np.bool_)
+    left = np.zeros(n, dtype=np.bool_)
+    near = np.zeros(n, dtype=np.bool_)
+    hi_lat = n_lanes * lane_width + off_margin
+    top = float(n_lanes - 1)
+    min_box = np.inf
+    b = box_half
+    for i in range(n):
+        g = leg[i]
+        dx = cx[i] - b * out[g, 0]
+        dy = cy[i] - b * out[g, 1]
+        ui = dx * app_dir[g, 0] + dy * app_dir[g, 1]
+        li = dx * app_right[g, 0] + dy * app_right[g, 1]
+        u[i] = ui
+        lat[i] = li
+        if not entered[i] and ui >= 0.0:
+            entered[i] = True
+            fl = np.floor(li / lane_width)
+            if fl < 0.0:
+                fl = 0.0
+            elif fl > top:
+                fl = top
+            plane[i] = np.int64(fl)
+            enter_time[i] = t
+        appr = not entered[i]
+        if appr and (li < -off_margin or li > hi_lat):
+            crash[i] = True
+        inside = max(abs(cx[i]), abs(cy[i])) <= b
+        if entered[i] and not departed[i] and not inside:
+            e = 0
+            best = cx[i] * out[0, 0] + cy[i] * out[0, 1]
+            for k in range(1, out.shape[0]):
+                p = cx[i] * out[k, 0] + cy[i] * out[k, 1]
+                if p > best:
+                    best = p
+                    e = k
+            exit_leg[i] = e
+            departed[i] = True
+            if e != exit_of[mv[i]]:
+                wrong_exit[i] = True
+                new_wrong[i] = True
+        if departed[i]:
+            e = exit_leg[i]
+            past = cx[i] * out[e, 0] + cy[i] * out[e, 1] - b
+            lat_e = (cx[i] - b * out[e, 0]) * dep_right[e, 0] + (cy[i] - b * out[e, 1]) * dep_right[e, 1]
+            if lat_e < -off_margin or lat_e > hi_lat:
+                crash[i] = True
+            if not cleared[i] and past >= 0.5 * length[i]:
+                cleared[i] = True
+                clear_now[i] = True
+            removed[i] = past >= departure_length
+            near[i] = past < PET_REACH
+        else:
+            near[i] = ui >= -PET_REACH
+        if entered[i] and not departed[i]:
+            if speed[i] < min_box:
+                min_box = speed[i]
+        left[i] = appr and ui < left_u
+    m = 0
+    for i in range(n):
+        if near[i] and not crashed[i]:
+            m += 1
+    pet_rows = np.empty(m, dtype=np.int64)
+    pet_pid = np.empty(m, dtype=np.int64)
+    pet_s = np.empty(m)
+    pet_arc = np.zeros(m, dtype=np.bool_)
+    q = 0
+    for i in range(n):
+        if not (near[i] and not crashed[i]):
+            continue
+        p = 3 * mv[i] + (plane[i] if plane[i] >= 0 else tlane[i])
+        pet_rows[q] = i
+        pet_pid[q] = p
+        if departed[i]:
+            qx = cx[i] - P1[p, 0]
+            qy = cy[i] - P1[p, 1]
+            pet_s[q] = L[p] + qx * D1[p, 0] + qy * D1[p, 1]
+        else:
+            px = cx[i] - P0[p, 0]
+            py = cy[i] - P0[p, 1]
+            pet_s[q] = px * D0[p, 0] + py * D0[p, 1]
+            pet_arc[q] = entered[i] and arc[p]
+        q += 1
+    return u, lat, crash, new_wrong, clear_now, removed, left, pet_rows, pet_pid, pet_s, pet_arc, min_box
