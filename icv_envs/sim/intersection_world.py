@@ -59,8 +59,8 @@ from icv_envs.sim.intersection_metrics import (
     PetStats,
     collision_fault,
 )
-from icv_envs.sim._kernels.intersection import intersection_events
-from icv_envs.sim.traffic import bicycle_step, find_collisions
+from icv_envs.sim._kernels.intersection import box_collision_pairs, intersection_events
+from icv_envs.sim.traffic import bicycle_step
 
 __all__ = [
     "IntersectionLayout",
@@ -414,36 +414,12 @@ class IntersectionWorld:
     def collision_pairs(self, cx=None, cy=None) -> tuple[np.ndarray, np.ndarray]:
         """Colliding row pairs: sweep and prune along ``x`` over the east-west
         legs and the box region, along ``y`` over the north-south legs and
-        the box region; exact rectangle tests decide."""
+        the box region; exact rectangle tests decide (compiled whole:
+        :func:`icv_envs.sim._kernels.intersection.box_collision_pairs`)."""
         f = self.fleet
-        if f.n < 2:
-            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
         if cx is None:
             cx, cy = self.centers()
-        b = self.layout.box_half
-        ax, ay = np.abs(cx), np.abs(cy)
-        near = np.maximum(ax, ay) < b + 10.0
-        out_i, out_j = [], []
-        for sel, swap in ((near | (ax >= ay), False), (near | (ay > ax), True)):
-            rows = np.flatnonzero(sel)
-            if len(rows) < 2:
-                continue
-            if swap:
-                i, j = find_collisions(cy[rows], cx[rows], 0.5 * math.pi - f.heading[rows], f.length[rows],
-                                       f.width[rows])
-            else:
-                i, j = find_collisions(cx[rows], cy[rows], f.heading[rows], f.length[rows], f.width[rows])
-            out_i.append(rows[i])
-            out_j.append(rows[j])
-        if not out_i:
-            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        i = np.concatenate(out_i)
-        j = np.concatenate(out_j)
-        if not len(i):
-            return i, j
-        lo, hi = np.minimum(i, j), np.maximum(i, j)
-        key = np.unique(lo * (f.n + 1) + hi)
-        return key // (f.n + 1), key % (f.n + 1)
+        return box_collision_pairs(cx, cy, f.heading, f.length, f.width, self.layout.box_half)
 
     def reroute(self, rows, movements) -> None:
         """The drivers of ``rows`` (before the box) take ``movements`` (of their

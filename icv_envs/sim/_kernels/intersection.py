@@ -9,10 +9,14 @@ in NumPy, so nothing here calls libm."""
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
-__all__ = ["intersection_events"]
+from icv_envs.sim._kernels.neighbours import collision_pairs
+
+__all__ = ["intersection_events", "box_collision_pairs"]
 
 PET_REACH = 20.0  # metres before the stop line / past the box edge inside which a vehicle is a PET candidate
 
@@ -130,3 +134,44 @@ def intersection_events(cx, cy, speed, leg, mv, length, crashed, tlane, entered,
             pet_arc[q] = entered[i] and arc[p]
         q += 1
     return u, lat, crash, new_wrong, clear_now, removed, left, pet_rows, pet_pid, pet_s, pet_arc, min_box
+
+
+@nb.njit(cache=True)
+def box_collision_pairs(cx, cy, heading, length, width, box_half):
+    """``IntersectionWorld.collision_pairs`` compiled whole: the sweep and
+    prune of :func:`~icv_envs.sim._kernels.neighbours.collision_pairs` run
+    along ``x`` over the vehicles on the east-west legs and along ``y`` over
+    those on the north-south legs (the box region, within 10 m of the box
+    square, in both), the pairs of the two sweeps joined, deduplicated and
+    sorted as ``(min, max)`` row pairs."""
+    n = cx.shape[0]
+    if n < 2:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    reach = box_half + 10.0
+    keys = np.empty(0, dtype=np.int64)
+    for swap in range(2):
+        m = 0
+        rows = np.empty(n, dtype=np.int64)
+        for q in range(n):
+            ax = abs(cx[q])
+            ay = abs(cy[q])
+            if max(ax, ay) < reach or (ay > ax if swap else ax >= ay):
+                rows[m] = q
+                m += 1
+        if m < 2:
+            continue
+        rows = rows[:m]
+        if swap:
+            i, j = collision_pairs(cy[rows], cx[rows], 0.5 * math.pi - heading[rows], length[rows], width[rows], -1.0)
+        else:
+            i, j = collision_pairs(cx[rows], cy[rows], heading[rows], length[rows], width[rows], -1.0)
+        k = np.empty(len(i), dtype=np.int64)
+        for q in range(len(i)):
+            a = rows[i[q]]
+            b = rows[j[q]]
+            k[q] = min(a, b) * (n + 1) + max(a, b)
+        keys = np.concatenate((keys, k))
+    if not len(keys):
+        return keys, keys.copy()
+    keys = np.unique(keys)
+    return keys // (n + 1), keys % (n + 1)
