@@ -262,12 +262,22 @@ class BatchedWorlds:
         return np.fromiter((so[a] for a in agents), dtype=np.int64, count=len(agents))
 
     def _slots_of_vid(self, vid: np.ndarray) -> np.ndarray:
+        """Slots of vehicle ids ``vid``; an error names the ids that have none
+        (beyond the slot table or not a possible agent)."""
         lut = self._slot_of_vid
-        k = lut[vid] if len(vid) and int(vid.max()) < len(lut) else np.full(len(vid), -1, dtype=np.int64)
-        if len(k) and int(k.min()) < 0:
-            bad = vid[(vid >= len(lut)) | (k < 0)] if len(vid) else vid
-            raise ValueError(f"vehicles {bad[:5].tolist()} are not among possible_agents; the slot layout needs "
-                             f"every agent in possible_agents")
+        if not len(vid):
+            return np.zeros(0, dtype=np.int64)
+        if int(vid.max()) < len(lut) and int(vid.min()) >= 0:
+            k = lut[vid]
+        else:
+            inside = (vid >= 0) & (vid < len(lut))
+            k = np.full(len(vid), -1, dtype=np.int64)
+            k[inside] = lut[vid[inside]]
+        if int(k.min()) < 0:
+            bad = vid[k < 0]
+            more = f" (and {len(bad) - 5} more)" if len(bad) > 5 else ""
+            raise ValueError(f"vehicles {bad[:5].tolist()}{more} are not among possible_agents; the slot layout "
+                             f"needs every agent in possible_agents")
         return k
 
     def _reset_world(self, b: int) -> None:

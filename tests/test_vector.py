@@ -234,3 +234,21 @@ def test_step_rows_bad_input():
     meta.reset(seed=0)
     with pytest.raises(ValueError, match="continuous actions.*DiscreteMetaAction"):
         meta.step_rows(np.zeros((4, 2)))
+
+
+def test_slot_lookup_names_only_the_vehicles_without_a_slot():
+    """A vehicle id beyond the slot table, or one that is not a possible
+    agent, is named in the error; the vehicles that have slots are not."""
+    from icv_envs.vector import BatchedWorlds
+
+    bw = BatchedWorlds(1, config={"vehicles_count": 3, "initial_position": None}, seed=0)
+    ids = np.array(sorted(int(a[4:]) for a in bw.possible_agents), dtype=np.int64)
+    assert np.array_equal(bw._slots_of_vid(ids), np.arange(len(ids)))
+    assert bw._slots_of_vid(np.zeros(0, dtype=np.int64)).shape == (0,)
+    beyond = int(ids.max()) + 7
+    with pytest.raises(ValueError) as e:
+        bw._slots_of_vid(np.append(ids, beyond))
+    assert f"[{beyond}]" in str(e.value)
+    with pytest.raises(ValueError) as e:
+        bw._slots_of_vid(np.append(ids, -1))
+    assert "[-1]" in str(e.value)

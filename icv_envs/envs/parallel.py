@@ -70,8 +70,8 @@ class CoreParallelEnv(ParallelEnv):
             raise RuntimeError("call reset() before step()")
         obs, rew, term, trunc, infos = self.core.ma_step(actions)
         self._cycles += 1
-        if self.max_cycles is not None and self._cycles >= self.max_cycles:
-            trunc = {a: not term[a] for a in obs}  # PettingZoo's max_cycles: every agent truncated
+        if self._cycles_up:
+            trunc = {a: not term[a] for a in obs}
         self.agents = [a for a in obs if not (term[a] or trunc[a])]
         return obs, rew, term, trunc, infos
 
@@ -86,11 +86,18 @@ class CoreParallelEnv(ParallelEnv):
             raise RuntimeError("call reset() before step()")
         out = self.core.ma_step_rows(actions)
         self._cycles += 1
-        if self.max_cycles is not None and self._cycles >= self.max_cycles:
-            out = out._replace(truncated=~out.terminated)  # PettingZoo's max_cycles: every agent truncated
+        if self._cycles_up:
+            out = out._replace(truncated=~out.terminated)
         alive = ~(out.terminated | out.truncated)
         self.agents = [f"icv_{v}" for v in out.vid[alive].tolist()]
         return out
+
+    @property
+    def _cycles_up(self) -> bool:
+        """``max_cycles`` steps taken: PettingZoo's rule, the episode is over
+        and every agent not terminated is truncated (:meth:`step` and
+        :meth:`step_rows` apply it to their dicts and arrays)."""
+        return self.max_cycles is not None and self._cycles >= self.max_cycles
 
     @property
     def episode_over(self) -> bool:
@@ -99,7 +106,7 @@ class CoreParallelEnv(ParallelEnv):
         ``agents`` can be empty for a while before that: ``step({})`` then
         just advances time."""
         c = self.core
-        if self.max_cycles is not None and self._cycles >= self.max_cycles:
+        if self._cycles_up:
             return True
         return c.world is None or c.world.time >= float(c.config["duration"]) - 1e-9
 

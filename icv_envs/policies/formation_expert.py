@@ -48,6 +48,7 @@ import numpy as np
 from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steering, lane_change_lateral
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback
 from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.sim.traffic import LAT_ACCEL_MAX, followers, idm_acceleration, leaders
 
 
@@ -125,21 +126,11 @@ class FormationExpert:
         """The parameter checks the paper's functions make on every call,
         made once here: :meth:`compute` calls their unchecked forms."""
         p = self.p
+        check_steering_and_gains(p, "ExpertParams")
 
         def real(name):
-            v = getattr(p, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not np.isfinite(v):
-                raise ValueError(f"ExpertParams.{name} = {v!r}; allowed: a finite number")
-            return float(v)
+            return real_param("ExpertParams", name, getattr(p, name))
 
-        if not real("wheelbase") > 0.0:
-            raise ValueError(f"ExpertParams.wheelbase = {p.wheelbase!r}; allowed: > 0 metres")
-        if not 0.0 < real("steer_max") < 0.5 * np.pi:
-            raise ValueError(f"ExpertParams.steer_max = {p.steer_max!r}; allowed: in (0, pi/2) rad")
-        for name in ("kp", "kv"):
-            if not real(name) < 0.0:
-                raise ValueError(f"ExpertParams.{name} = {getattr(p, name)!r}; allowed: < 0 (X points forward, "
-                                 f"a positive gain is unstable)")
         lo, hi = max(real("a_min"), float(p.comfort_accel[0])), min(real("a_max"), float(p.comfort_accel[1]))
         if not lo < 0.0 < hi:
             raise ValueError(f"ExpertParams a_min / a_max / comfort_accel = {p.a_min!r} / {p.a_max!r} / "

@@ -146,6 +146,7 @@ import numpy as np
 from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steering
 from icv_envs.formation.control import _longitudinal_feedback
 from icv_envs.platoon.tree import DEFAULT_D_T
+from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
     MODE_FOLLOW,
     MODE_FREE,
@@ -399,20 +400,11 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         make on every call, made once here: the expert calls their unchecked
         forms."""
         p = self.p
+        check_steering_and_gains(p, "PlatoonParams")
 
         def real(name, v):
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not np.isfinite(v):
-                raise ValueError(f"PlatoonParams.{name} = {v!r}; allowed: a finite number")
-            return float(v)
+            return real_param("PlatoonParams", name, v)
 
-        if not real("wheelbase", p.wheelbase) > 0.0:
-            raise ValueError(f"PlatoonParams.wheelbase = {p.wheelbase!r}; allowed: > 0 metres")
-        if not 0.0 < real("steer_max", p.steer_max) < 0.5 * np.pi:
-            raise ValueError(f"PlatoonParams.steer_max = {p.steer_max!r}; allowed: in (0, pi/2) rad")
-        for name in ("kp", "kv"):
-            if not real(name, getattr(p, name)) < 0.0:
-                raise ValueError(f"PlatoonParams.{name} = {getattr(p, name)!r}; allowed: < 0 (X points forward, "
-                                 f"a positive gain is unstable)")
         if not (isinstance(p.comfort, (tuple, list)) and len(p.comfort) == 2):
             raise ValueError(f"PlatoonParams.comfort = {p.comfort!r}; allowed: a pair (lower, upper) [m/s^2]")
         if not 0.0 < real("lc_min_length", p.lc_min_length) <= real("lc_max_length", p.lc_max_length):
