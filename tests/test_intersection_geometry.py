@@ -120,10 +120,11 @@ def test_radii_validation():
         validate_radii(300, float("nan"), 800)
 
 
-def test_fleet_rows_small_and_large_requests_agree_after_adds_and_removals():
-    """Fleet.rows answers small requests from an id -> row dict (rebuilt when
-    the fleet changes) and large ones by binary search: the same rows, -1
-    for absent ids, through adds and removals."""
+def test_fleet_rows_equal_a_binary_search_after_adds_and_removals():
+    """Fleet.rows (a compiled lookup in an id -> row table rebuilt when the
+    fleet changes) against a binary search over the sorted ids: the same
+    rows, -1 for absent, negative and not yet issued ids, through adds and
+    removals, for 1-D and 2-D requests."""
     import numpy as np
 
     from icv_envs.sim.intersection_world import Fleet
@@ -135,8 +136,10 @@ def test_fleet_rows_small_and_large_requests_agree_after_adds_and_removals():
         if f.n:
             f.remove(rng.random(f.n) < 0.3)
         probe = rng.integers(-2, f.next_vid + 3, size=40)
-        big = f.rows(probe)  # > 16 ids: binary search
-        small = np.concatenate([f.rows(probe[i:i + 4]) for i in range(0, 40, 4)])  # the dict
-        assert np.array_equal(big, small)
-        assert all((r == -1) == (v not in set(f.vid.tolist())) for v, r in zip(probe.tolist(), big.tolist()))
-        assert all(f.vid[r] == v for v, r in zip(probe.tolist(), big.tolist()) if r >= 0)
+        got = f.rows(probe)
+        r = np.minimum(np.searchsorted(f.vid, probe), max(f.n - 1, 0))
+        want = np.where((f.n > 0) & (f.vid[r] == probe), r, -1) if f.n else np.full(40, -1)
+        assert got.dtype == np.int64 and np.array_equal(got, want)
+        assert np.array_equal(f.rows(probe.reshape(8, 5)), want.reshape(8, 5))
+        assert np.array_equal(np.concatenate([f.rows(probe[i:i + 4].tolist()) for i in range(0, 40, 4)]), want)
+        assert all((r == -1) == (v not in set(f.vid.tolist())) for v, r in zip(probe.tolist(), got.tolist()))

@@ -16,7 +16,7 @@ import numpy as np
 
 from icv_envs.sim._kernels.neighbours import collision_pairs
 
-__all__ = ["intersection_events", "box_collision_pairs"]
+__all__ = ["intersection_events", "box_collision_pairs", "rows_of_ids"]
 
 PET_REACH = 20.0  # metres before the stop line / past the box edge inside which a vehicle is a PET candidate
 
@@ -175,3 +175,16 @@ def box_collision_pairs(cx, cy, heading, length, width, box_half):
         return keys, keys.copy()
     keys = np.unique(keys)
     return keys // (n + 1), keys % (n + 1)
+
+
+@nb.njit(cache=True)
+def rows_of_ids(table, vids):
+    """``table[vids]`` (an id -> row table, -1 for ids not present), -1 for
+    ids outside the table: the fleet's row lookup, asked for a handful of ids
+    at a time about forty times per intersection step."""
+    out = np.empty(vids.shape[0], dtype=np.int64)
+    n = table.shape[0]
+    for q in range(vids.shape[0]):
+        v = vids[q]
+        out[q] = table[v] if 0 <= v < n else -1
+    return out
