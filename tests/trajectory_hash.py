@@ -52,7 +52,8 @@ CASES = [
 
 def _traffic_arrays(core):
     tr = core.world.traffic
-    names = sorted(k for k, v in vars(tr).items() if isinstance(v, np.ndarray))
+    # public state only: private arrays are caches of it (the intersection fleet's id -> row table)
+    names = sorted(k for k, v in vars(tr).items() if isinstance(v, np.ndarray) and not k.startswith("_"))
     return [(k, getattr(tr, k)) for k in names]
 
 
