@@ -176,3 +176,14 @@ def test_platoon_expert_checks_its_parameters_once(kw, match):
 
     with pytest.raises(ValueError, match=match):
         PlatoonExpert(IntersectionLayout(), PlatoonParams(**kw))
+
+
+@pytest.mark.parametrize("kw", [{"w1": -1.0}, {"w2": float("nan")}, {"w1": True}, {"w2": "10"}])
+def test_formation_manager_checks_its_assignment_weights_once(kw):
+    """The formation layer assigns targets without re-checking its weights
+    (issue 10), so it refuses bad ones when it is built, naming them."""
+    from icv_envs.sim.formations import FormationManager
+
+    name = next(iter(kw))
+    with pytest.raises(ValueError, match=f"{name} must be a finite real number >= 0"):
+        FormationManager(**kw)

@@ -49,7 +49,7 @@ import itertools
 
 import numpy as np
 
-from icv_envs.formation.assignment import assign_targets
+from icv_envs.formation.assignment import _assign_targets, _check_weight
 from icv_envs.formation.control import (
     FEEDBACK_ERROR,
     PROFILE_ACCEL,
@@ -109,7 +109,7 @@ class FormationManager:
     ) -> None:
         self.spacing = float(spacing)
         self.geometry = geometry
-        self.w1, self.w2 = float(w1), float(w2)
+        self.w1, self.w2 = _check_weight("w1", w1), _check_weight("w2", w2)  # checked once: _reform assigns unchecked
         self.speed = float(speed)
         self.lookahead = float(lookahead)
         self.join_distance = float(join_distance)
@@ -331,7 +331,7 @@ class FormationManager:
         else:
             y_v = 1.0 + (lane_pos - lanes_arr[0])
         x_v = road.wrap(anchor - cx[rows])
-        slot = assign_targets(x_v, y_v, tx, tl.astype(np.float64), self.w1, self.w2)
+        slot = _assign_targets(x_v, y_v, tx, tl.astype(np.float64), self.w1, self.w2)
         traffic.tgt_behind[rows] = tx[slot]
         traffic.tgt_lane[rows] = np.asarray(lanes, dtype=np.int64)[tl[slot] - 1]
         self.reforms += 1
