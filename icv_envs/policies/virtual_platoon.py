@@ -106,11 +106,12 @@ class VirtualPlatoon:
                 f.ref[r] = -1
                 del self.nodes[ids[k]]
 
-    def _member_rows(self, f):
+    def _member_rows(self, f, ids=None):
         """Every node's member rows in one array, each node's in member order:
         ``(node ids, rows, index into the ids of each row's node, node sizes)``
-        (one ``f.rows`` call instead of one per node)."""
-        ids = list(self.nodes)
+        (one ``f.rows`` call instead of one per node); nodes ``ids`` in that
+        order (default: all, in insertion order)."""
+        ids = list(self.nodes) if ids is None else ids
         members = [self.nodes[nid]["members"] for nid in ids]
         sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(ids))
         seg = np.repeat(np.arange(len(ids)), sizes)
@@ -374,14 +375,7 @@ class VirtualPlatoon:
             self.node_order = ids
             for k, nid in enumerate(ids):
                 self.node_depth[nid] = int(depths[k + 1])
-            pos = {nid: k for k, nid in enumerate(ids)}
-            rows_all, kk = [], []
-            for nid in ids:
-                rows = f.rows(self.nodes[nid]["members"])
-                rows_all.append(rows)
-                kk.append(np.full(len(rows), pos[nid]))
-            rows_all = np.concatenate(rows_all)
-            kk = np.concatenate(kk)
+            _, rows_all, kk, _ = self._member_rows(f, ids)
             live = ~f.cleared[rows_all]
             rows_all, kk = rows_all[live], kk[live]
             self._tree, self._tree_rows = T, (rows_all, kk)
