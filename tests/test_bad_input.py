@@ -166,6 +166,8 @@ def test_formation_expert_checks_its_parameters_once(kw, match):
     ({"a_max": -1.0}, "a_min / a_max = -6.0 / -1.0; allowed: lower < 0 < upper"),
     ({"lc_min_length": 0.0}, "lc_min_length / lc_max_length = 0.0 / 40.0; allowed: 0 < lc_min_length"),
     ({"lc_max_length": 10.0}, "lc_min_length / lc_max_length = 15.0 / 10.0"),
+    ({"D_t": -1.0}, "D_t = -1.0; allowed: >= 0 metres"),
+    ({"D_t": float("nan")}, "D_t = nan; allowed: a finite number"),
 ])
 def test_platoon_expert_checks_its_parameters_once(kw, match):
     """The intersection expert calls the unchecked steering and feedback

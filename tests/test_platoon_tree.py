@@ -180,3 +180,27 @@ def test_bad_inputs():
         node_conflicts([12], PAPER)
     with pytest.raises(ValueError, match="depths"):
         tree_layers([0, -1])
+
+
+@settings(max_examples=100, deadline=None)
+@given(m=st.integers(0, 25), p=st.floats(0.0, 1.0), seed=st.integers(0, 2**31))
+def test_compiled_depths_equal_the_written_out_rule(m, p, seed):
+    """``tree_depths`` (compiled loop) against the rule of its docstring written
+    out in Python, on random symmetric conflict matrices of every density;
+    ``_reference_positions`` (unchecked) equals ``reference_positions``."""
+    from icv_envs.platoon.tree import _reference_positions, reference_positions, tree_depths
+
+    rng = np.random.default_rng(seed)
+    c = rng.random((m, m)) < p
+    c = np.triu(c, 1)
+    c = c | c.T
+    want = [0] + [1] * m
+    for k in range(1, m):
+        earlier = [want[i + 1] for i in range(k) if c[i, k]]
+        want[k + 1] = max(1, 1 + max(earlier)) if earlier else 1
+    got = tree_depths(c)
+    assert got.dtype == np.int64 and got.tolist() == want
+    if m:
+        x = np.sort(rng.uniform(-50.0, 300.0, m))
+        ln = rng.uniform(0.0, 40.0, m)
+        assert np.array_equal(_reference_positions(x, ln, got, 20.0), reference_positions(x, ln, got, 20.0))

@@ -119,8 +119,11 @@ class DictEdge:
             unlabelled = itertools.islice(infos.values(), len(agents), None)
             for a, row in zip(agents, DictEdge._realign_rows(vid, rows, agents_vid)):
                 infos[a]["expert_action"] = row
-            late = ~np.isin(vid, agents_vid)
-            rest, rows = vid[late], rows[late]
+            if len(vid) == len(agents_vid) and np.array_equal(vid, agents_vid):  # nobody came or went
+                rest, rows = vid[:0], rows[:0]
+            else:
+                late = ~np.isin(vid, agents_vid)
+                rest, rows = vid[late], rows[late]
         for a, row in zip([f"icv_{v}" for v in rest.tolist()], rows):
             info = infos.get(a)
             if info is not None:

@@ -32,6 +32,7 @@ import numbers
 import numpy as np
 
 from ..formation._validate import finite
+from ._kernels import depths_of
 
 __all__ = [
     "DEFAULT_D_T",
@@ -89,15 +90,8 @@ def tree_depths(conflict) -> np.ndarray:
     Raises:
         ValueError: not square, not boolean or not symmetric.
     """
-    c = _bool_square("conflict", conflict)
-    m = c.shape[0]
-    depths = np.zeros(m + 1, dtype=np.int64)
-    depths[1:] = 1  # the leader conflicts with every node
-    for j in range(1, m):
-        earlier = c[:j, j]
-        if earlier.any():
-            depths[j + 1] = max(1, 1 + int(depths[1:j + 1][earlier].max()))
-    return depths
+    # the leader conflicts with every node (depth 1 at least); compiled loop over the nodes
+    return depths_of(_bool_square("conflict", conflict))
 
 
 def tree_layers(depths) -> list[np.ndarray]:
@@ -178,7 +172,13 @@ def reference_positions(first_dist, lengths, depths, D_t: float = DEFAULT_D_T) -
             f"depths must be integers with depths[0] == 0 (leader) and depths[1:] >= 1, "
             f"got {d.tolist()}"
         )
-    d = d.astype(np.int64)
+    return _reference_positions(x, ln, d.astype(np.int64), D)
+
+
+def _reference_positions(x: np.ndarray, ln: np.ndarray, d: np.ndarray, D: float) -> np.ndarray:
+    """:func:`reference_positions` without its checks, for a caller whose
+    inputs are right by construction (the intersection expert's tree: float64
+    distances, sorted, lengths >= 0, int64 depths of :func:`tree_depths`)."""
     layer_max = np.zeros(int(d.max()) + 1)
     np.maximum.at(layer_max, d[1:], ln)  # layer 0 (leader) keeps length 0
     before = np.concatenate([[0.0], np.cumsum(layer_max)])  # before[m] = sum_{i<m}

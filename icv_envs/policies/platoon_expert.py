@@ -395,7 +395,8 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
 
     def _check_params(self) -> None:
         """The parameter checks that :func:`pure_pursuit_steering`,
-        :func:`longitudinal_feedback` and :func:`lane_change_lateral` (whose
+        :func:`longitudinal_feedback`, :func:`reference_positions` (``D_t``)
+        and :func:`lane_change_lateral` (whose
         lengths are ``clip(v * lc_duration, lc_min_length, lc_max_length)``)
         make on every call, made once here: the expert calls their unchecked
         forms."""
@@ -410,6 +411,8 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
         if not 0.0 < real("lc_min_length", p.lc_min_length) <= real("lc_max_length", p.lc_max_length):
             raise ValueError(f"PlatoonParams lc_min_length / lc_max_length = {p.lc_min_length!r} / "
                              f"{p.lc_max_length!r}; allowed: 0 < lc_min_length <= lc_max_length [m]")
+        if not real("D_t", p.D_t) >= 0.0:  # reference_positions' check; the tree calls its unchecked form
+            raise ValueError(f"PlatoonParams.D_t = {p.D_t!r}; allowed: >= 0 metres")
         for name, (lo, hi) in (("a_min / a_max", (p.a_min, p.a_max)), ("comfort", tuple(p.comfort))):
             if not real(name, lo) < 0.0 < real(name, hi):
                 raise ValueError(f"PlatoonParams {name} = {lo!r} / {hi!r}; allowed: lower < 0 < upper [m/s^2]")

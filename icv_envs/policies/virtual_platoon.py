@@ -13,7 +13,8 @@ import itertools
 import numpy as np
 
 from icv_envs.formation.targets import formation_length, interlaced_targets
-from icv_envs.platoon.tree import reference_positions, tree_depths
+from icv_envs.platoon._kernels import depths_of
+from icv_envs.platoon.tree import _reference_positions
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 
@@ -310,8 +311,10 @@ class VirtualPlatoon:
         xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
         ids = [ids[i] for i in o]
         C = world.layout.conflict[np.ix_(mvs, mvs)]
-        depths = tree_depths(C)
-        refs = reference_positions(np.maximum.accumulate(xf), lens, depths, p.D_t)
+        # the paper's tree and references, unchecked: C is a symmetric bool block of the layout's
+        # conflict matrix, the first vehicles' X made nondecreasing, lengths >= 0
+        depths = depths_of(C)
+        refs = _reference_positions(np.maximum.accumulate(xf), lens, depths, float(p.D_t))
         U = np.triu(C, 1)
         cand = np.where(U, rear[:, None] + p.D_t, -np.inf)
         lb = cand.max(axis=0) if K else np.zeros(0)
