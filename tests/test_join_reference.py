@@ -46,7 +46,7 @@ def test_reference_starts_at_the_member_and_reaches_the_slot():
     np.testing.assert_allclose(v_ref, 22.0, atol=1e-9)
     slots = w.manager.slots(w.traffic)
     assert np.abs(slots - cx).max() > 30.0
-    T = w.manager._p_T[w.traffic.vid].max()
+    T = w.manager._plans.T[w.traffic.vid].max()
     assert T < 120.0
     rec, ev = run(w, FormationExpert(), T + 10.0)
     assert not ev.crashed

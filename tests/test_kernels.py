@@ -608,7 +608,7 @@ def test_interval_end_equals_the_numpy_code(n, ramp, seed):
 
 
 def test_patched_join_profiles_equal_a_full_evaluation():
-    """FormationManager._profile re-evaluates only the members re-planned
+    """JoinPlans.profile re-evaluates only the members re-planned
     since its cached answer; every answer equals a full evaluation."""
     from icv_envs.envs.highway_formation_v0 import parallel_env
     from icv_envs.formation.control import join_profile
@@ -619,25 +619,27 @@ def test_patched_join_profiles_equal_a_full_evaluation():
     patched = 0
     for _ in range(60):
         ex = env.expert_actions()
-        c = man._profile_cache
+        c = man._plans._cache
         plans_before = man.plans
         env.step({a: ex[a] for a in env.agents})
         tr = env.core.world.traffic
         m = np.flatnonzero(tr.group >= 0)
         if not len(m):
             continue
-        c = man._profile_cache
+        c = man._plans._cache
         if c is not None and c[0][1] == tr.vid[m].tobytes() and c[1] != man.plans:
             patched += 1
         got = man._profile(tr, m)
         vid = tr.vid[m]
-        want = join_profile(man.time - man._p_t0[vid], man._p_T[vid], man._p_d0[vid], man._p_v0[vid], man._p_a0[vid])
+        jp = man._plans
+        want = join_profile(man.time - jp.t0[vid], jp.T[vid], jp.d0[vid], jp.v0[vid], jp.a0[vid])
         for g, w in zip(got, want):
             np.testing.assert_array_equal(g, w)
         # re-plan some members now and ask again: the patched answer is the full one
         man._plan(tr, env.core.world.road, m[::3], tr.center()[0])
         got = man._profile(tr, m)
-        want = join_profile(man.time - man._p_t0[vid], man._p_T[vid], man._p_d0[vid], man._p_v0[vid], man._p_a0[vid])
+        jp = man._plans
+        want = join_profile(man.time - jp.t0[vid], jp.T[vid], jp.d0[vid], jp.v0[vid], jp.a0[vid])
         for g, w in zip(got, want):
             np.testing.assert_array_equal(g, w)
         patched += 1

@@ -56,29 +56,15 @@ from icv_envs.formation.control import (
     PROFILE_DECEL,
     PROFILE_JERK,
     PROFILE_MIN_DURATION,
-    _join_duration_banded,
-    _quintic_coeffs,
-    join_profile,
 )
-from icv_envs.formation._kernels import quintic_rows
 from icv_envs.formation.targets import formation_targets
 from icv_envs.sim._kernels import drivable_lane_bits, hold_targets
 from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs.sim.join_plans import JoinPlans
 
 __all__ = ["FormationManager"]
 
-#: cap of the join-plan duration search within the speed band [s]: a plan
-#: that needs longer is infeasible inside the band (see ``_plan``)
-JOIN_MAX_DURATION = 120.0
-
-
 class FormationManager:
-    # per vehicle id, float: the slot's place behind the front, the plan
-    # (start, duration, initial offset, relative speed, acceleration, deadline),
-    # its end values and its polynomial's coefficients (_plan, _eval_profiles)
-    _PLAN_FLOATS = ("_slot_behind", "_p_t0", "_p_T", "_p_d0", "_p_v0", "_p_a0", "_p_deadline", "_p_fd", "_p_fv",
-                    "_p_fa", "_p_c3", "_p_c4", "_p_c5")
-
     def __init__(
         self,
         *,
@@ -136,21 +122,18 @@ class FormationManager:
         self.replan_error = float(replan_error)
         self.profile_speeds = (float(profile_speeds[0]), float(profile_speeds[1]))
         self.time = 0.0
-        self.plans = 0
-        self._profile_cache = None  # (key, profiles): see _profile
         self._version = 0  # bumped whenever the formation state may change (update, create): references' cache key
         self._refs_cache = None  # (key, references): see references
         self._bits_memo: dict[tuple, int] = {}  # lane set -> bit set (_hold_targets)
         self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
         self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_lane_bits)
-        # per vehicle id: the slot a plan was made for (group, metres behind
-        # the front), the plan (start time, duration, initial offset, relative
-        # speed, acceleration) and when the first plan for that slot ends
-        self._cap = 0
-        for name in ("_slot_gid", "_p_stamp"):
-            setattr(self, name, np.zeros(0, dtype=np.int64))
-        for name in self._PLAN_FLOATS:
-            setattr(self, name, np.zeros(0))
+        # per vehicle id: the join plans and the slot each was made for (sim/join_plans.py)
+        self._plans = JoinPlans(self.profile_limits, self.profile_speeds, self.speed)
+
+    @property
+    def plans(self) -> int:
+        """How many join plans were made so far."""
+        return self._plans.count
 
     # ---------------------------------------------------------------- helpers
     def _lane_set(self, road, anchor: float, length: float) -> tuple[int, ...]:
@@ -172,24 +155,6 @@ class FormationManager:
             self._targets_memo[key] = out
         return out
 
-    def _grow(self, size: int) -> None:
-        if size <= self._cap:
-            return
-        new = max(size, 2 * self._cap, 256)
-        pad = new - self._cap
-        self._slot_gid = np.concatenate([self._slot_gid, np.full(pad, -1, dtype=np.int64)])
-        self._p_stamp = np.concatenate([self._p_stamp, np.zeros(pad, dtype=np.int64)])
-        for name in self._PLAN_FLOATS:
-            setattr(self, name, np.concatenate([getattr(self, name), np.zeros(pad)]))
-        self._p_T[self._cap:] = 1.0
-        # the profile's values once it has ended (t >= T), of the default plan
-        one, zero = np.ones(1), np.zeros(1)
-        fd, fv, fa = join_profile(one, one, zero, zero, zero)
-        self._p_fd[self._cap:], self._p_fv[self._cap:], self._p_fa[self._cap:] = fd[0], fv[0], fa[0]
-        c3, c4, c5 = _quintic_coeffs(one, zero, zero, zero)
-        self._p_c3[self._cap:], self._p_c4[self._cap:], self._p_c5[self._cap:] = c3[0], c4[0], c5[0]
-        self._cap = new
-
     def _slot_x(self, traffic, rows) -> np.ndarray:
         # each row's front target minus its place behind it, through a lookup
         # table over the formation ids (nan where none; one entry per id ever
@@ -202,85 +167,19 @@ class FormationManager:
         return lut[traffic.group[rows]] - traffic.tgt_behind[rows]
 
     def _plan(self, traffic, road, rows, cx) -> np.ndarray:
-        """Plan references for members ``rows`` from their current state;
-        returns the plans' durations."""
+        """Plan references for members ``rows`` from their current state
+        (:meth:`JoinPlans.plan`); returns the plans' durations."""
         if not len(rows):
             return np.zeros(0)
-        vid = traffic.vid[rows]
-        self._grow(int(vid.max()) + 1)
         lim = self.profile_limits
         d0 = road.wrap(cx[rows] - self._slot_x(traffic, rows))
         v0 = traffic.speed[rows] - self.speed
         a0 = uclip(traffic.accel[rows], -lim["decel"], lim["accel"])
-        # no duration keeps a quintic inside the speed band when the member
-        # must first reverse a large relative speed (a slow ramp vehicle
-        # joining behind its slot: d0 < 0, v0 << 0 overshoots any band): the
-        # search then ends at its cap and the reference would hold the
-        # member's own speed for minutes. Those members get the shortest
-        # plan within the acceleration and jerk limits alone; the vehicle's
-        # own speed limit and the re-plan rule handle the overshoot.
-        # (one compiled search for both; unchecked: d0, v0, a0 are finite
-        # float64 arrays, the limits were checked when the manager was made)
-        d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
-        T = _join_duration_banded(d0, v0, a0, lim["accel"], lim["decel"], lim["jerk"], lim["t_min"],
-                                  self.profile_speeds[0] - self.speed, self.profile_speeds[1] - self.speed,
-                                  JOIN_MAX_DURATION)
-        self._p_t0[vid], self._p_T[vid] = self.time, T
-        self._p_d0[vid], self._p_v0[vid], self._p_a0[vid] = d0, v0, a0
-        # the polynomial's coefficients, fixed for the plan (_eval_profiles)
-        self._p_c3[vid], self._p_c4[vid], self._p_c5[vid] = _quintic_coeffs(T, d0, v0, a0)
-        # the profile's values once it has ended (evaluated at t = T, where
-        # every later time is clamped to: the same numbers _profile would get;
-        # the quintic at t = T from the stored coefficients, written in place)
-        quintic_rows(T, T ** 3, T ** 4, T ** 5, vid, self._p_d0, self._p_v0, self._p_a0, self._p_c3, self._p_c4,
-                     self._p_c5, vid, self._p_fd, self._p_fv, self._p_fa)
-        self.plans += len(rows)
-        self._p_stamp[vid] = self.plans  # (which cached profiles this plan makes stale: _profile)
-        return T
+        return self._plans.plan(traffic.vid[rows], d0, v0, a0, self.time)
 
     def _profile(self, traffic, rows):
-        """``join_profile`` of the members at ``rows`` now. Several callers
-        ask for the same rows within one step (the expert, the observations,
-        the manager's own update); the last answer is kept, keyed on the
-        clock and the vehicle ids, with the count of plans made when it was
-        computed (it grows with every plan that writes the plan arrays).
-        When members were re-planned since, only their rows are evaluated
-        again (the profile is element-wise, so the patched arrays equal a
-        full evaluation)."""
-        vid = traffic.vid[rows]
-        key = (self.time, vid.tobytes())
-        c = self._profile_cache
-        if c is not None and c[0] == key:
-            if c[1] == self.plans:
-                return c[2]
-            stale = np.flatnonzero(self._p_stamp[vid] > c[1])
-            out = tuple(arr.copy() for arr in c[2])
-            if len(stale):
-                for arr, p in zip(out, self._eval_profiles(vid[stale])):
-                    arr[stale] = p
-        else:
-            out = self._eval_profiles(vid)
-        for arr in out:
-            arr.flags.writeable = False
-        self._profile_cache = (key, self.plans, out)
-        return out
-
-    def _eval_profiles(self, vid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``join_profile`` of vehicles ``vid`` now: evaluated for the plans
-        still running, the stored end values for those that have ended
-        (``t >= T``: the quintic is evaluated at ``T`` then, so the values
-        are the same numbers; ``_plan`` stores them)."""
-        t = self.time - self._p_t0[vid]
-        T = self._p_T[vid]
-        run = np.flatnonzero(t < T)
-        d, v, a = self._p_fd[vid], self._p_fv[vid], self._p_fa[vid]
-        if len(run):
-            # join_profile's quintic (compiled, from the plans' stored
-            # coefficients; the powers from numpy, as join_profile takes them)
-            tc = np.minimum(np.maximum(t[run], 0.0), T[run])
-            quintic_rows(tc, tc ** 3, tc ** 4, tc ** 5, vid[run], self._p_d0, self._p_v0, self._p_a0, self._p_c3,
-                         self._p_c4, self._p_c5, run, d, v, a)
-        return d, v, a
+        """``join_profile`` of the members at ``rows`` now (:meth:`JoinPlans.profile`, cached)."""
+        return self._plans.profile(traffic.vid[rows], self.time)
 
     def create(self, traffic, rows, road, anchor: float | None = None) -> int:
         """Make a new formation of vehicles ``rows`` and assign them targets."""
@@ -337,14 +236,15 @@ class FormationManager:
         self.reforms += 1
         # members with a new slot get a reference from where they are
         vid = traffic.vid[rows]
-        self._grow(int(vid.max()) + 1)
-        new = (self._slot_gid[vid] != gid) | (self._slot_behind[vid] != traffic.tgt_behind[rows])
+        jp = self._plans
+        jp.grow(int(vid.max()) + 1)
+        new = (jp.slot_gid[vid] != gid) | (jp.slot_behind[vid] != traffic.tgt_behind[rows])
         if new.any():
             r = rows[new]
             T = self._plan(traffic, road, r, cx)
-            self._slot_gid[traffic.vid[r]] = gid
-            self._slot_behind[traffic.vid[r]] = traffic.tgt_behind[r]
-            self._p_deadline[traffic.vid[r]] = self.time + T
+            jp.slot_gid[traffic.vid[r]] = gid
+            jp.slot_behind[traffic.vid[r]] = traffic.tgt_behind[r]
+            jp.deadline[traffic.vid[r]] = self.time + T
 
     # ----------------------------------------------------------------- update
     def _eligible_free(self, traffic, road, cx) -> np.ndarray:
@@ -410,8 +310,8 @@ class FormationManager:
                 traffic.group[leave] = -1
                 traffic.tgt_lane[leave] = -1
                 if len(leave):
-                    self._grow(int(traffic.vid[leave].max()) + 1)
-                    self._slot_gid[traffic.vid[leave]] = -1
+                    self._plans.grow(int(traffic.vid[leave].max()) + 1)
+                    self._plans.slot_gid[traffic.vid[leave]] = -1
         counts = np.bincount(traffic.group[traffic.group >= 0], minlength=self.next_gid) if traffic.n else np.zeros(
             self.next_gid, dtype=np.int64
         )
@@ -485,7 +385,6 @@ class FormationManager:
         # from where they are
         m = np.flatnonzero(traffic.group >= 0) if traffic.n else np.zeros(0, dtype=np.int64)
         if len(m):
-            self._grow(int(traffic.vid[m].max()) + 1)
             d, _, _ = self._profile(traffic, m)
             off = np.abs(wrap(cx[m] - (self._slot_x(traffic, m) + d))) > self.replan_error
             if off.any():
@@ -530,13 +429,12 @@ class FormationManager:
         # positive feedback that left whole formations at the speed floor)
         # (the profiles of all members in row order, the order every other
         # caller in this step asks for: one evaluation, then the cache)
-        self._grow(int(traffic.vid[m].max()) + 1)
         d_ref = self._profile(traffic, m)[0]
         # the lead, the brake and the stall test per formation, compiled
         # (icv_envs.sim._kernels.hold_targets: the arithmetic of the array
         # code it replaced, element by element)
         has, brake, late = hold_targets(grp, slot_of_gid, A, chg, r, traffic.tgt_behind, cx, d_ref, traffic.vid,
-                                        self._p_deadline, float(self.time), float(self.max_anchor_lead),
+                                        self._plans.deadline, float(self.time), float(self.max_anchor_lead),
                                         -self.anchor_brake * dt, float(self.stall_error),
                                         float(road.length) if road.periodic else -1.0)
         if not has.any():
@@ -619,7 +517,6 @@ class FormationManager:
         v_ref = np.full(traffic.n, np.nan)
         if member.any():
             m = np.flatnonzero(member)
-            self._grow(int(traffic.vid[m].max()) + 1)
             d, dv, _ = self._profile(traffic, m)
             x_ref[m] = self._slot_x(traffic, m) + d
             if traffic.period is not None:
@@ -635,7 +532,6 @@ class FormationManager:
         out = np.full(traffic.n, np.nan)
         if member.any():
             m = np.flatnonzero(member)
-            self._grow(int(traffic.vid[m].max()) + 1)
             out[m] = self._profile(traffic, m)[2]
         return out
 

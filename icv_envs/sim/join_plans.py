@@ -1,0 +1,149 @@
+"""The formation layer's join plans: per vehicle, the reference that takes a
+member from where it is to its slot (module docstring of
+:mod:`icv_envs.sim.formations`; :func:`icv_envs.formation.control.join_profile`,
+paper Sec. 3.4's feedback tracks it).
+
+A plan is made from a member's offset to its slot ``d0``, its speed relative
+to the formation ``v0`` and its acceleration ``a0``: the shortest duration
+``T`` whose quintic stays within the acceleration, jerk and speed limits
+(compiled search), then the quintic's coefficients, stored with the plan, and
+its values at ``T`` (every later time is clamped to ``T``). The plans live in
+arrays indexed by vehicle id, grown as ids appear, beside the slot each plan
+was made for (formation id, metres behind the front) and when the first plan
+for that slot should have arrived (the stall test's deadline)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from icv_envs.formation._kernels import quintic_rows
+from icv_envs.formation.control import _join_duration_banded, _quintic_coeffs, join_profile
+
+__all__ = ["JoinPlans", "JOIN_MAX_DURATION"]
+
+#: cap of the join-plan duration search within the speed band [s]: a plan
+#: that needs longer is infeasible inside the band (see :meth:`JoinPlans.plan`)
+JOIN_MAX_DURATION = 120.0
+
+
+class JoinPlans:
+    """Join plans by vehicle id (module docstring).
+
+    Args:
+        limits: ``accel``, ``decel``, ``jerk`` and ``t_min`` of the profiles
+            (checked by the caller).
+        speeds: the speed band ``(lo, hi)`` the reference stays in [m/s].
+        speed: the formation speed [m/s] (plans are relative to it).
+    """
+
+    # per vehicle id, float: the slot's place behind the front, the plan
+    # (start, duration, initial offset, relative speed, acceleration, deadline),
+    # its end values and its polynomial's coefficients
+    FLOATS = ("slot_behind", "t0", "T", "d0", "v0", "a0", "deadline", "fd", "fv", "fa", "c3", "c4", "c5")
+
+    def __init__(self, limits: dict, speeds: tuple, speed: float) -> None:
+        self.limits = limits
+        self.speeds = speeds
+        self.speed = speed
+        self.count = 0  # plans made: which cached profiles a plan makes stale (profile)
+        self._cache = None  # (key, count when computed, profiles): see profile
+        self._cap = 0
+        self.slot_gid = np.zeros(0, dtype=np.int64)  # the formation a plan was made for (-1: none)
+        self.stamp = np.zeros(0, dtype=np.int64)  # the count of plans when each was made
+        for name in self.FLOATS:
+            setattr(self, name, np.zeros(0))
+
+    def grow(self, size: int) -> None:
+        """Make room for vehicle ids below ``size`` (at least doubling); new
+        ids get the default plan (duration 1 s from rest, ended)."""
+        if size <= self._cap:
+            return
+        new = max(size, 2 * self._cap, 256)
+        pad = new - self._cap
+        self.slot_gid = np.concatenate([self.slot_gid, np.full(pad, -1, dtype=np.int64)])
+        self.stamp = np.concatenate([self.stamp, np.zeros(pad, dtype=np.int64)])
+        for name in self.FLOATS:
+            setattr(self, name, np.concatenate([getattr(self, name), np.zeros(pad)]))
+        self.T[self._cap:] = 1.0
+        # the profile's values once it has ended (t >= T), of the default plan
+        one, zero = np.ones(1), np.zeros(1)
+        fd, fv, fa = join_profile(one, one, zero, zero, zero)
+        self.fd[self._cap:], self.fv[self._cap:], self.fa[self._cap:] = fd[0], fv[0], fa[0]
+        c3, c4, c5 = _quintic_coeffs(one, zero, zero, zero)
+        self.c3[self._cap:], self.c4[self._cap:], self.c5[self._cap:] = c3[0], c4[0], c5[0]
+        self._cap = new
+
+    def plan(self, vid: np.ndarray, d0, v0, a0, time: float) -> np.ndarray:
+        """Plans for vehicles ``vid`` (non-empty) at ``time`` from offsets
+        ``d0``, relative speeds ``v0`` and accelerations ``a0`` (finite);
+        returns their durations."""
+        self.grow(int(vid.max()) + 1)
+        lim = self.limits
+        # no duration keeps a quintic inside the speed band when the member
+        # must first reverse a large relative speed (a slow ramp vehicle
+        # joining behind its slot: d0 < 0, v0 << 0 overshoots any band): the
+        # search then ends at its cap and the reference would hold the
+        # member's own speed for minutes. Those members get the shortest
+        # plan within the acceleration and jerk limits alone; the vehicle's
+        # own speed limit and the re-plan rule handle the overshoot.
+        # (one compiled search for both; unchecked: d0, v0, a0 are finite
+        # float64 arrays, the limits were checked when the manager was made)
+        d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
+        T = _join_duration_banded(d0, v0, a0, lim["accel"], lim["decel"], lim["jerk"], lim["t_min"],
+                                  self.speeds[0] - self.speed, self.speeds[1] - self.speed, JOIN_MAX_DURATION)
+        self.t0[vid], self.T[vid] = time, T
+        self.d0[vid], self.v0[vid], self.a0[vid] = d0, v0, a0
+        # the polynomial's coefficients, fixed for the plan (_eval)
+        self.c3[vid], self.c4[vid], self.c5[vid] = _quintic_coeffs(T, d0, v0, a0)
+        # the profile's values once it has ended (evaluated at t = T, where
+        # every later time is clamped to: the same numbers profile() would get;
+        # the quintic at t = T from the stored coefficients, written in place)
+        quintic_rows(T, T ** 3, T ** 4, T ** 5, vid, self.d0, self.v0, self.a0, self.c3, self.c4, self.c5, vid,
+                     self.fd, self.fv, self.fa)
+        self.count += len(vid)
+        self.stamp[vid] = self.count
+        return T
+
+    def profile(self, vid: np.ndarray, time: float):
+        """``join_profile`` ``(d, v, a)`` of vehicles ``vid`` at ``time``,
+        read-only. Several callers ask for the same vehicles within one step
+        (the expert, the observations, the manager's own update); the last
+        answer is kept, keyed on the clock and the ids, with the count of
+        plans made when it was computed. When some of them were re-planned
+        since, only those are evaluated again (the profile is element-wise,
+        so the patched arrays equal a full evaluation)."""
+        if len(vid):
+            self.grow(int(vid.max()) + 1)
+        key = (time, vid.tobytes())
+        c = self._cache
+        if c is not None and c[0] == key:
+            if c[1] == self.count:
+                return c[2]
+            stale = np.flatnonzero(self.stamp[vid] > c[1])
+            out = tuple(arr.copy() for arr in c[2])
+            if len(stale):
+                for arr, p in zip(out, self._eval(vid[stale], time)):
+                    arr[stale] = p
+        else:
+            out = self._eval(vid, time)
+        for arr in out:
+            arr.flags.writeable = False
+        self._cache = (key, self.count, out)
+        return out
+
+    def _eval(self, vid, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``join_profile`` of vehicles ``vid`` at ``time``: evaluated for the
+        plans still running, the stored end values for those that have ended
+        (``t >= T``: the quintic is evaluated at ``T`` then, so the values
+        are the same numbers; :meth:`plan` stores them)."""
+        t = time - self.t0[vid]
+        T = self.T[vid]
+        run = np.flatnonzero(t < T)
+        d, v, a = self.fd[vid], self.fv[vid], self.fa[vid]
+        if len(run):
+            # join_profile's quintic (compiled, from the plans' stored
+            # coefficients; the powers from numpy, as join_profile takes them)
+            tc = np.minimum(np.maximum(t[run], 0.0), T[run])
+            quintic_rows(tc, tc ** 3, tc ** 4, tc ** 5, vid[run], self.d0, self.v0, self.a0, self.c3, self.c4,
+                         self.c5, run, d, v, a)
+        return d, v, a
