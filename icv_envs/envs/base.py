@@ -12,14 +12,14 @@ columns (``OBS_FEATURES``), ``_sync_render_road`` and the viewer
 (:meth:`_make_viewer`), and for the observation types the feature scales
 (``_obs_scales``) and neighbour search (``_neighbours``). This class holds the
 parts that are the same for all: the observation / action types and their
-spaces (:mod:`icv_envs.envs.observations`, :mod:`icv_envs.envs.actions`), the
-Gymnasium single-ego ``reset``/``step``, the multi-agent step (``ma_step``:
+spaces (:mod:`icv_envs.envs.observations`, :mod:`icv_envs.envs.actions`), the multi-agent step (``ma_step``:
 action checks and conversion; ``_ma_advance``: physics, the world's
 reaction, observations, rewards, infos, departures, removals, spawns and the
 expert's labels, in that order), ``ma_reset``, the expert cache and
 rendering. The array -> PettingZoo dict edge of the multi-agent step (the
 action check, the per-agent dicts, the expert labels) is
-:class:`icv_envs.envs.dict_edge.DictEdge`.
+:class:`icv_envs.envs.dict_edge.DictEdge`; the Gymnasium single-ego
+``reset``/``step`` over the same step is :class:`icv_envs.envs.ego.EgoEnv`.
 """
 
 from __future__ import annotations
@@ -35,6 +35,7 @@ from highway_env.envs.common.abstract import AbstractEnv
 
 from icv_envs.envs.actions import ContinuousAction, action_factory, action_to_controls, check_actions
 from icv_envs.envs.dict_edge import DictEdge
+from icv_envs.envs.ego import EgoEnv
 from icv_envs.envs.observations import observation_factory
 from icv_envs.sim._ufuncs import clip as uclip
 
@@ -52,7 +53,7 @@ class StepRows(NamedTuple):
     truncated: np.ndarray  # (m,) bool
 
 
-class IcvAgentsEnv(DictEdge, AbstractEnv):
+class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
     OBS_FEATURES: tuple = ()
 
@@ -513,72 +514,6 @@ class IcvAgentsEnv(DictEdge, AbstractEnv):
         if self._expert_cache is None or self._expert_cache[0] != key:
             self._expert_cache = (key, self.expert.compute(self.world).astype(np.float32))
         return self._expert_cache[1]
-
-    # ------------------------------------------------------- gymnasium (ego)
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        gym.Env.reset(self, seed=seed, options=options)
-        if options and "config" in options:
-            self.configure(options["config"])
-            # spaces are created once: keep the same objects (and their
-            # seeded RNGs) unless the new config changes them
-            old = (self.observation_space, self.action_space)
-            self.define_spaces()
-            if old[0] is not None and old[0] == self.observation_space:
-                self.observation_space = old[0]
-            if old[1] is not None and old[1] == self.action_space:
-                self.action_space = old[1]
-            self.possible_agents = [f"icv_{i}" for i in range(self._n_possible_agents())]
-        self.update_metadata()
-        self.time = self.steps = 0
-        self.done = False
-        self._act_type.reset()
-        self._reset()
-        obs, info = self._ego_obs_info()
-        if self.render_mode == "human":
-            self.render()
-        return obs, info
-
-    def _ego_row(self) -> int:
-        veh = self._vehicles()
-        r = int(np.searchsorted(veh.vid, self._ego_vid))
-        return r if r < veh.n and veh.vid[r] == self._ego_vid else -1
-
-    def _ego_obs_info(self):
-        r = self._ego_row()
-        if r < 0:
-            return np.zeros(self.observation_space.shape, dtype=np.float32), {}
-        obs = self._observe_rows(np.array([r]))[0]
-        a = f"icv_{self._ego_vid}"
-        infos = self._ma_infos([a], np.array([r]), {})
-        if self.config["expert_in_info"]:
-            self._label_infos(infos, self._vehicles().vid[[r]], self.expert_actions()[[r]])
-        info = infos[a]
-        return obs, info
-
-    def step(self, action):
-        """Single-agent step: ``action`` drives the ego, every other vehicle
-        follows the environment's expert."""
-        if self.world is None:
-            raise RuntimeError("call reset() before step()")
-        if self._ego_done:
-            raise RuntimeError("the ego's episode has ended (terminated or truncated): call reset()")
-        act = self._act_type.check(action, "the ego")
-        veh = self._vehicles()
-        acts = self.expert_actions().astype(np.float64).copy() if veh.n else np.zeros((0, 2))
-        r = self._ego_row()
-        if r >= 0:
-            acts[r] = self._act_type.controls(np.array([r]), [act])[0]
-        observations, rewards, terms, truncs, infos = self._ma_advance(acts)
-        a = f"icv_{self._ego_vid}"
-        obs = observations.get(a, np.zeros(self.observation_space.shape, dtype=np.float32))
-        reward = float(rewards.get(a, 0.0))
-        terminated = bool(terms.get(a, True))
-        truncated = bool(truncs.get(a, False))
-        info = infos.get(a, {})
-        info["ego_present"] = self._ego_row() >= 0
-        if terminated or truncated:
-            self._ego_done = True
-        return obs, reward, terminated, truncated, info
 
     # -------------------------------------------------------------- rendering
     def render(self):
