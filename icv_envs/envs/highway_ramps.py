@@ -47,8 +47,8 @@ import math
 
 import numpy as np
 
-from icv_envs.envs._config import MAX_AGENTS, _is_real as _is_number, check_unused, speed_range
-from icv_envs.envs.highway_formation import HighwayFormationEnv, _num
+from icv_envs.envs._config import MAX_AGENTS, _is_real as _is_number, check_unused, num as _num, speed_range
+from icv_envs.envs.highway_formation import HighwayFormationEnv
 from icv_envs.policies.formation_expert import FormationExpert
 from icv_envs.policies.reference import IdmMobilPolicy, LaneLpPolicy
 from icv_envs.sim.formations import FormationManager

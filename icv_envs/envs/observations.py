@@ -102,7 +102,7 @@ class Kinematics(ObservationType):
 
     def __init__(self, env, config: dict) -> None:
         super().__init__(env, config)
-        from icv_envs.envs.highway_formation import _num
+        from icv_envs.envs._config import num as _num
 
         o = self.options
         if o["perception_distance"] is None:
