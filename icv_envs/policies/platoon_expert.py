@@ -143,8 +143,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steering
-from icv_envs.formation.control import _longitudinal_feedback
 from icv_envs.platoon.tree import DEFAULT_D_T
 from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
@@ -158,9 +156,9 @@ from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
     ST_LC,
     Corridors,
 )
+from icv_envs.policies.platoon_control import PlatoonControl
 from icv_envs.policies.regrouping import Regrouping
 from icv_envs.policies.virtual_platoon import VirtualPlatoon
-from icv_envs.sim.traffic import idm_acceleration
 
 __all__ = ["PlatoonParams", "PlatoonExpert", "VP_METHODS", "Corridors", "MODE_FREE", "MODE_FOLLOW",
            "MODE_TREE", "MODE_PLAN"]
@@ -215,7 +213,7 @@ class PlatoonParams:
     extra: dict = field(default_factory=dict)
 
 
-class PlatoonExpert(Regrouping, VirtualPlatoon):
+class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
     """Coordination layer + controller for all vehicles of an
     :class:`~icv_envs.sim.intersection_world.IntersectionWorld`.
 
@@ -417,232 +415,6 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
             if not real(name, lo) < 0.0 < real(name, hi):
                 raise ValueError(f"PlatoonParams {name} = {lo!r} / {hi!r}; allowed: lower < 0 < upper [m/s^2]")
 
-    def _steering(self, world, rs) -> np.ndarray:
-        p = self.p
-        f = world.fleet
-        lay = world.layout
-        v = f.speed
-        ld = np.maximum(p.preview_min, v * p.preview_time)
-        s_prev = rs.s + ld
-        appr = rs.phase == 0
-        # path of the lane being kept (approach) / entered (box, departure)
-        klane = np.clip(f.klane, 0, 2)
-        pid = np.where(appr, 3 * f.mv + klane, rs.pid)
-        px, py, _ = lay.route_points(pid, s_prev)
-        # approach preview points before the stop line: lane centre or lane-change curve
-        pre = appr & (s_prev < 0)
-        if pre.any():
-            k = np.flatnonzero(pre)
-            lat = (klane[k] + 0.5) * lay.lane_width
-            act = f.lc_lane[k] >= 0
-            if act.any():
-                a = k[act]
-                lat_a, _ = _lane_change_lateral(rs.u[a] + ld[a], f.lc_u0[a], f.lc_lat0[a], f.lc_lat1[a], f.lc_len[a])
-                lat = lat.astype(np.float64)
-                lat[act] = lat_a
-            leg = f.leg[k]
-            o = lay.box_half * lay.out[leg]
-            d = lay.app_dir[leg]
-            r = lay.app_right[leg]
-            up = rs.u[k] + ld[k]
-            px[k] = o[:, 0] + up * d[:, 0] + lat * r[:, 0]
-            py[k] = o[:, 1] + up * d[:, 1] + lat * r[:, 1]
-        # (unchecked: the parameters were checked once, _check_params; the
-        # states and preview points are finite float64 arrays)
-        return _pure_pursuit_steering(f.x, f.y, f.heading, px, np.asarray(py, dtype=np.float64), float(p.wheelbase),
-                                      float(p.steer_max))
-
-    def _longitudinal(self, world, rs) -> np.ndarray:
-        p = self.p
-        f = world.fleet
-        v = f.speed
-        acc = idm_acceleration(v, p.v0, np.inf, 0.0, min(p.a_max, p.comfort[1]), p.idm_b, p.idm_T, p.idm_s0)
-        m = self._mode
-        fol = np.flatnonzero(m == MODE_FOLLOW)
-        if len(fol):
-            x = rs.u[fol]
-            xr = x + np.clip(self._xref[fol] - x, -p.ref_error_clip, p.ref_error_clip)
-            acc[fol] = _longitudinal_feedback(x, xr, v[fol], self._vref[fol], float(p.kp), float(p.kv),
-                                              float(p.comfort[0]), float(p.comfort[1]), 0.0)
-        tr = np.flatnonzero(m == MODE_TREE)
-        if len(tr):
-            x = -rs.X[tr]
-            xr = x + np.clip(-self._xref[tr] - x, -p.ref_error_clip, p.ref_error_clip)
-            lo = np.where(self._tight[tr], p.a_min, p.comfort[0])
-            a = _longitudinal_feedback(x, xr, v[tr], self._vref[tr], float(p.kp), float(p.kv), float(p.a_min),
-                                       float(p.a_max), 0.0)
-            a = np.clip(a, lo, p.a_max)
-            vc = self._vcap[tr]
-            self.stats["virtual_cap_binding"] += int((vc < a - 0.5).sum())
-            acc[tr] = np.minimum(a, vc)
-        return acc
-
-    def _envelope(self, world, rs, acc_ref) -> np.ndarray:
-        """IDM interaction cap towards the leader in every corridor (module docstring)."""
-        p = self.p
-        f = world.fleet
-        n = f.n
-        cor = Corridors(world, rs, self._signals(f))
-        cap = np.full(n, np.inf)
-        cap_other = np.full(n, np.inf)
-        e = np.flatnonzero(cor.lead >= 0)
-        le = cor.lead[e]
-        if len(e):
-            # a vehicle waiting to change into this lane holds back only the
-            # vehicles behind it: one already alongside (bumper gap < 0) goes
-            # on, or it would stand beside the waiting vehicle, whose lane
-            # change it blocks, for ever (single-vp, 3000 veh/h, seed 0:
-            # gridlock from t = 215 s); its leader is then the next one ahead
-            for _ in range(3):
-                gap0 = cor.coord[le] - cor.coord[e] - 0.5 * (f.length[cor.rows[e]] + f.length[cor.rows[le]])
-                skip = cor.signal_only[le] & (gap0 < 0.0)
-                if not skip.any():
-                    break
-                nxt = cor.lead[le[skip]]
-                le = le.copy()
-                le[skip] = nxt
-                keep = le >= 0
-                e, le = e[keep], le[keep]
-                self.stats["signal_alongside_passed"] += int(skip.sum())
-        if len(e):
-            me = cor.rows[e]
-            ld = cor.rows[le]
-            gap = cor.coord[le] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
-            grp = self._group(f)
-            member = (grp[me] == grp[ld]) & (grp[me] >= 0)
-            # a coordinated vehicle (tree / reservation, or one that has left
-            # the box) behind another one past the stop line is kept apart by
-            # the coordination: short time gap
-            co = self._coordinated(f) | (rs.phase == 2)
-            member |= co[me] & co[ld] & (rs.phase[ld] >= 1)
-            T = np.where(member, p.member_T, p.idm_T)
-            s0 = np.where(member, p.member_s0, p.idm_s0)
-            v = f.speed[me]
-            dv = v - f.speed[ld]
-            safe = idm_acceleration(v, p.v_max, gap, dv, p.a_max, p.idm_b, T, s0, free_term=False)
-            # Gipps (1981) safe speed: stop behind the leader even if it brakes
-            # at |a_min| from now on and this vehicle reacts one policy period
-            # (cap_tau) later; IDM's interaction term alone does not guarantee
-            # it when a member closes in fast on a leader that brakes hard
-            safe = np.minimum(safe, self._gipps(v, f.speed[ld], gap - p.member_s0))
-            if not p.envelope_in_box:
-                safe = np.where(rs.phase[me] == 1, np.inf, safe)
-            np.minimum.at(cap, me, safe)
-            # the same towards leaders of another group only (in the box, that is
-            # what the coordination must make unnecessary)
-            same = (grp[me] == grp[ld]) & (grp[me] >= 0)
-            np.minimum.at(cap_other, me[~same], safe[~same])
-        # a (nearly) stopped vehicle in the box on this vehicle's path, whatever its own path
-        qi, oj, og, vo = self._path_obstacles(world, rs)
-        if len(qi):
-            v = f.speed[qi]
-            safe = idm_acceleration(v, p.v_max, og, v - vo, p.a_max, p.idm_b, p.idm_T, p.idm_s0, free_term=False)
-            safe = np.minimum(safe, self._gipps(v, vo, og - p.member_s0))
-            np.minimum.at(cap, qi, safe)
-            np.minimum.at(cap_other, qi, safe)
-            self.stats["path_obstacle_binding"] += int((safe < 0).sum())
-        # stop line for vehicles that may not enter
-        st = np.flatnonzero(self._stop)
-        if len(st):
-            gap = -rs.u[st] - 0.5 * f.length[st] - p.stop_margin
-            a_st = idm_acceleration(f.speed[st], p.v_max, gap, f.speed[st], p.a_max, p.idm_b, p.idm_T, 0.5,
-                                    free_term=False)
-            cap[st] = np.minimum(cap[st], a_st)
-        box = (rs.phase == 1) & (cap < acc_ref - 0.5)
-        other = box & (cap_other < acc_ref - 0.5)
-        self.stats["envelope_box_binding"] += int(other.sum())
-        self.stats["envelope_box_binding_member"] += int((box & ~other).sum())
-        return cap
-
-    def _path_obstacles(self, world, rs, v_stopped: float = 1.0, look: float = 60.0):
-        """Pairs ``(vehicle, obstacle, bumper gap, obstacle speed)``: a vehicle
-        slower than ``v_stopped`` in the box (or within 10 m past it) whose
-        body covers the path of a vehicle approaching (within 40 m of the
-        stop line) or in the box, ahead of it by at most ``look`` metres.  The
-        corridors only know leaders on one's own lane or path; a vehicle
-        stopped across it (after a crash, or stopped by its own controller)
-        must be seen too.  Lateral test: the obstacle's rectangle, turned by
-        its heading relative to the path, overlaps the vehicle's width plus
-        0.2 m; gap: along the path, bumper to the obstacle's nearest extent.
-
-        A vehicle in the box held by such an obstacle will come to rest
-        behind it, ``member_s0`` short of it on its own path; where that
-        resting place covers another vehicle's path, it is an obstacle (speed
-        0) for that vehicle already (a *ghost*; never for the obstacles that
-        hold it).  Issue 11: with a vehicle held stopped in the box by a
-        policy, fcfs vehicles with reservations drove into vehicles crawling
-        across their path to their resting place behind it (3 pairs in 240
-        s).  Without a stopped vehicle in the box there is no ghost."""
-        f = world.fleet
-        lay = world.layout
-        e = np.zeros(0, dtype=np.int64)
-        empty = (e, e, np.zeros(0), np.zeros(0))
-        obs = np.flatnonzero(((rs.phase == 1) | ((rs.phase == 2) & (rs.s - rs.L < 10.0))) & (f.speed < v_stopped))
-        if not len(obs):
-            return empty
-        q = np.flatnonzero((((rs.phase == 0) & (rs.u > -40.0)) | (rs.phase == 1)) & ~f.crashed)
-        if not len(q):
-            return empty
-        qi, oj, gap = self._covering(world, rs, q, obs, rs.cx[obs], rs.cy[obs], f.heading[obs],
-                                     f.length[obs], f.width[obs], look)
-        vo = f.speed[oj]
-        # ghosts: the resting places of in-box vehicles held by those obstacles
-        held = np.unique(qi[rs.phase[qi] == 1])
-        if len(held):
-            g_min = np.full(f.n, np.inf)
-            np.minimum.at(g_min, qi, gap)
-            s_rest = rs.s[held] + np.maximum(g_min[held] - self.p.member_s0, 0.0)
-            gx, gy, gh = lay.route_points(rs.pid[held], s_rest)
-            gi, gj, gg = self._covering(world, rs, q, held, gx, gy, gh, f.length[held], f.width[held], look)
-            # never for the vehicle itself or for an obstacle that holds it
-            holds = set(zip(qi.tolist(), oj.tolist()))
-            keep = np.array([a != b and (b, a) not in holds for a, b in zip(gi.tolist(), gj.tolist())], dtype=bool)
-            if keep.any():
-                qi = np.concatenate([qi, gi[keep]])
-                oj = np.concatenate([oj, gj[keep]])
-                gap = np.concatenate([gap, gg[keep]])
-                vo = np.concatenate([vo, np.zeros(int(keep.sum()))])
-                self.stats["path_ghost_pairs"] = self.stats.get("path_ghost_pairs", 0) + int(keep.sum())
-        return qi, oj, gap, vo
-
-    def _covering(self, world, rs, q, obs, ox, oy, oh, olen, owid, look):
-        """``(vehicle, obstacle, gap)`` for every vehicle of ``q`` whose path
-        ahead (within ``look`` m) the rectangle of obstacle ``obs[k]``
-        (centre ``ox, oy``, heading ``oh``, size ``olen x owid``) covers."""
-        f = world.fleet
-        lay = world.layout
-        n_o = len(obs)
-        qi = np.repeat(q, n_o)
-        kk = np.tile(np.arange(n_o), len(q))
-        oj = obs[kk]
-        k = qi != oj
-        qi, oj, kk = qi[k], oj[k], kk[k]
-        pid = rs.pid[qi]
-        s_o, lat_o = lay.project(pid, ox[kk], oy[kk], np.ones(len(qi), dtype=np.int64))
-        past = s_o > lay.L[pid]
-        if past.any():
-            s2, l2 = lay.project(pid[past], ox[kk[past]], oy[kk[past]], np.full(int(past.sum()), 2))
-            s_o[past], lat_o[past] = s2, l2
-        _, _, hp = lay.route_points(pid, s_o)
-        dh = oh[kk] - hp
-        c, sn = np.abs(np.cos(dh)), np.abs(np.sin(dh))
-        across = 0.5 * (olen[kk] * sn + owid[kk] * c)
-        along = 0.5 * (olen[kk] * c + owid[kk] * sn)
-        gap = s_o - along - rs.s[qi] - 0.5 * f.length[qi]
-        hit = (np.abs(lat_o) < 0.5 * f.width[qi] + across + 0.2) & (s_o > rs.s[qi]) & (gap < look)
-        return qi[hit], oj[hit], gap[hit]
-
-    def _gipps(self, v, v_lead, room) -> np.ndarray:
-        """Acceleration cap ``(v_safe - v) / tau`` with Gipps' safe speed
-        ``v_safe = -b tau + sqrt((b tau)^2 + v_lead^2 + 2 b room)``, ``b =
-        |a_min|``, ``tau = cap_tau`` (the policy period), ``room`` the bumper
-        gap minus the standstill margin."""
-        p = self.p
-        b = abs(p.a_min)
-        tau = p.cap_tau
-        vs = -b * tau + np.sqrt((b * tau) ** 2 + v_lead ** 2 + 2.0 * b * np.maximum(room, 0.0))
-        return (vs - v) / tau
-
     def set_plan_carriers(self, vids, mask) -> None:
         """Which vehicles carry out the lane-change plans and courtesy
         signals this expert makes for them (the env sets it each step: the
@@ -669,21 +441,6 @@ class PlatoonExpert(Regrouping, VirtualPlatoon):
 
     def _group(self, f) -> np.ndarray:
         return np.where(f.node >= 0, f.node, np.where(f.sub >= 0, f.sub, f.form))
-
-    def compute(self, world) -> np.ndarray:
-        """Normalised actions ``(n, 2)`` for every vehicle (rows in fleet order)."""
-        f = world.fleet
-        if f.n == 0:
-            return np.zeros((0, 2))
-        self._check_stamp(world)
-        rs = world.route()
-        p = self.p
-        phi = self._steering(world, rs)
-        acc = self._longitudinal(world, rs)
-        cap = self._envelope(world, rs, acc)
-        acc = np.clip(np.minimum(acc, cap), p.a_min, p.a_max)
-        ua = np.where(acc >= 0, acc / p.a_max, -acc / p.a_min)
-        return np.clip(np.stack([ua, phi / p.steer_max], axis=1), -1.0, 1.0)
 
     # ------------------------------------------------------------ for the env
     def references(self, world):
