@@ -17,7 +17,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["corridor_index"]
+__all__ = ["corridor_index", "repair_order"]
 
 
 @nb.njit(cache=True)
@@ -125,3 +125,69 @@ def corridor_neighbours(keys, corr, rows, coord, q_rows, q_corr, qk):
                 fc[i] = coord[p]
                 break
     return lr, lc, fr, fc
+
+
+@nb.njit(cache=True)
+def repair_order(at, K, rows, seg, phase, lane, dist, leg):
+    """:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._repair_order`'s
+    pair test and repair loop, compiled: per node (``seg``, 0..K-1) and approach
+    lane the nearest and farthest member distance over the members still
+    approaching (``rows >= 0`` with ``phase == 0``); node ``k`` must come before
+    node ``i`` of its leg when in a shared lane its nearest member is ahead of
+    ``i``'s farthest (by more than 1e-6 m) and of ``i``'s nearest. The order
+    ``at`` (node indices) is scanned later node ``b`` first, then earlier
+    ``a``; the first such pair moves ``b`` to ``a``'s place and the scan
+    restarts, at most ``4 len(at) + 4`` times. Returns the new order and the
+    number of moves."""
+    C = 1
+    for q in range(rows.shape[0]):
+        if rows[q] >= 0 and phase[rows[q]] == 0 and lane[rows[q]] + 1 > C:
+            C = lane[rows[q]] + 1
+    lo = np.full((K, C), np.inf)
+    hi = np.full((K, C), -np.inf)
+    any_app = False
+    for q in range(rows.shape[0]):
+        r = rows[q]
+        if r < 0 or phase[r] != 0:
+            continue
+        any_app = True
+        g = seg[q]
+        c = lane[r]
+        d = dist[r]
+        if d < lo[g, c]:
+            lo[g, c] = d
+        if d > hi[g, c]:
+            hi[g, c] = d
+    at = at.copy()
+    moves = 0
+    if not any_app:
+        return at, moves
+    M = np.zeros((K, K), dtype=np.bool_)
+    for k in range(K):
+        for i in range(K):
+            if leg[k] != leg[i]:
+                continue
+            for c in range(C):
+                if lo[k, c] < hi[i, c] - 1e-6 and lo[k, c] < lo[i, c]:
+                    M[k, i] = True
+                    break
+    n = at.shape[0]
+    for _ in range(4 * n + 4):
+        hit_b = -1
+        hit_a = -1
+        for b in range(n):
+            for a in range(b):
+                if M[at[b], at[a]]:
+                    hit_b = b
+                    hit_a = a
+                    break
+            if hit_b >= 0:
+                break
+        if hit_b < 0:
+            break
+        moved = at[hit_b]
+        for q in range(hit_b, hit_a, -1):
+            at[q] = at[q - 1]
+        at[hit_a] = moved
+        moves += 1
+    return at, moves

@@ -15,6 +15,7 @@ import numpy as np
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon._kernels import depths_of
 from icv_envs.platoon.tree import _reference_positions
+from icv_envs.policies._kernels import repair_order
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 
@@ -245,32 +246,14 @@ class VirtualPlatoon:
         to ``a``'s place, and the scan restarts. The pair test is one array
         over (node, node, lane): per node and approach lane the nearest and
         the farthest member distance."""
-        lay = world.layout
         K = len(ids)
-        app = (rows >= 0)
-        app[app] = rs.phase[rows[app]] == 0
-        r, g = rows[app], seg[app]
-        at = np.asarray(o, dtype=np.int64)
-        if len(r):
-            codes, lane = np.unique(rs.lane[r], return_inverse=True)
-            lo = np.full((K, len(codes)), np.inf)
-            hi = np.full((K, len(codes)), -np.inf)
-            d = rs.dist[r]
-            np.minimum.at(lo, (g, lane), d)
-            np.maximum.at(hi, (g, lane), d)
-            leg = lay.leg_of[np.array([self.nodes[k]["mv"] for k in ids], dtype=np.int64)]
-            # M[k, i]: node k has a vehicle ahead of a vehicle of node i (same leg, shared lane)
-            M = ((lo[:, None, :] < hi[None, :, :] - 1e-6) & (lo[:, None, :] < lo[None, :, :])).any(axis=2)
-            M &= leg[:, None] == leg[None, :]
-            for _ in range(4 * len(at) + 4):
-                P = np.tril(M[np.ix_(at, at)], -1)  # P[b, a], a < b
-                hit = P.any(axis=1)
-                if not hit.any():
-                    break
-                b = int(np.argmax(hit))
-                a = int(np.argmax(P[b]))
-                at = np.concatenate((at[:a], at[b:b + 1], at[a:b], at[b + 1:]))
-                self.stats["order_repaired"] = self.stats.get("order_repaired", 0) + 1
+        # (the pair test over (node, node, lane) and the repair loop compiled: policies/_kernels.py)
+        leg = world.layout.leg_of[np.array([self.nodes[k]["mv"] for k in ids], dtype=np.int64)]
+        at, moves = repair_order(np.asarray(o, dtype=np.int64), K, np.asarray(rows, dtype=np.int64),
+                                 np.asarray(seg, dtype=np.int64), np.asarray(rs.phase, dtype=np.int64),
+                                 np.asarray(rs.lane, dtype=np.int64), np.asarray(rs.dist, dtype=np.float64), leg)
+        if moves:
+            self.stats["order_repaired"] = self.stats.get("order_repaired", 0) + moves
         order = [ids[i] for i in at]
         placed = set(order)
         self.vp_order = order + [k for k in self.vp_order if k not in placed]
