@@ -1034,3 +1034,27 @@ def test_box_collision_pairs_equal_the_array_code(n, span, seed):
     got = box_collision_pairs(cx, cy, heading, length, width, b)
     for g, w in zip(got, want):
         assert g.dtype == np.int64 and np.array_equal(g, w)
+
+
+@settings(max_examples=80, deadline=None)
+@given(G=st.integers(2, 60), periodic=st.booleans(), grid=st.booleans(), seed=st.integers(0, 2**31))
+def test_room_ahead_equals_the_pairwise_matrix(G, periodic, grid, seed):
+    """``room_ahead`` (the formation layer's nearest-formation-ahead distance,
+    compiled row by row) against the pairwise matrix it replaced, on rings and
+    straight roads, with ties (whole-metre positions) and zero lengths."""
+    from icv_envs.sim._kernels.formation import room_ahead
+
+    rng = np.random.default_rng(seed)
+    length = 2000.0
+    A = rng.uniform(0.0, length if periodic else 3 * length, G)
+    Lf = np.where(rng.random(G) < 0.2, 0.0, rng.uniform(0.0, 150.0, G))
+    if grid:
+        A, Lf = np.rint(A), np.rint(Lf)
+
+    def wrap(d):
+        return np.mod(d + 0.5 * length, length) - 0.5 * length if periodic else d
+
+    rel = wrap(A[None, :] - Lf[None, :] - A[:, None])
+    np.fill_diagonal(rel, np.inf)
+    rel = np.where(rel > -Lf[:, None], rel, np.inf)
+    assert np.array_equal(room_ahead(A, Lf, length if periodic else -1.0), rel.min(axis=1))

@@ -59,6 +59,7 @@ from icv_envs.formation.control import (
 )
 from icv_envs.formation.targets import formation_targets
 from icv_envs.sim._kernels import drivable_lane_bits, hold_targets
+from icv_envs.sim._kernels.formation import room_ahead
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.sim.join_plans import JoinPlans
 
@@ -372,10 +373,8 @@ class FormationManager:
         if len(gids) > 1:
             A = np.array([self.anchor[g] for g in gids])
             Lf = np.array([self.length[g] for g in gids])
-            rel = wrap(A[None, :] - Lf[None, :] - A[:, None])
-            np.fill_diagonal(rel, np.inf)
-            rel = np.where(rel > -Lf[:, None], rel, np.inf)
-            nearest = rel.min(axis=1)
+            # (compiled: the pairwise differences row by row, sim/_kernels/formation.py)
+            nearest = room_ahead(A, Lf, float(road.length) if road.periodic else -1.0)
             fin = np.isfinite(nearest)
             room = dict(zip(itertools.compress(gids, fin.tolist()), (nearest[fin] - self.formation_gap).tolist()))
         self._hold_targets(traffic, road, gids, changed, room, cx, dt)

@@ -9,7 +9,7 @@ import numpy as np
 
 from icv_envs.sim._kernels.physics import npy_mod
 
-__all__ = ["drivable_lane_bits", "hold_targets"]
+__all__ = ["drivable_lane_bits", "hold_targets", "room_ahead"]
 
 
 @nb.njit(cache=True)
@@ -131,3 +131,24 @@ def hold_targets(grp, slot_of_gid, A, chg, room, tb, cx, d_members, vid, deadlin
         if abs(_wrap1(cx[r] - (A[k] - tb[r]), length)) > stall_error and time > deadline[vid[r]]:
             late[k] = True
     return has, brake, late
+
+
+@nb.njit(cache=True)
+def room_ahead(A, Lf, length):
+    """Per formation ``i``: the distance from its front target ``A[i]`` to the
+    rear ``A[j] - Lf[j]`` of the nearest other formation ahead (``wrap`` of
+    the difference, ``length < 0``: a straight road), over the formations
+    whose rear is not more than ``Lf[i]`` behind that front (``inf`` if
+    none): ``FormationManager.update``'s pairwise matrix, one row at a time."""
+    G = A.shape[0]
+    out = np.full(G, np.inf)
+    for i in range(G):
+        best = np.inf
+        for j in range(G):
+            if j == i:
+                continue
+            r = _wrap1(A[j] - Lf[j] - A[i], length)
+            if r > -Lf[i] and r < best:
+                best = r
+        out[i] = best
+    return out
