@@ -69,7 +69,10 @@ def _wrap1(d, length):
     if length < 0.0:
         return d
     half = 0.5 * length
-    return npy_mod(d + half, length) - half
+    x = d + half
+    if 0.0 <= x < length:  # fmod is exact and the identity there (a zero's sign does not survive "- half")
+        return x - half
+    return npy_mod(x, length) - half
 
 
 @nb.njit(cache=True)
