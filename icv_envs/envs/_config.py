@@ -25,13 +25,20 @@ from numbers import Real
 import numpy as np
 
 __all__ = [
-    "MAX_DURATION", "MAX_AGENTS", "MAX_ACCEL", "MAX_SCREEN", "num", "section", "check_keys", "flag",
+    "MAX_DURATION", "MAX_AGENTS", "UNUSED_COMMON", "MAX_ACCEL", "MAX_SCREEN", "num", "section", "check_keys", "flag",
     "accel_range", "speed_range", "is_speed_pair", "check_render", "check_unused", "check_possible_agents", "typed_options",
     "pick_type",
 ]
 
 MAX_DURATION = 86400.0  # s
 MAX_AGENTS = 200_000
+#: highway-env keys no env of this package uses, and why (each env adds ``other_vehicles_type``
+#: with its own reason): setting them is an error
+UNUSED_COMMON = {
+    "manual_control": "no manual control; drive the Gymnasium ego through step()",
+    "show_trajectories": "not drawn by this env's viewer",
+    "neighbour_vehicles_connected_lanes": "observations use the env's own neighbour search",
+}
 MAX_ACCEL = 20.0  # m/s^2
 MAX_SCREEN = 8192  # px
 

@@ -14,6 +14,7 @@ from highway_env.envs.common.abstract import AbstractEnv
 from icv_envs.envs._config import (
     MAX_AGENTS,
     MAX_DURATION,
+    UNUSED_COMMON,
     accel_range,
     check_keys,
     check_possible_agents,
@@ -47,9 +48,7 @@ _REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "formation":
 #: highway-env keys these envs do not use: setting them is an error
 UNUSED_KEYS = {
     "other_vehicles_type": "every vehicle is an ICV driven by the env's expert or an agent",
-    "manual_control": "no manual control; drive the Gymnasium ego through step()",
-    "show_trajectories": "not drawn by this env's viewer",
-    "neighbour_vehicles_connected_lanes": "observations use the env's own neighbour search",
+    **UNUSED_COMMON,
 }
 
 

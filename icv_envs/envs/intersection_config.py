@@ -15,6 +15,7 @@ from highway_env.envs.common.abstract import AbstractEnv
 from icv_envs.envs._config import (
     MAX_AGENTS,
     MAX_DURATION,
+    UNUSED_COMMON,
     accel_range,
     check_keys,
     check_possible_agents,
@@ -52,9 +53,7 @@ _OBS_DEFAULTS = {"type": "Kinematics", "vehicles_count": 8, "perception_distance
 #: highway-env keys this env does not use: setting them is an error
 UNUSED_KEYS = {
     "other_vehicles_type": "every vehicle is driven by the env's method or an agent",
-    "manual_control": "no manual control; drive the Gymnasium ego through step()",
-    "show_trajectories": "not drawn by this env's viewer",
-    "neighbour_vehicles_connected_lanes": "observations use the env's own neighbour search",
+    **UNUSED_COMMON,
 }
 
 
