@@ -92,9 +92,13 @@ def test_references_are_kept_per_state_and_refreshed_by_every_writer():
         w.substep(np.zeros(3), np.zeros(3), StepEvents())
         m.update(w.traffic, w.road, 0.04)
         got = m.references(w.traffic)
-        want = m._references(w.traffic)
+        want, want_accel = m._references(w.traffic)
         for g, x in zip(got, want):
             np.testing.assert_array_equal(g, x)
+        member = np.flatnonzero(w.traffic.group >= 0)
+        np.testing.assert_array_equal(m.reference_accel(w.traffic), want_accel)
+        np.testing.assert_array_equal(want_accel[member], m._profile(w.traffic, member)[2])
+        assert not m.reference_accel(w.traffic).flags.writeable
     assert got[3].sum() == 3  # the free vehicle joined: the cache saw the update
     w.traffic.remove(np.array([False, True, False]))
     after = m.references(w.traffic)

@@ -1058,3 +1058,58 @@ def test_room_ahead_equals_the_pairwise_matrix(G, periodic, grid, seed):
     np.fill_diagonal(rel, np.inf)
     rel = np.where(rel > -Lf[:, None], rel, np.inf)
     assert np.array_equal(room_ahead(A, Lf, length if periodic else -1.0), rel.min(axis=1))
+
+
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(0, 120), periodic=st.booleans(), grid=st.booleans(), seed=st.integers(0, 2**31))
+def test_own_lane_gaps_equal_the_array_code(n, periodic, grid, seed):
+    """``own_lane_gap_rows`` (``World.own_lane_gaps`` compiled) against the
+    array code it replaced: ``road.lane_of``, ``leaders`` (numpy) and the gap
+    arithmetic, with vehicles exactly alongside, on lane centres and lane
+    lines (whole-metre grid: ``rint`` ties), beyond the outer lanes, and on
+    rings (ghosts round the seam)."""
+    from icv_envs.sim._kernels import own_lane_gap_rows
+    from icv_envs.sim.traffic import lane_index
+
+    rng = np.random.default_rng(seed)
+    L, lw, total = 3000.0, 4.0, 5
+    cx = rng.uniform(0, L, n)
+    cx[: n // 4] = cx[n // 4: 2 * (n // 4)]
+    cy = rng.uniform(-3.0, 22.0, n)
+    if grid:
+        cx, cy = np.rint(cx), np.rint(cy / 2.0) * 2.0  # lane lines at odd multiples of 2 m: rint ties
+    length = rng.uniform(4.0, 12.0, n)
+    index = lane_index(cx, cy, rng.uniform(1.8, 2.2, n), lw, total, L, periodic=periodic, ghost=500.0)
+    road = RoadLayout(total, L, lw, periodic=periodic)
+    lane = road.lane_of(cy)
+    lead, lx = _numpy_leaders(index, np.arange(n), lane, cx, return_x=True)
+    gap = np.full(n, np.inf)
+    ok = lead >= 0
+    gap[ok] = lx[ok] - cx[ok] - 0.5 * (length[lead[ok]] + length[ok])
+    got_gap, got_lead = own_lane_gap_rows(index.keys, index.rows, index.lanes, index.x, float(index.offset), cx, cy,
+                                          length, lw, total)
+    assert got_lead.dtype == np.int64
+    np.testing.assert_array_equal(got_lead, lead)
+    np.testing.assert_array_equal(got_gap, gap)
+
+
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(0, 60), a_max=st.floats(0.5, 6.0), a_min=st.floats(-9.0, -0.5), steer=st.floats(0.1, 1.2),
+       seed=st.integers(0, 2**31))
+def test_normalised_actions_equal_the_array_code(n, a_max, a_min, steer, seed):
+    """The highway expert's normalisation compiled against the array code it
+    replaced, with values beyond the limits, exactly at them, signed zeros and NaN."""
+    from icv_envs.policies._kernels import normalised_actions
+    from icv_envs.sim._ufuncs import clip as uclip
+
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(2.0 * a_min, 2.0 * a_max, n)
+    phi = rng.uniform(-2.0 * steer, 2.0 * steer, n)
+    special = np.array([0.0, -0.0, np.nan, a_max, a_min, np.inf, -np.inf])
+    a[: min(n, 7)] = special[: min(n, 7)]
+    phi[: min(n, 7)] = np.array([-0.0, 0.0, steer, np.nan, -steer, -np.inf, np.inf])[: min(n, 7)]
+    want = uclip(np.stack([np.where(a >= 0, a / a_max, -a / a_min), phi / steer], axis=1), -1.0, 1.0)
+    got = normalised_actions(a, phi, a_max, a_min, steer)
+    assert got.shape == (n, 2) and got.dtype == np.float64
+    np.testing.assert_array_equal(got, want)
+    assert np.array_equal(np.signbit(got), np.signbit(want))

@@ -435,16 +435,22 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
                     truncs[a] = bool(truncated_all)
                     infos[a] = inf2[a]
         # every agent reported this step as rows, in the dicts' key order
-        out = StepRows(
-            np.concatenate([step_vid, gone_vid, late_vid]),
-            np.concatenate([obs, gone_obs, late_obs]) if len(departed) or late else obs,
-            np.concatenate([rew, np.zeros(len(departed) + len(late))]) if arrays else None,
-            np.concatenate([crashed_now, np.array([bool(i["exited"]) for _, i in departed], dtype=bool),
-                            np.zeros(len(late), dtype=bool)]),
-            np.concatenate([np.broadcast_to(np.asarray(trunc, dtype=bool), (len(step_vid),)),
-                            np.array([bool(i["left_road"]) for _, i in departed], dtype=bool),
-                            np.full(len(late), bool(truncated_all))]),
-        )
+        if np.ndim(trunc) == 0:
+            trunc_rows = np.full(len(step_vid), bool(trunc))
+        else:
+            trunc_rows = np.array(trunc, dtype=bool)
+        if departed or late:
+            out = StepRows(
+                np.concatenate([step_vid, gone_vid, late_vid]),
+                np.concatenate([obs, gone_obs, late_obs]),
+                np.concatenate([rew, np.zeros(len(departed) + len(late))]) if arrays else None,
+                np.concatenate([crashed_now, np.array([bool(i["exited"]) for _, i in departed], dtype=bool),
+                                np.zeros(len(late), dtype=bool)]),
+                np.concatenate([trunc_rows, np.array([bool(i["left_road"]) for _, i in departed], dtype=bool),
+                                np.full(len(late), bool(truncated_all))]),
+            )
+        else:  # nobody left or arrived (most steps): the step's own rows (fresh arrays, as concatenate's)
+            out = StepRows(step_vid, obs, rew if arrays else None, crashed_now, trunc_rows)
         if not arrays:
             self._fill_expert_labels(infos, agents, step_vid)
         keep = ~(out.terminated | out.truncated)

@@ -1,4 +1,8 @@
-"""Compiled inner loop of the intersection experts (numba, ``@njit(cache=True)``).
+"""Compiled inner loops of the experts (numba, ``@njit(cache=True)``).
+
+:func:`normalised_actions` turns the highway expert's controls into
+normalised actions in one pass (five numpy calls and their temporaries
+before). The rest serve the intersection experts:
 
 :func:`corridor_index` builds the sorted entries of
 :class:`icv_envs.policies.platoon_common.Corridors`, which the experts
@@ -17,7 +21,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["corridor_index", "repair_order"]
+__all__ = ["corridor_index", "normalised_actions", "repair_order"]
 
 
 @nb.njit(cache=True)
@@ -191,3 +195,26 @@ def repair_order(at, K, rows, seg, phase, lane, dist, leg):
         at[hit_a] = moved
         moves += 1
     return at, moves
+
+
+@nb.njit(cache=True)
+def normalised_actions(a, phi, a_max, a_min, steer_max):
+    """The highway expert's controls as normalised actions
+    (:meth:`icv_envs.policies.formation_expert.FormationExpert._normalise`):
+    ``a / a_max`` for ``a >= 0``, else ``-a / a_min``; ``phi / steer_max``;
+    both clipped to ``[-1, 1]`` as NumPy's ``clip`` does (NaN passes
+    through). Returns ``(n, 2)`` float64."""
+    n = a.shape[0]
+    out = np.empty((n, 2))
+    for i in range(n):
+        u = a[i] / a_max if a[i] >= 0 else -a[i] / a_min
+        s = phi[i] / steer_max
+        for k in range(2):
+            x = u if k == 0 else s
+            if x == x:
+                if x < -1.0:
+                    x = -1.0
+                elif x > 1.0:
+                    x = 1.0
+            out[i, k] = x
+    return out

@@ -49,6 +49,7 @@ from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steeri
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.policies._params import check_steering_and_gains, real_param
+from icv_envs.policies._kernels import normalised_actions
 from icv_envs.sim.traffic import LAT_ACCEL_MAX, followers, idm_acceleration, leaders
 
 
@@ -154,10 +155,12 @@ class FormationExpert:
 
     # ----------------------------------------------------------------- helpers
     def _normalise(self, a: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        # compiled (policies/_kernels.py::normalised_actions: the arithmetic
+        # of ``clip(stack([where(a >= 0, a / a_max, -a / a_min), phi /
+        # steer_max], axis=1), -1, 1)``, element by element)
         p = self.p
-        ua = np.where(a >= 0, a / p.a_max, -a / p.a_min)
-        us = phi / p.steer_max
-        return uclip(np.stack([ua, us], axis=1), -1.0, 1.0)
+        return normalised_actions(np.asarray(a, dtype=np.float64), np.asarray(phi, dtype=np.float64),
+                                  float(p.a_max), float(p.a_min), float(p.steer_max))
 
     def compute(self, world) -> np.ndarray:
         p = self.p

@@ -500,39 +500,42 @@ class FormationManager:
         the answer is kept, keyed on the clock, the vehicle ids and this
         manager's state version (bumped by :meth:`update` and :meth:`create`,
         the only writers of the formation state), and returned read-only."""
+        return self._refs(traffic)[0]
+
+    def _refs(self, traffic) -> tuple:
+        """``(references, reference_accel)`` of the current state, cached
+        (see :meth:`references`)."""
         key = (self.time, self._version, id(traffic), traffic.vid.tobytes())
         c = self._refs_cache
         if c is not None and c[0] == key:
             return c[1]
         out = self._references(traffic)
-        for arr in out:
+        for arr in out[0] + (out[1],):
             arr.flags.writeable = False
         self._refs_cache = (key, out)
         return out
 
-    def _references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def _references(self, traffic) -> tuple:
         member = traffic.group >= 0
         x_ref = np.full(traffic.n, np.nan)
         v_ref = np.full(traffic.n, np.nan)
+        a_ref = np.full(traffic.n, np.nan)
         if member.any():
             m = np.flatnonzero(member)
-            d, dv, _ = self._profile(traffic, m)
+            d, dv, dd = self._profile(traffic, m)
             x_ref[m] = self._slot_x(traffic, m) + d
             if traffic.period is not None:
                 x_ref[m] = np.mod(x_ref[m], traffic.period)
             v_ref[m] = self.speed + dv
+            a_ref[m] = dd
         lane_ref = np.where(member, traffic.tgt_lane, -1)
-        return x_ref, lane_ref, v_ref, member
+        return (x_ref, lane_ref, v_ref, member), a_ref
 
     def reference_accel(self, traffic) -> np.ndarray:
         """Per-vehicle acceleration of the reference (the join profile's
-        ``d''``; 0 for settled members, ``nan`` for free vehicles)."""
-        member = traffic.group >= 0
-        out = np.full(traffic.n, np.nan)
-        if member.any():
-            m = np.flatnonzero(member)
-            out[m] = self._profile(traffic, m)[2]
-        return out
+        ``d''``; 0 for settled members, ``nan`` for free vehicles), read-only
+        (computed with :meth:`references`, and cached with them)."""
+        return self._refs(traffic)[1]
 
     def slots(self, traffic) -> np.ndarray:
         """Per-vehicle target position ``X_slot = anchor - x_g`` (``nan`` for

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.sim._kernels import kinematic_substep, quiet_substeps, road_check
+from icv_envs.sim._kernels import kinematic_substep, own_lane_gap_rows, quiet_substeps, road_check
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.metrics import STOPPED_SPEED, HeadwayStats, MotionStats
 from icv_envs.sim.road import RoadLayout
-from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, leaders, rect_overlap
+from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, rect_overlap
 
 __all__ = ["World", "StepEvents", "JAM_STOP_TIME", "JAM_FREE_GAP", "COLLISION_KINDS"]
 
@@ -127,12 +127,11 @@ class World:
         if self._gaps is None:
             tr = self.traffic
             cx, cy = tr.center()
-            lane = self.road.lane_of(cy)
-            lead, lx = leaders(index, np.arange(tr.n), lane, cx, return_x=True)
-            gap = np.full(tr.n, np.inf)
-            ok = lead >= 0
-            gap[ok] = lx[ok] - cx[ok] - 0.5 * (tr.length[lead[ok]] + tr.length[ok])
-            self._gaps = (gap, lead)
+            # the own lane (road.lane_of), its leader (traffic.leaders) and
+            # the gap in one compiled pass (same arithmetic, tests/test_kernels.py)
+            self._gaps = own_lane_gap_rows(index.keys, index.rows, index.lanes, index.x, float(index.offset), cx, cy,
+                                           np.asarray(tr.length, dtype=np.float64), float(self.road.lane_width),
+                                           int(self.road.total_lanes))
         gap, lead = self._gaps
         return gap.copy(), lead.copy()
 

@@ -10,7 +10,8 @@ the Python overhead of tens of small numpy calls rather than arithmetic
 the world must handle in Python (:func:`quiet_substeps`), the run statistics (:func:`motion_record`,
 :func:`headway_record`), collision detection as a whole
 (:func:`collision_pairs`), the lane-sorted index and leader search
-(:func:`build_lane_index`, :func:`leader_rows`) and the observation's
+(:func:`build_lane_index`, :func:`leader_rows`,
+:func:`own_lane_gap_rows`) and the observation's
 neighbour search (:func:`nearest_along_road`). They take and return plain
 arrays (no Python objects inside), and they perform the same IEEE-754
 operations, in the same order, as the numpy code they replace (reductions
@@ -44,7 +45,7 @@ from __future__ import annotations
 
 from icv_envs.sim._kernels.formation import drivable_lane_bits, hold_targets
 from icv_envs.sim._kernels.frames import quiet_substeps
-from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows
+from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows, own_lane_gap_rows
 from icv_envs.sim._kernels.observation import nearest_along_road, kinematics_rows
 from icv_envs.sim._kernels.physics import npy_mod, kinematic_substep, road_check, interval_ends, lanes_available
 from icv_envs.sim._kernels.stats import pairwise_sum, motion_record, headway_record, pet_transitions
@@ -59,6 +60,7 @@ __all__ = [
     "collision_pairs",
     "build_lane_index",
     "leader_rows",
+    "own_lane_gap_rows",
     "nearest_along_road",
     "kinematics_rows",
     "pairwise_sum",

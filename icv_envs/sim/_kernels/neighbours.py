@@ -9,7 +9,7 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["sweep_candidates", "collision_pairs", "build_lane_index", "leader_rows"]
+__all__ = ["own_lane_gap_rows", "sweep_candidates", "collision_pairs", "build_lane_index", "leader_rows"]
 
 
 @nb.njit(cache=True)
@@ -263,3 +263,34 @@ def leader_rows(keys, i_rows, i_lanes, i_x, offset, q_rows, q_lanes, cx):
                 xo[q] = i_x[p]
                 break
     return out, xo
+
+
+@nb.njit(cache=True)
+def own_lane_gap_rows(keys, i_rows, i_lanes, i_x, offset, cx, cy, length, lane_width, total_lanes):
+    """:meth:`icv_envs.sim.world.World.own_lane_gaps` compiled: each
+    vehicle's own lane (:meth:`~icv_envs.sim.road.RoadLayout.lane_of`:
+    ``rint(cy / lane_width)`` clipped to ``[0, total_lanes - 1]``), its
+    leader there (:func:`leader_rows`) and the bumper-to-bumper gap
+    ``x_lead - cx - 0.5 (length_lead + length)`` (``inf``, row -1: none)."""
+    n = cx.shape[0]
+    gap = np.full(n, np.inf)
+    lead = np.full(n, -1, dtype=np.int64)
+    nk = keys.shape[0]
+    if nk == 0:
+        return gap, lead
+    hi = total_lanes - 1
+    for q in range(n):
+        lf = np.rint(cy[q] / lane_width)
+        lf = min(max(lf, 0.0), float(hi))
+        ql = np.int64(lf)
+        pos = np.searchsorted(keys, ql * offset + cx[q])
+        for j in range(3):
+            p = pos + j
+            if p >= nk or i_lanes[p] != ql:
+                break
+            if i_rows[p] != q:
+                r = i_rows[p]
+                lead[q] = r
+                gap[q] = i_x[p] - cx[q] - 0.5 * (length[r] + length[q])
+                break
+    return gap, lead
