@@ -65,6 +65,7 @@ class World:
         self.time = 0.0
         self._index = None
         self._gaps = None  # own_lane_gaps of the current state, with the index
+        self._no_exit_rows = None  # (n, exit_id, ex_x, de) for a fleet without exits (substeps only reads them)
         # run metrics (definitions in icv_envs.sim.metrics): event counts here,
         # speed/acceleration every substep in ``motion``, gaps and time
         # headways every policy step in ``headways``
@@ -191,7 +192,7 @@ class World:
         self.motion.reserve(int(tr.vid.max()) + 1)
         marks = self._exit_marks()
         if marks is None:
-            exit_id, ex_x, de = np.full(nv, -1, dtype=np.int64), np.full(nv, np.inf), np.full(nv, np.inf)
+            exit_id, ex_x, de = self._no_exits(nv)
         else:
             exit_id, (ex_x, de) = tr.exit, marks
         lat = -1.0 if tr.lat_accel_max is None else tr.lat_accel_max
@@ -213,6 +214,15 @@ class World:
             self._substep_events(events, cx, cy, cx_before if road.n_exits else None, i, j, lane, off, at_end,
                                  n_off, n_end)
         return int(k)
+
+    def _no_exits(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(exit_id, ex_x, de)`` of ``n`` vehicles without an exit (-1, inf,
+        inf), kept between calls for the same ``n``: the compiled substeps
+        only read them."""
+        c = self._no_exit_rows
+        if c is None or c[0] != n:
+            c = self._no_exit_rows = (n, np.full(n, -1, dtype=np.int64), np.full(n, np.inf), np.full(n, np.inf))
+        return c[1], c[2], c[3]
 
     def _exit_marks(self) -> tuple[np.ndarray, np.ndarray] | None:
         """Per vehicle, the position of its exit and the end of that exit's
