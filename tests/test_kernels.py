@@ -1116,3 +1116,112 @@ def test_normalised_actions_equal_the_array_code(n, a_max, a_min, steer, seed):
     assert got.shape == (n, 2) and got.dtype == np.float64
     np.testing.assert_array_equal(got, want)
     assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
+def _numpy_formation_features(env):
+    """HighwayFormationEnv._features as the array code wrote it before it was
+    compiled (frozen here as the oracle)."""
+    from icv_envs.sim._ufuncs import clip as uclip
+
+    w = env.world
+    tr = w.traffic
+    cx, cy = tr.center()
+    x_ref, lane_ref, v_ref, member = w.manager.references(tr)
+    F = np.zeros((tr.n, 13))
+    F[:, 0] = 1.0
+    F[:, 1] = cx
+    F[:, 2] = cy
+    ch, sh = np.cos(tr.heading), np.sin(tr.heading)
+    F[:, 3] = tr.speed * ch
+    F[:, 4] = tr.speed * sh
+    F[:, 5] = ch
+    F[:, 6] = sh
+    F[:, 7] = np.where(member, w.road.wrap(np.where(member, x_ref, 0.0) - cx), 0.0)
+    F[:, 8] = np.where(member, lane_ref * w.road.lane_width - cy, 0.0)
+    F[:, 9] = np.where(member, v_ref - tr.speed, 0.0)
+    F[:, 10] = member
+    road = w.road
+    F[:, 11] = 1.0
+    if road.n_exits:
+        has = tr.exit >= 0
+        if has.any():
+            F[has, 11] = road.exit_ahead(tr.exit[has], cx[has]) / 1000.0
+    lane = road.lane_of(cy)
+    F[:, 12] = uclip((road.interval_end(lane, cx) - cx) / 200.0, 0.0, 1.0)
+    return F
+
+
+def _numpy_formation_rewards(env, rows, crashed_now, F):
+    """HighwayFormationEnv._rewards_rows as the array code wrote it (oracle)."""
+    from icv_envs.sim._ufuncs import clip as uclip
+
+    c = env.config
+    w = env.world
+    tr = w.traffic
+    wts = c["reward"]
+    vmax = float(c["speed_range"][1])
+    progress = tr.speed[rows] / vmax
+    gap, _ = w.own_lane_gaps()
+    headway = 2.0 + tr.speed * 1.0
+    safety = -uclip(1.0 - gap[rows] / headway[rows], 0.0, 1.0)
+    safety = np.where(crashed_now, -1.0, safety)
+    ua = env._last_actions[rows] if len(env._last_actions) == tr.n else np.zeros((len(rows), 2))
+    comfort = -0.5 * (ua[:, 0] ** 2 + ua[:, 1] ** 2)
+    member = F[rows, 10] > 0
+    L_s = float(c["formation"]["spacing"])
+    form = np.where(member, np.exp(-(F[rows, 7] / L_s) ** 2 - (F[rows, 8] / w.road.lane_width) ** 2), 0.0)
+    total = wts["progress"] * progress + wts["safety"] * safety + wts["comfort"] * comfort + wts["formation"] * form
+    return total, {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
+
+
+@pytest.mark.parametrize("module, config, random_share", [
+    ("highway_formation_v0", {"vehicles_count": 20}, 0.5),  # collisions, off-road, free vehicles
+    ("highway_formation_v0", {"scenario": "off-ramp"}, 0.0),  # exits on a straight road
+    ("highway_formation_v0", {"scenario": "lane-drop"}, 0.2),  # lane ends
+    ("highway_formation_v0", {"vehicles_count": 8, "obstacle": {"lane": 1, "position": 300.0}}, 0.3),
+    ("highway_ramps_v0", {"vgr": 0.5, "duration": 60.0}, 0.1),  # the ring: wrap, ramps, exits
+])
+def test_formation_features_and_rewards_equal_the_array_code(module, config, random_share):
+    """The compiled feature rows and reward terms of the highway env give
+    the array code's values bit for bit, step after step (the crashes and
+    the random actions' comfort terms included; a step's F and rewards are
+    compared before the step's removals)."""
+    import importlib
+
+    mod = importlib.import_module(f"icv_envs.envs.{module}")
+    env = mod.parallel_env(**config)
+    env.reset(seed=3)
+    core = env.core
+    rng = np.random.default_rng(3)
+    seen = {"member": 0, "crashed": 0, "exit": 0, "lane_end": 0, "steps": 0}
+    orig = type(core)._rewards_rows
+
+    def checked(self, rows, crashed_now, F):
+        want_F = _numpy_formation_features(self)
+        np.testing.assert_array_equal(F, want_F)
+        got = orig(self, rows, crashed_now, F)
+        want = _numpy_formation_rewards(self, rows, crashed_now, F)
+        np.testing.assert_array_equal(got[0], want[0])
+        assert got[1].keys() == want[1].keys()
+        for k in want[1]:
+            np.testing.assert_array_equal(got[1][k], want[1][k])
+        seen["member"] += int((F[:, 10] > 0).sum())
+        seen["crashed"] += int(np.sum(crashed_now))
+        seen["exit"] += int((F[:, 11] != 1.0).sum())
+        seen["lane_end"] += int((F[:, 12] < 1.0).sum())
+        seen["steps"] += 1
+        return got
+
+    core._rewards_rows = checked.__get__(core)
+    for _ in range(150):
+        if not env.agents:
+            break
+        ex = env.expert_actions()
+        env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
+    assert seen["steps"] > 20 and seen["member"] > 0
+    if random_share >= 0.5:
+        assert seen["crashed"] > 0
+    if "off-ramp" in config.get("scenario", "") or module == "highway_ramps_v0":
+        assert seen["exit"] > 0
+    if "lane-drop" in config.get("scenario", "") or "obstacle" in config or module == "highway_ramps_v0":
+        assert seen["lane_end"] > 0

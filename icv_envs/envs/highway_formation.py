@@ -26,7 +26,7 @@ from icv_envs.envs.observations import merge_observation_config
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
-from icv_envs.sim._kernels import nearest_along_road
+from icv_envs.sim._kernels import formation_feature_rows, formation_reward_terms, nearest_along_road
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.road import Obstacle, OffRamp, OnRamp, RoadLayout
@@ -282,29 +282,19 @@ class HighwayFormationEnv(IcvAgentsEnv):
         tr = w.traffic
         cx, cy = tr.center()
         x_ref, lane_ref, v_ref, member = w.manager.references(tr)
-        F = np.zeros((tr.n, len(OBS_FEATURES)))
-        F[:, 0] = 1.0
-        F[:, 1] = cx
-        F[:, 2] = cy
-        ch, sh = np.cos(tr.heading), np.sin(tr.heading)
-        F[:, 3] = tr.speed * ch
-        F[:, 4] = tr.speed * sh
-        F[:, 5] = ch
-        F[:, 6] = sh
-        F[:, 7] = np.where(member, w.road.wrap(np.where(member, x_ref, 0.0) - cx), 0.0)
-        F[:, 8] = np.where(member, lane_ref * w.road.lane_width - cy, 0.0)
-        F[:, 9] = np.where(member, v_ref - tr.speed, 0.0)
-        F[:, 10] = member
-        # exit_dx: metres to the own exit's diverge segment / 1000 (1 = no exit);
-        # lane_end_dx: metres to the end of the current lane / 200 (1 = none near)
         road = w.road
-        F[:, 11] = 1.0
+        # compiled, the same arithmetic as the array code it replaced
+        # (icv_envs.sim._kernels.formation_feature_rows; tests/test_kernels.py)
+        period = float(road.length) if road.periodic else -1.0
+        F = formation_feature_rows(cx, cy, tr.speed, np.cos(tr.heading), np.sin(tr.heading), x_ref, lane_ref, v_ref,
+                                   member, float(road.lane_width), int(road.total_lanes), period, road.n_lanes,
+                                   road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv)
+        # exit_dx: metres to the own exit's diverge segment / 1000 (1 = no exit);
+        # lane_end_dx (column 12): metres to the end of the current lane / 200 (1 = none near)
         if road.n_exits:
             has = tr.exit >= 0
             if has.any():
                 F[has, 11] = road.exit_ahead(tr.exit[has], cx[has]) / 1000.0
-        lane = road.lane_of(cy)
-        F[:, 12] = uclip((road.interval_end(lane, cx) - cx) / 200.0, 0.0, 1.0)
         return F
 
     def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
@@ -348,17 +338,16 @@ class HighwayFormationEnv(IcvAgentsEnv):
         tr = w.traffic
         wts = c["reward"]
         vmax = float(c["speed_range"][1])
-        progress = tr.speed[rows] / vmax
         gap, _ = w.own_lane_gaps()
-        headway = 2.0 + tr.speed * 1.0
-        safety = -uclip(1.0 - gap[rows] / headway[rows], 0.0, 1.0)
-        safety = np.where(crashed_now, -1.0, safety)
         ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
-        comfort = -0.5 * (ua[:, 0] ** 2 + ua[:, 1] ** 2)
-        member = F[rows, 10] > 0
-        L_s = float(c["formation"]["spacing"])
-        form = np.where(member, np.exp(-(F[rows, 7] / L_s) ** 2 - (F[rows, 8] / w.road.lane_width) ** 2), 0.0)
-        total = wts["progress"] * progress + wts["safety"] * safety + wts["comfort"] * comfort + wts["formation"] * form
+        # compiled but the exp (icv_envs.sim._kernels.formation_reward_terms; the
+        # array code it replaced is its reference in tests/test_kernels.py)
+        progress, safety, comfort, expo, member, partial = formation_reward_terms(
+            np.asarray(rows, dtype=np.int64), tr.speed, vmax, gap, np.asarray(crashed_now, dtype=bool),
+            np.ascontiguousarray(ua, dtype=np.float64), F, float(c["formation"]["spacing"]),
+            float(w.road.lane_width), float(wts["progress"]), float(wts["safety"]), float(wts["comfort"]))
+        form = np.where(member, np.exp(expo), 0.0)
+        total = partial + wts["formation"] * form
         parts = {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
         return total, parts
 

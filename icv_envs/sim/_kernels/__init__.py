@@ -12,7 +12,9 @@ the world must handle in Python (:func:`quiet_substeps`), the run statistics (:f
 (:func:`collision_pairs`), the lane-sorted index and leader search
 (:func:`build_lane_index`, :func:`leader_rows`,
 :func:`own_lane_gap_rows`) and the observation's
-neighbour search (:func:`nearest_along_road`). They take and return plain
+neighbour search (:func:`nearest_along_road`), the highway env's feature
+rows and reward terms (:func:`formation_feature_rows`,
+:func:`formation_reward_terms`). They take and return plain
 arrays (no Python objects inside), and they perform the same IEEE-754
 operations, in the same order, as the numpy code they replace (reductions
 included: :func:`pairwise_sum` is NumPy's own summation order), so
@@ -46,7 +48,8 @@ from __future__ import annotations
 from icv_envs.sim._kernels.formation import drivable_lane_bits, hold_targets
 from icv_envs.sim._kernels.frames import quiet_substeps
 from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows, own_lane_gap_rows
-from icv_envs.sim._kernels.observation import nearest_along_road, kinematics_rows
+from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_reward_terms, kinematics_rows,
+                                               nearest_along_road)
 from icv_envs.sim._kernels.physics import npy_mod, kinematic_substep, road_check, interval_ends, lanes_available
 from icv_envs.sim._kernels.stats import pairwise_sum, motion_record, headway_record, pet_transitions
 
@@ -63,6 +66,8 @@ __all__ = [
     "own_lane_gap_rows",
     "nearest_along_road",
     "kinematics_rows",
+    "formation_feature_rows",
+    "formation_reward_terms",
     "pairwise_sum",
     "motion_record",
     "headway_record",

@@ -1,15 +1,17 @@
 """The observations' inner loops, compiled: the neighbour search along
-the road and the ``Kinematics`` rows (the rules every kernel here
-follows: :mod:`icv_envs.sim._kernels`)."""
+the road, the ``Kinematics`` rows, and the highway env's feature rows and
+reward terms (the rules every kernel here follows:
+:mod:`icv_envs.sim._kernels`)."""
 
 from __future__ import annotations
 
 import numba as nb
 import numpy as np
 
-from icv_envs.sim._kernels.physics import npy_mod
+from icv_envs.sim._kernels.formation import _wrap1
+from icv_envs.sim._kernels.physics import interval_ends, npy_mod
 
-__all__ = ["nearest_along_road", "kinematics_rows"]
+__all__ = ["nearest_along_road", "kinematics_rows", "formation_feature_rows", "formation_reward_terms"]
 
 
 @nb.njit(cache=True)
@@ -109,3 +111,84 @@ def kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, norma
                         val = min(max(val, -1.0), 1.0)
                 out[r, 1 + q, j] = val
     return out
+
+
+@nb.njit(cache=True)
+def formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
+                           n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """The feature rows of
+    :meth:`icv_envs.envs.highway_formation.HighwayFormationEnv._features`
+    in one pass, the trigonometry (``ch``, ``sh``: ``cos``/``sin`` of the
+    headings) given from NumPy: ``1, x, y, v ch, v sh, ch, sh``; for
+    members the target errors ``wrap(x_ref - x)`` (``period < 0``: a
+    straight road), ``lane_ref * lane_width - y``, ``v_ref - v`` and 1,
+    zeros for free vehicles; column 11 = 1 (the caller writes the exits');
+    column 12 ``clip((interval_end(lane, x) - x) / 200, 0, 1)`` in the own
+    lane ``clip(rint(y / lane_width), 0, total_lanes - 1)``, the interval
+    end taken at ``mod(x, period)`` and moved back by ``x - mod(x, period)``
+    on a ring (``RoadLayout.interval_end``). Returns ``(n, 13)`` float64."""
+    n = cx.shape[0]
+    F = np.zeros((n, 13))
+    lane = np.empty(n, dtype=np.int64)
+    xm = np.empty(n)
+    hi = float(total_lanes - 1)
+    for i in range(n):
+        F[i, 0] = 1.0
+        F[i, 1] = cx[i]
+        F[i, 2] = cy[i]
+        F[i, 3] = speed[i] * ch[i]
+        F[i, 4] = speed[i] * sh[i]
+        F[i, 5] = ch[i]
+        F[i, 6] = sh[i]
+        if member[i]:
+            F[i, 7] = _wrap1(x_ref[i] - cx[i], period)
+            F[i, 8] = lane_ref[i] * lane_width - cy[i]
+            F[i, 9] = v_ref[i] - speed[i]
+            F[i, 10] = 1.0
+        F[i, 11] = 1.0
+        lf = np.rint(cy[i] / lane_width)
+        lane[i] = np.int64(min(max(lf, 0.0), hi))
+        xm[i] = npy_mod(cx[i], period) if period > 0.0 else cx[i]
+    ends = interval_ends(lane, xm, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    for i in range(n):
+        e = ends[i] + (cx[i] - xm[i]) if period > 0.0 else ends[i]
+        u = (e - cx[i]) / 200.0
+        if u == u:
+            u = min(max(u, 0.0), 1.0)
+        F[i, 12] = u
+    return F
+
+
+@nb.njit(cache=True)
+def formation_reward_terms(rows, speed, v_max, gap, crashed_now, ua, F, spacing, lane_width, w_progress, w_safety,
+                           w_comfort):
+    """The reward terms of
+    :meth:`icv_envs.envs.highway_formation.HighwayFormationEnv._rewards_rows`
+    in one pass over ``rows``, but the ``exp`` (NumPy's): progress
+    ``v / v_max``; safety ``-clip(1 - gap / (2 + v), 0, 1)``, -1 for
+    ``crashed_now``; comfort ``-0.5 (u_a^2 + u_s^2)``; the exponent of the
+    formation term ``-(dx / spacing)^2 - (dy / lane_width)^2`` with the
+    member flag; and the weighted sum of the first three. Returns
+    ``(progress, safety, comfort, exponent, member, partial)``."""
+    m = rows.shape[0]
+    progress = np.empty(m)
+    safety = np.empty(m)
+    comfort = np.empty(m)
+    expo = np.empty(m)
+    member = np.empty(m, dtype=np.bool_)
+    partial = np.empty(m)
+    for q in range(m):
+        r = rows[q]
+        progress[q] = speed[r] / v_max
+        x = 1.0 - gap[r] / (2.0 + speed[r] * 1.0)
+        if x == x:
+            x = min(max(x, 0.0), 1.0)
+        safety[q] = -1.0 if crashed_now[q] else -x
+        a0, a1 = ua[q, 0], ua[q, 1]
+        comfort[q] = -0.5 * (a0 * a0 + a1 * a1)
+        dx = F[r, 7] / spacing
+        dy = F[r, 8] / lane_width
+        expo[q] = -(dx * dx) - dy * dy
+        member[q] = F[r, 10] > 0
+        partial[q] = w_progress * progress[q] + w_safety * safety[q] + w_comfort * comfort[q]
+    return progress, safety, comfort, expo, member, partial
