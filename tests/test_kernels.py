@@ -1151,6 +1151,24 @@ def _numpy_formation_features(env):
     return F
 
 
+def _numpy_references(manager, traffic):
+    """FormationManager._references as the array code wrote it (oracle)."""
+    member = traffic.group >= 0
+    x_ref = np.full(traffic.n, np.nan)
+    v_ref = np.full(traffic.n, np.nan)
+    a_ref = np.full(traffic.n, np.nan)
+    if member.any():
+        m = np.flatnonzero(member)
+        d, dv, dd = manager._profile(traffic, m)
+        x_ref[m] = manager._slot_x(traffic, m) + d
+        if traffic.period is not None:
+            x_ref[m] = np.mod(x_ref[m], traffic.period)
+        v_ref[m] = manager.speed + dv
+        a_ref[m] = dd
+    lane_ref = np.where(member, traffic.tgt_lane, -1)
+    return (x_ref, lane_ref, v_ref, member), a_ref
+
+
 def _numpy_formation_rewards(env, rows, crashed_now, F):
     """HighwayFormationEnv._rewards_rows as the array code wrote it (oracle)."""
     from icv_envs.sim._ufuncs import clip as uclip
@@ -1182,7 +1200,7 @@ def _numpy_formation_rewards(env, rows, crashed_now, F):
     ("highway_ramps_v0", {"vgr": 0.5, "duration": 60.0}, 0.1),  # the ring: wrap, ramps, exits
 ])
 def test_formation_features_and_rewards_equal_the_array_code(module, config, random_share):
-    """The compiled feature rows and reward terms of the highway env give
+    """The compiled references, feature rows and reward terms of the highway env give
     the array code's values bit for bit, step after step (the crashes and
     the random actions' comfort terms included; a step's F and rewards are
     compared before the step's removals)."""
@@ -1197,6 +1215,11 @@ def test_formation_features_and_rewards_equal_the_array_code(module, config, ran
     orig = type(core)._rewards_rows
 
     def checked(self, rows, crashed_now, F):
+        got_r, got_a = self.world.manager._references(self.world.traffic)
+        want_r, want_a = _numpy_references(self.world.manager, self.world.traffic)
+        for g, x in zip(got_r + (got_a,), want_r + (want_a,)):
+            assert g.dtype == x.dtype
+            np.testing.assert_array_equal(g, x)
         want_F = _numpy_formation_features(self)
         np.testing.assert_array_equal(F, want_F)
         got = orig(self, rows, crashed_now, F)

@@ -302,10 +302,16 @@ class HighwayFormationEnv(IcvAgentsEnv):
         c = self.config
         w = self.world
         vmax = float(c["speed_range"][1])
-        width = w.road.total_lanes * w.road.lane_width
         pd = float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE
+        # kept per road and scales (a reset builds a new road), read-only
+        kept = getattr(self, "_obs_scales_kept", None)
+        if kept is not None and kept[0] is w.road and kept[1] == (vmax, pd):
+            return kept[2]
+        width = w.road.total_lanes * w.road.lane_width
         scale_abs = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
         scale_rel = np.array([1, pd, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
+        scale_abs.flags.writeable = scale_rel.flags.writeable = False
+        self._obs_scales_kept = (w.road, (vmax, pd), (scale_abs, scale_rel))
         return scale_abs, scale_rel
 
     def _wrap_dx(self, dx):

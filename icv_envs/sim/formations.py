@@ -59,7 +59,7 @@ from icv_envs.formation.control import (
 )
 from icv_envs.formation.targets import formation_targets
 from icv_envs.sim._kernels import drivable_lane_bits, hold_targets
-from icv_envs.sim._kernels.formation import room_ahead
+from icv_envs.sim._kernels.formation import reference_rows, room_ahead
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.sim.join_plans import JoinPlans
 
@@ -161,11 +161,15 @@ class FormationManager:
         # table over the formation ids (nan where none; one entry per id ever
         # made, a few thousand after an hour on the ring: cheaper than the
         # sort a per-formation lookup needs)
+        return self._anchor_lut()[traffic.group[rows]] - traffic.tgt_behind[rows]
+
+    def _anchor_lut(self) -> np.ndarray:
+        """Front target by formation id (``nan`` for ids with none)."""
         lut = np.full(self.next_gid + 1, np.nan)
         if self.anchor:
             lut[np.fromiter(self.anchor.keys(), dtype=np.int64, count=len(self.anchor))] = np.fromiter(
                 self.anchor.values(), dtype=np.float64, count=len(self.anchor))
-        return lut[traffic.group[rows]] - traffic.tgt_behind[rows]
+        return lut
 
     def _plan(self, traffic, road, rows, cx) -> np.ndarray:
         """Plan references for members ``rows`` from their current state
@@ -516,19 +520,17 @@ class FormationManager:
         return out
 
     def _references(self, traffic) -> tuple:
-        member = traffic.group >= 0
-        x_ref = np.full(traffic.n, np.nan)
-        v_ref = np.full(traffic.n, np.nan)
-        a_ref = np.full(traffic.n, np.nan)
-        if member.any():
-            m = np.flatnonzero(member)
+        """``((x_ref, lane_ref, v_ref, member), a_ref)`` computed (compiled:
+        :func:`icv_envs.sim._kernels.reference_rows`, the arithmetic of the
+        array code it replaced, tests/test_join_reference.py)."""
+        m = np.flatnonzero(traffic.group >= 0)
+        if len(m):
             d, dv, dd = self._profile(traffic, m)
-            x_ref[m] = self._slot_x(traffic, m) + d
-            if traffic.period is not None:
-                x_ref[m] = np.mod(x_ref[m], traffic.period)
-            v_ref[m] = self.speed + dv
-            a_ref[m] = dd
-        lane_ref = np.where(member, traffic.tgt_lane, -1)
+        else:
+            d = dv = dd = np.zeros(0)
+        x_ref, lane_ref, v_ref, member, a_ref = reference_rows(
+            traffic.group, traffic.tgt_lane, traffic.tgt_behind, self._anchor_lut(), m, d, dv, dd, float(self.speed),
+            -1.0 if traffic.period is None else float(traffic.period))
         return (x_ref, lane_ref, v_ref, member), a_ref
 
     def reference_accel(self, traffic) -> np.ndarray:

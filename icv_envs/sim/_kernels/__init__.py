@@ -45,7 +45,7 @@ functions, so :func:`pairwise_sum` runs its halving on an explicit stack.
 
 from __future__ import annotations
 
-from icv_envs.sim._kernels.formation import drivable_lane_bits, hold_targets
+from icv_envs.sim._kernels.formation import drivable_lane_bits, hold_targets, reference_rows
 from icv_envs.sim._kernels.frames import quiet_substeps
 from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows, own_lane_gap_rows
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_reward_terms, kinematics_rows,
@@ -74,5 +74,6 @@ __all__ = [
     "pet_transitions",
     "drivable_lane_bits",
     "hold_targets",
+    "reference_rows",
     "quiet_substeps",
 ]

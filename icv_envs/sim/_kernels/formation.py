@@ -155,3 +155,31 @@ def room_ahead(A, Lf, length):
                 best = r
         out[i] = best
     return out
+
+
+@nb.njit(cache=True)
+def reference_rows(group, tgt_lane, tgt_behind, anchor_of, m, d, dv, dd, speed, period):
+    """``FormationManager._references`` compiled: for the members ``m``
+    (rows with ``group >= 0``, ascending) with join profiles ``(d, dv, dd)``,
+    ``x_ref = (anchor_of[group] - tgt_behind) + d`` (``mod period`` on a ring,
+    ``period < 0``: none), ``v_ref = speed + dv``, ``a_ref = dd``; ``nan``
+    for free vehicles, whose ``lane_ref`` is -1 (members: ``tgt_lane``).
+    Returns ``(x_ref, lane_ref, v_ref, member, a_ref)``."""
+    n = group.shape[0]
+    x_ref = np.full(n, np.nan)
+    v_ref = np.full(n, np.nan)
+    a_ref = np.full(n, np.nan)
+    lane_ref = np.empty(n, dtype=np.int64)
+    member = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        member[i] = group[i] >= 0
+        lane_ref[i] = tgt_lane[i] if member[i] else -1
+    for q in range(m.shape[0]):
+        r = m[q]
+        x = (anchor_of[group[r]] - tgt_behind[r]) + d[q]
+        if period > 0.0:
+            x = npy_mod(x, period)
+        x_ref[r] = x
+        v_ref[r] = speed + dv[q]
+        a_ref[r] = dd[q]
+    return x_ref, lane_ref, v_ref, member, a_ref
