@@ -1248,3 +1248,103 @@ def test_formation_features_and_rewards_equal_the_array_code(module, config, ran
         assert seen["exit"] > 0
     if "lane-drop" in config.get("scenario", "") or "obstacle" in config or module == "highway_ramps_v0":
         assert seen["lane_end"] > 0
+
+
+def _numpy_safety_cap(expert, world, index, acc, lane, desired, member, exiting, bounds=None):
+    """FormationExpert's safety envelope as the array code wrote it before it
+    was compiled (frozen here as the oracle)."""
+    from icv_envs.sim._ufuncs import clip as uclip
+    from icv_envs.sim.traffic import idm_acceleration, leaders
+
+    p = expert.p
+    tr, road = world.traffic, world.road
+    cx, _ = tr.center()
+    v = tr.speed
+    n = tr.n
+    active = tr.lc_lane >= 0
+    q_rows = [index.rows]
+    q_lanes = [index.lanes]
+    if active.any():
+        a_rows = np.flatnonzero(active)
+        q_rows.append(a_rows)
+        q_lanes.append(tr.lc_lane[a_rows])
+    q_rows = np.concatenate(q_rows)
+    q_lanes = np.concatenate(q_lanes)
+    lead, lx = leaders(index, q_rows, q_lanes, cx, return_x=True)
+    has_l = lead >= 0
+    gap = np.full(len(q_rows), np.inf)
+    gap[has_l] = lx[has_l] - cx[q_rows[has_l]] - 0.5 * (tr.length[lead[has_l]] + tr.length[q_rows[has_l]])
+    dv = np.where(has_l, v[q_rows] - v[np.maximum(lead, 0)], 0.0)
+    end = road.interval_end(q_lanes, cx[q_rows])
+    leaving = (tr.lc_lane[q_rows] >= 0) & (tr.lc_lane[q_rows] != q_lanes)
+    exit_ramp_end = (q_lanes == road.n_lanes) & exiting[q_rows]
+    own_or_target = (q_lanes == lane[q_rows]) | (q_lanes == tr.lc_lane[q_rows])
+    gap_end = np.where(leaving | exit_ramp_end | ~own_or_target, np.inf, end - cx[q_rows] - 0.5 * tr.length[q_rows])
+    k_q = np.abs(desired[q_rows] - q_lanes)
+    must_leave = (k_q > 0) & ~leaving & ~exit_ramp_end & own_or_target & (
+        end < road.interval_end(desired[q_rows], cx[q_rows]))
+    gap_end = np.where(must_leave, end - k_q * p.lc_min_length - cx[q_rows], gap_end)
+    use_end = gap_end < gap
+    gap = np.where(use_end, gap_end, gap)
+    dv = np.where(use_end, v[q_rows], dv)
+    Tq = np.where(member[q_rows], p.member_time_gap, p.idm_T)
+    safe = idm_acceleration(v[q_rows], p.v_max, gap, dv, p.a_max, p.idm_b, Tq, p.idm_s0, free_term=False)
+    cap = np.full(n, np.inf)
+    np.minimum.at(cap, q_rows, safe)
+    acc = np.minimum(acc, cap)
+    lo, hi = (p.a_min, p.a_max) if bounds is None else bounds
+    return uclip(acc, lo, hi), int(must_leave.sum()), int((use_end & ~must_leave).sum()), int(active.sum())
+
+
+@pytest.mark.parametrize("module, config, random_share, steps", [
+    ("highway_formation_v0", {"vehicles_count": 20}, 0.5, 150),
+    ("highway_formation_v0", {"scenario": "lane-drop"}, 0.0, 150),  # a lane end as a standing leader
+    ("highway_formation_v0", {"scenario": "on-ramp"}, 0.0, 300),  # k lane changes before the ramp lane ends
+    ("highway_formation_v0", {"scenario": "off-ramp"}, 0.0, 300),  # exits: the ramp end does not hold an exiting vehicle
+    ("highway_formation_v0", {"vehicles_count": 8, "obstacle": {"lane": 1, "position": 300.0}}, 0.3, 300),
+    ("highway_ramps_v0", {"vgr": 0.5, "duration": 60.0}, 0.0, 150),  # the ring
+])
+def test_expert_safety_cap_equals_the_array_code(module, config, random_share, steps):
+    """FormationExpert._safety_cap (compiled) returns the array code's
+    accelerations bit for bit on every call of a run, over lane changes,
+    lane ends that must be left, ramps and exits."""
+    import importlib
+
+    from icv_envs.policies.formation_expert import FormationExpert
+
+    mod = importlib.import_module(f"icv_envs.envs.{module}")
+    env = mod.parallel_env(**config)
+    env.reset(seed=4)
+    rng = np.random.default_rng(4)
+    seen = {"calls": 0, "must_leave": 0, "end": 0, "active": 0}
+    orig = FormationExpert._safety_cap
+
+    def checked(self, world, index, acc, lane, desired, member, exiting):
+        got = orig(self, world, index, acc, lane, desired, member, exiting)
+        want, ml, ue, act = _numpy_safety_cap(self, world, index, acc, lane, desired, member, exiting)
+        np.testing.assert_array_equal(got, want)
+        assert got.dtype == want.dtype
+        # the bare envelope (no control law under it, no clipping): every binding query shows
+        bare = (np.full(len(acc), np.inf), lane, desired, member, exiting)
+        np.testing.assert_array_equal(orig(self, world, index, *bare, bounds=(-np.inf, np.inf)),
+                                      _numpy_safety_cap(self, world, index, *bare, bounds=(-np.inf, np.inf))[0])
+        seen["calls"] += 1
+        seen["must_leave"] += ml
+        seen["end"] += ue
+        seen["active"] += act
+        return got
+
+    FormationExpert._safety_cap = checked
+    try:
+        for _ in range(steps):
+            if not env.agents:
+                break
+            ex = env.expert_actions()
+            env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
+    finally:
+        FormationExpert._safety_cap = orig
+    assert seen["calls"] > 50 and seen["active"] > 0
+    if config.get("scenario") == "on-ramp":
+        assert seen["must_leave"] > 0
+    if "obstacle" in config or config.get("scenario") == "lane-drop":
+        assert seen["end"] > 0

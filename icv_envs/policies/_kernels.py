@@ -2,7 +2,8 @@
 
 :func:`normalised_actions` turns the highway expert's controls into
 normalised actions in one pass (five numpy calls and their temporaries
-before). The rest serve the intersection experts:
+before), and :func:`safety_cap` is its safety envelope (about thirty numpy
+calls before). The rest serve the intersection experts:
 
 :func:`corridor_index` builds the sorted entries of
 :class:`icv_envs.policies.platoon_common.Corridors`, which the experts
@@ -21,7 +22,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["corridor_index", "normalised_actions", "repair_order"]
+from icv_envs.sim._kernels.neighbours import leader_rows
+from icv_envs.sim._kernels.physics import interval_ends, npy_mod
+
+__all__ = ["corridor_index", "normalised_actions", "repair_order", "safety_cap"]
 
 
 @nb.njit(cache=True)
@@ -217,4 +221,104 @@ def normalised_actions(a, phi, a_max, a_min, steer_max):
                 elif x > 1.0:
                     x = 1.0
             out[i, k] = x
+    return out
+
+
+@nb.njit(cache=True)
+def _ends(lanes, x, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """``RoadLayout.interval_end(lanes, x)`` (``period < 0``: a straight road)."""
+    if period < 0.0:
+        return interval_ends(lanes, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    xm = np.empty(x.shape[0])
+    for i in range(x.shape[0]):
+        xm[i] = npy_mod(x[i], period)
+    out = interval_ends(lanes, xm, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    for i in range(x.shape[0]):
+        out[i] = out[i] + (x[i] - xm[i])
+    return out
+
+
+@nb.njit(cache=True)
+def safety_cap(keys, i_rows, i_lanes, i_x, offset, cx, v, length, lc_lane, lane, desired, member, exiting, acc,
+               period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, lc_min_length, member_time_gap, idm_T,
+               a_max, idm_s0, idm_denom, clip_lo, clip_hi):
+    """The highway expert's safety envelope
+    (:meth:`icv_envs.policies.formation_expert.FormationExpert._safety_cap`)
+    in one pass: the queries are the lane index's entries (every lane a
+    body occupies) and then each vehicle changing lanes in its target lane
+    (ascending rows); per query the leader there (:func:`leader_rows`) or
+    the end of the lane ahead as a standing leader (own or target lane, not
+    a lane being left, not the exit ramp of an exiting vehicle; a vehicle
+    that must leave a lane before it ends stops ``k * lc_min_length``
+    before it), whichever is nearer; the IDM interaction term
+    ``a_max (1 - (s* / max(gap, 0.1))^2)``, ``s* = s0 + max(0, v T + v dv /
+    idm_denom)``, ``idm_denom = 2 sqrt(a_max b)``; ``acc`` capped by the
+    smallest per vehicle and clipped to ``[clip_lo, clip_hi]``. NumPy's
+    ``minimum``/``maximum`` semantics (NaN kept). Returns the new ``acc``."""
+    n = cx.shape[0]
+    ni = i_rows.shape[0]
+    n_act = 0
+    for i in range(n):
+        if lc_lane[i] >= 0:
+            n_act += 1
+    nq = ni + n_act
+    q_rows = np.empty(nq, dtype=np.int64)
+    q_lanes = np.empty(nq, dtype=np.int64)
+    for q in range(ni):
+        q_rows[q] = i_rows[q]
+        q_lanes[q] = i_lanes[q]
+    q = ni
+    for i in range(n):
+        if lc_lane[i] >= 0:
+            q_rows[q] = i
+            q_lanes[q] = lc_lane[i]
+            q += 1
+    lead, lx = leader_rows(keys, i_rows, i_lanes, i_x, offset, q_rows, q_lanes, cx)
+    xq = np.empty(nq)
+    dq = np.empty(nq, dtype=np.int64)
+    for q in range(nq):
+        xq[q] = cx[q_rows[q]]
+        dq[q] = desired[q_rows[q]]
+    end = _ends(q_lanes, xq, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    end_desired = _ends(dq, xq, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    cap = np.full(n, np.inf)
+    for q in range(nq):
+        r = q_rows[q]
+        ql = q_lanes[q]
+        lr = lead[q]
+        if lr >= 0:
+            gap = lx[q] - cx[r] - 0.5 * (length[lr] + length[r])
+            dv = v[r] - v[lr]
+        else:
+            gap = np.inf
+            dv = 0.0
+        leaving = lc_lane[r] >= 0 and lc_lane[r] != ql
+        exit_ramp_end = ql == n_lanes and exiting[r]
+        own_or_target = ql == lane[r] or ql == lc_lane[r]
+        if leaving or exit_ramp_end or not own_or_target:
+            gap_end = np.inf
+        else:
+            gap_end = end[q] - cx[r] - 0.5 * length[r]
+        k_q = abs(dq[q] - ql)
+        if k_q > 0 and not leaving and not exit_ramp_end and own_or_target and end[q] < end_desired[q]:
+            gap_end = end[q] - k_q * lc_min_length - cx[r]
+        if gap_end < gap:
+            gap = gap_end
+            dv = v[r]
+        T = member_time_gap if member[r] else idm_T
+        u = v[r] * T + v[r] * dv / idm_denom
+        s_star = idm_s0 + (0.0 if 0.0 >= u else u)
+        g = gap if gap >= 0.1 else 0.1
+        ratio = s_star / g
+        safe = a_max * (1.0 - ratio * ratio)
+        c = cap[r]
+        cap[r] = c if (c <= safe or c != c) else safe
+    out = np.empty(n)
+    for i in range(n):
+        a = acc[i]
+        a = a if (a <= cap[i] or a != a) else cap[i]
+        if a == a:
+            a = a if a > clip_lo else clip_lo
+            a = a if a < clip_hi else clip_hi
+        out[i] = a
     return out

@@ -49,7 +49,7 @@ from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steeri
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.policies._params import check_steering_and_gains, real_param
-from icv_envs.policies._kernels import normalised_actions
+from icv_envs.policies._kernels import normalised_actions, safety_cap
 from icv_envs.sim.traffic import LAT_ACCEL_MAX, followers, idm_acceleration, leaders
 
 
@@ -154,6 +154,32 @@ class FormationExpert:
         return desired
 
     # ----------------------------------------------------------------- helpers
+    def _safety_cap(self, world, index, acc, lane, desired, member, exiting, bounds=None) -> np.ndarray:
+        """The safety envelope on top of the longitudinal law, clipped to
+        ``[a_min, a_max]``: the IDM interaction term (Treiber et al. 2000)
+        behind the leader in every lane a vehicle occupies (the lane index's
+        entries) or is entering (``lc_lane``), and behind the end of its own
+        or target lane as a standing leader unless it is leaving that lane
+        or taking its exit there; a vehicle with ``k`` lane changes still to
+        make before its lane ends stops ``k * lc_min_length`` before the end
+        (room for them from standstill). Compiled in one pass
+        (:func:`icv_envs.policies._kernels.safety_cap`; the array code it
+        replaced is its reference in ``tests/test_kernels.py``). ``bounds``:
+        the clip range instead of ``(a_min, a_max)`` (the tests read the
+        bare envelope with ``(-inf, inf)``)."""
+        p = self.p
+        a_min, a_max = (p.a_min, p.a_max) if bounds is None else bounds
+        tr, road = world.traffic, world.road
+        cx, _ = tr.center()
+        return safety_cap(index.keys, index.rows, index.lanes, index.x, float(index.offset), cx, tr.speed,
+                          np.asarray(tr.length, dtype=np.float64), tr.lc_lane, np.asarray(lane, dtype=np.int64),
+                          np.asarray(desired, dtype=np.int64), np.asarray(member, dtype=bool),
+                          np.asarray(exiting, dtype=bool), np.asarray(acc, dtype=np.float64),
+                          float(road.length) if road.periodic else -1.0, int(road.n_lanes), road.lane_ends,
+                          road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, float(p.lc_min_length),
+                          float(p.member_time_gap), float(p.idm_T), float(p.a_max), float(p.idm_s0),
+                          float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(a_min), float(a_max))
+
     def _normalise(self, a: np.ndarray, phi: np.ndarray) -> np.ndarray:
         # compiled (policies/_kernels.py::normalised_actions: the arithmetic
         # of ``clip(stack([where(a >= 0, a / a_max, -a / a_min), phi /
@@ -409,44 +435,5 @@ class FormationExpert:
             # (braking is faded out as v approaches v_min; the safety cap below still wins)
             acc[m] = np.maximum(acc[m], 1.0 * (p.v_min - v[m]))
         # safety envelope: leaders in the lanes the vehicle occupies or enters
-        q_rows = [index.rows]
-        q_lanes = [index.lanes]
-        if active.any():
-            a_rows = np.flatnonzero(active)
-            q_rows.append(a_rows)
-            q_lanes.append(tr.lc_lane[a_rows])
-        q_rows = np.concatenate(q_rows)
-        q_lanes = np.concatenate(q_lanes)
-        lead, lx = leaders(index, q_rows, q_lanes, cx, return_x=True)
-        has_l = lead >= 0
-        gap = np.full(len(q_rows), np.inf)
-        gap[has_l] = lx[has_l] - cx[q_rows[has_l]] - 0.5 * (tr.length[lead[has_l]] + tr.length[q_rows[has_l]])
-        dv = np.where(has_l, v[q_rows] - v[np.maximum(lead, 0)], 0.0)
-        # the end of the lane ahead acts as a standing leader, unless the
-        # vehicle is leaving that lane
-        end = road.interval_end(q_lanes, cx[q_rows])
-        leaving = (tr.lc_lane[q_rows] >= 0) & (tr.lc_lane[q_rows] != q_lanes)
-        exit_ramp_end = (q_lanes == road.n_lanes) & exiting[q_rows]  # exits: leave at the ramp end
-        # lane ends bind in the lane of the body centre (where leaving the
-        # road is judged) and in the lane being entered, not in a lane a
-        # corner of the footprint merely overlaps
-        own_or_target = (q_lanes == lane[q_rows]) | (q_lanes == tr.lc_lane[q_rows])
-        gap_end = np.where(leaving | exit_ramp_end | ~own_or_target, np.inf, end - cx[q_rows] - 0.5 * tr.length[q_rows])
-        # a vehicle that must leave a lane before it ends (merging from a
-        # ramp, or k lanes to cross at a lane drop) stops with its centre s0
-        # before the line ``end - k * lc_min_length``: room for those k lane
-        # changes from standstill (``lc_min_length`` each) before the lane ends
-        k_q = np.abs(desired[q_rows] - q_lanes)
-        must_leave = (k_q > 0) & ~leaving & ~exit_ramp_end & own_or_target & (
-            end < road.interval_end(desired[q_rows], cx[q_rows]))
-        gap_end = np.where(must_leave, end - k_q * p.lc_min_length - cx[q_rows], gap_end)
-        use_end = gap_end < gap
-        gap = np.where(use_end, gap_end, gap)
-        dv = np.where(use_end, v[q_rows], dv)
-        Tq = np.where(member[q_rows], p.member_time_gap, p.idm_T)
-        safe = idm_acceleration(v[q_rows], p.v_max, gap, dv, p.a_max, p.idm_b, Tq, p.idm_s0, free_term=False)
-        cap = np.full(n, np.inf)
-        np.minimum.at(cap, q_rows, safe)
-        acc = np.minimum(acc, cap)
-        acc = uclip(acc, p.a_min, p.a_max)
+        acc = self._safety_cap(world, index, acc, lane, desired, member, exiting)
         return self._normalise(acc, phi)
