@@ -1,0 +1,76 @@
+"""Where a step of the paper's ring goes, part by part, for comparing two
+trees on a noisy machine (issue 10): HighwayRamps at VGR 1/3 under the
+formation expert through the PettingZoo API, ``--warmup`` simulated seconds
+(300: about 460 vehicles), then ``--steps`` policy steps; process CPU time
+per step, and ``time.perf_counter`` totals of the main parts (wrapped
+methods; a part nested in another is counted in both).
+
+    PYTHONPATH=<tree> python scripts/bench_ring_parts.py [--warmup 300] [--steps 250]
+
+Run it for both trees, alternately, more than once: the total moves by 10%
+or more between runs on a shared machine; the parts' ratios are steadier.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import time
+
+PARTS = [
+    ("icv_envs.envs.base", "IcvAgentsEnv", "_ma_advance"),
+    ("icv_envs.sim.formations", "FormationManager", "update"),
+    ("icv_envs.policies.formation_expert", "FormationExpert", "compute"),
+    ("icv_envs.sim.world", "World", "substeps"),
+    ("icv_envs.envs.base", "IcvAgentsEnv", "_observe_rows"),
+    ("icv_envs.envs.highway_formation", "HighwayFormationEnv", "_features"),
+    ("icv_envs.sim.world", "World", "record_min_gap"),
+    ("icv_envs.sim.formations", "FormationManager", "_references"),
+    ("icv_envs.envs.highway_formation", "HighwayFormationEnv", "_rewards_rows"),
+]
+
+
+def main() -> None:
+    import importlib
+
+    p = argparse.ArgumentParser()
+    p.add_argument("--warmup", type=float, default=300.0, help="simulated seconds before timing")
+    p.add_argument("--steps", type=int, default=250, help="policy steps timed")
+    a = p.parse_args()
+    acc: dict[str, float] = {}
+
+    def wrap(cls, name):
+        f = getattr(cls, name)
+
+        @functools.wraps(f)
+        def g(*args, **kw):
+            t = time.perf_counter()
+            try:
+                return f(*args, **kw)
+            finally:
+                acc[name] = acc.get(name, 0.0) + time.perf_counter() - t
+
+        setattr(cls, name, g)
+
+    for module, cls, name in PARTS:
+        wrap(getattr(importlib.import_module(module), cls), name)
+    from icv_envs.envs import highway_ramps_v0
+
+    env = highway_ramps_v0.parallel_env(vgr=1 / 3, duration=a.warmup + a.steps / 5.0 + 10.0)
+    env.reset(seed=0)
+    for _ in range(int(a.warmup * 5)):
+        ex = env.expert_actions()
+        env.step({ag: ex[ag] for ag in env.agents})
+    acc.clear()
+    t0 = time.process_time()
+    for _ in range(a.steps):
+        ex = env.expert_actions()
+        env.step({ag: ex[ag] for ag in env.agents})
+    total = time.process_time() - t0
+    print(f"step {total * 1e3 / a.steps:.2f} ms CPU ({len(env.agents)} vehicles at the end)")
+    for k, v in sorted(acc.items(), key=lambda kv: -kv[1]):
+        print(f"  {k:16s} {v * 1e3 / a.steps:7.3f} ms")
+
+
+if __name__ == "__main__":
+    main()
