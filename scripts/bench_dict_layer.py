@@ -8,7 +8,9 @@ that only convert between arrays and the per-agent dicts (the batched
 action check, the observation/reward/termination dicts, the info dicts and
 their expert labels,
 re-aligning actions to rows), garbage collections included where they fall;
-it is reported as a share of ``env.step`` and per agent. Times are
+it is reported as a share of ``env.step`` and per agent, then per function
+(a function called inside another, ``_realign_rows`` in ``_label_infos``,
+is counted in both). Times are
 ``time.perf_counter`` inside one process; compare shares, not absolute
 figures, across machines.
 """
@@ -30,6 +32,7 @@ def main() -> None:
     p.add_argument("--steps", type=int, default=150)
     a = p.parse_args()
     acc = {"dict": 0.0, "gc": 0.0}
+    parts: dict[str, float] = {}
     depth = [0]  # only the outermost timed call counts (``_label_infos`` calls ``_realign_rows``)
 
     def wrap(name, static):
@@ -42,8 +45,10 @@ def main() -> None:
                 return f(*args, **kw)
             finally:
                 depth[0] -= 1
+                dt = time.perf_counter() - t
+                parts[name] = parts.get(name, 0.0) + dt  # each function's own calls, nested ones too
                 if depth[0] == 0:
-                    acc["dict"] += time.perf_counter() - t
+                    acc["dict"] += dt
 
         setattr(base.IcvAgentsEnv, name, staticmethod(g) if static else g)
 
@@ -63,6 +68,7 @@ def main() -> None:
         ex = env.expert_actions()
         env.step({ag: ex[ag] for ag in env.agents})
     acc.update(dict=0.0, gc=0.0)
+    parts.clear()
     tot, vs = 0.0, 0
     for _ in range(a.steps):
         ex = env.expert_actions()
@@ -74,6 +80,8 @@ def main() -> None:
     print(f"{n} agents: step {tot / a.steps * 1e3:.2f} ms = {tot / vs * 1e6:.2f} us/agent; dict layer "
           f"{acc['dict'] / tot * 100:.1f}% of the step ({acc['dict'] / vs * 1e6:.2f} us/agent); "
           f"garbage collection {acc['gc'] / tot * 100:.1f}%")
+    for name, t in sorted(parts.items(), key=lambda kv: -kv[1]):
+        print(f"  {name:15s} {t / vs * 1e6:.2f} us/agent ({t / tot * 100:.1f}% of the step)")
 
 
 if __name__ == "__main__":
