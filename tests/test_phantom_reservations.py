@@ -84,3 +84,43 @@ def test_intersection_signals_only_for_vehicles_carrying_the_plan():
         assert np.array_equal(sig[on], np.where(f.lc_lane >= 0, f.lc_lane, f.want)[on])
     env.close()
     assert off_planned > 0, "no vehicle off the expert had a plan: the test saw nothing"
+
+
+def test_the_two_views_share_one_index_only_without_reservations():
+    """World.lane_index builds the reserved (controllers') view and the body
+    view separately, and hands out the one already built when no vehicle
+    holds a reservation (the two are then the same index). Whichever view is
+    asked first, each answer equals a fresh build of that view, over a run
+    with lane changes (reservations) and without."""
+    from icv_envs.sim.traffic import lane_index
+
+    env = parallel_env(scenario="lane-drop")
+    env.reset(seed=3)
+    shared = separate = 0
+    for t in range(200):
+        if not env.agents:
+            break
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+        w = env.core.world
+        w.invalidate()
+        first = t % 2 == 0  # alternate which view is built first
+        a = w.lane_index(reserved=first)
+        b = w.lane_index(reserved=not first)
+        res, body = (a, b) if first else (b, a)
+        tr = w.traffic
+        cx, cy = tr.center()
+        args = (cx, cy, tr.width, w.road.lane_width, w.road.total_lanes, w.road.length)
+        kw = dict(periodic=w.road.periodic, length=tr.length, heading=tr.heading)
+        for got, want in ((res, lane_index(*args, reserved_lane=w._reservations(), **kw)),
+                          (body, lane_index(*args, reserved_lane=None, **kw))):
+            for name in ("keys", "rows", "lanes", "x"):
+                np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+            assert got.offset == want.offset
+        if (w._reservations() >= 0).any():
+            separate += 1
+            assert res is not body
+        else:
+            shared += 1
+            assert res is body
+    assert shared > 10 and separate > 10

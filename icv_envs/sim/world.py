@@ -97,10 +97,15 @@ class World:
             self._gaps = None
         k = 0 if reserved else 1
         if self._index[k] is None:
+            res = self._reservations()
+            other = self._index[1 - k]
+            if other is not None and not (res >= 0).any():
+                # nobody holds a reservation: the two views are the same index
+                self._index[k] = other
+                return other
             cx, cy = self.traffic.center()
             args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
-            self._index[k] = lane_index(*args, periodic=self.road.periodic,
-                                        reserved_lane=self._reservations() if reserved else None,
+            self._index[k] = lane_index(*args, periodic=self.road.periodic, reserved_lane=res if reserved else None,
                                         length=self.traffic.length, heading=self.traffic.heading)
         return self._index[k]
 
