@@ -1348,3 +1348,52 @@ def test_expert_safety_cap_equals_the_array_code(module, config, random_share, s
         assert seen["must_leave"] > 0
     if "obstacle" in config or config.get("scenario") == "lane-drop":
         assert seen["end"] > 0
+
+
+def test_each_kernel_is_specialised_once_in_a_run():
+    """A run of every env (and the batch, with and without the expert) calls
+    each compiled kernel with one set of argument types: a second
+    specialisation (say a read-only array where a writable one was passed
+    before) costs a compile, or a cache load of tens of milliseconds, in
+    every fresh process. Run in a fresh interpreter so other tests' calls
+    do not count."""
+    import subprocess
+    import sys
+
+    code = r'''
+import sys
+import numpy as np
+from icv_envs.vector import BatchedWorlds
+for expert in (False, True):
+    bw = BatchedWorlds(3, expert=expert, seed=0)
+    bw.reset()
+    out = None
+    for _ in range(60):
+        out = bw.step(out[5]["expert_actions"] if expert and out else np.zeros((3, bw.K, 2)))
+from icv_envs.envs import highway_formation_v0, highway_ramps_v0, intersection_v0
+for mod, cfg in [(highway_ramps_v0, dict(vgr=0.5, duration=60.0)), (intersection_v0, {}),
+                 (highway_formation_v0, dict(scenario="off-ramp")), (highway_formation_v0, dict(scenario="on-ramp"))]:
+    env = mod.parallel_env(**cfg)
+    env.reset(seed=1)
+    for _ in range(150):
+        if not env.agents:
+            break
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+from numba.core.registry import CPUDispatcher
+seen, multi = 0, []
+for name, m in list(sys.modules.items()):
+    if name.startswith("icv_envs"):
+        for k, v in vars(m).items():
+            if isinstance(v, CPUDispatcher) and v.__module__ == name and v.signatures:
+                seen += 1
+                if len(v.signatures) > 1:
+                    multi.append((name, k, [[str(t) for t in s] for s in v.signatures]))
+print(seen)
+print(multi)
+'''
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    seen, multi = out.stdout.strip().splitlines()[-2:]
+    assert int(seen) >= 20  # the kernels a run calls (25 when written)
+    assert multi == "[]", multi

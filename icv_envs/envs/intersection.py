@@ -379,7 +379,10 @@ class IntersectionEnv(IcvAgentsEnv):
         return float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE
 
     def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
-        return self._scales(False), self._scales(True)
+        out = self._scales(False), self._scales(True)
+        for arr in out:  # read-only, as the highway env's kept scales (one numba specialisation of kinematics_rows)
+            arr.flags.writeable = False
+        return out
 
     def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
         """The up-to-``K`` nearest vehicles (Euclidean distance of body centres) within ``pd``, nearest first."""

@@ -268,7 +268,9 @@ def _join_duration_banded(d0, v0, a0, accel, decel, jerk, t_min, v_lo, v_hi, cap
     (:func:`icv_envs.formation._kernels.join_search_banded`)."""
     n = d0.shape[0]
     cb = np.cbrt(60.0 * np.abs(d0) / jerk)
-    lo_v, hi_v = (np.ascontiguousarray(np.broadcast_to(np.asarray(b, dtype=np.float64), (n,))) for b in (v_lo, v_hi))
+    # always fresh writable copies: a read-only broadcast view (one member: already contiguous, so
+    # ascontiguousarray kept it) made numba compile or load a second, read-only specialisation
+    lo_v, hi_v = (np.array(np.broadcast_to(np.asarray(b, dtype=np.float64), (n,)), dtype=np.float64) for b in (v_lo, v_hi))
     return join_search_banded(cb, d0, v0, a0, float(accel), float(decel), float(jerk), float(t_min), float(grow),
                               float(cap), lo_v, hi_v, cap_free is not None,
                               float(JOIN_SEARCH_CAP if cap_free is None else cap_free), _PROFILE_SAMPLES)

@@ -65,6 +65,9 @@ from icv_envs.sim.join_plans import JoinPlans
 
 __all__ = ["FormationManager"]
 
+_EMPTY_READONLY = np.zeros(0)
+_EMPTY_READONLY.flags.writeable = False
+
 class FormationManager:
     def __init__(
         self,
@@ -526,8 +529,8 @@ class FormationManager:
         m = np.flatnonzero(traffic.group >= 0)
         if len(m):
             d, dv, dd = self._profile(traffic, m)
-        else:
-            d = dv = dd = np.zeros(0)
+        else:  # read-only like the profiles (one numba specialisation of reference_rows)
+            d = dv = dd = _EMPTY_READONLY
         x_ref, lane_ref, v_ref, member, a_ref = reference_rows(
             traffic.group, traffic.tgt_lane, traffic.tgt_behind, self._anchor_lut(), m, d, dv, dd, float(self.speed),
             -1.0 if traffic.period is None else float(traffic.period))
