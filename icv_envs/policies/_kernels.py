@@ -23,7 +23,7 @@ import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.neighbours import leader_rows
-from icv_envs.sim._kernels.physics import interval_ends, npy_mod
+from icv_envs.sim._kernels.physics import interval_ends_at
 
 __all__ = ["corridor_index", "normalised_actions", "repair_order", "safety_cap"]
 
@@ -225,20 +225,6 @@ def normalised_actions(a, phi, a_max, a_min, steer_max):
 
 
 @nb.njit(cache=True)
-def _ends(lanes, x, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
-    """``RoadLayout.interval_end(lanes, x)`` (``period < 0``: a straight road)."""
-    if period < 0.0:
-        return interval_ends(lanes, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
-    xm = np.empty(x.shape[0])
-    for i in range(x.shape[0]):
-        xm[i] = npy_mod(x[i], period)
-    out = interval_ends(lanes, xm, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
-    for i in range(x.shape[0]):
-        out[i] = out[i] + (x[i] - xm[i])
-    return out
-
-
-@nb.njit(cache=True)
 def safety_cap(keys, i_rows, i_lanes, i_x, offset, cx, v, length, lc_lane, lane, desired, member, exiting, acc,
                period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, lc_min_length, member_time_gap, idm_T,
                a_max, idm_s0, idm_denom, clip_lo, clip_hi):
@@ -279,8 +265,8 @@ def safety_cap(keys, i_rows, i_lanes, i_x, offset, cx, v, length, lc_lane, lane,
     for q in range(nq):
         xq[q] = cx[q_rows[q]]
         dq[q] = desired[q_rows[q]]
-    end = _ends(q_lanes, xq, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
-    end_desired = _ends(dq, xq, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    end = interval_ends_at(q_lanes, xq, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    end_desired = interval_ends_at(dq, xq, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     cap = np.full(n, np.inf)
     for q in range(nq):
         r = q_rows[q]

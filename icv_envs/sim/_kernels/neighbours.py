@@ -9,6 +9,8 @@ import math
 import numba as nb
 import numpy as np
 
+from icv_envs.sim._kernels.physics import lane_of1
+
 __all__ = ["own_lane_gap_rows", "sweep_candidates", "collision_pairs", "build_lane_index", "leader_rows"]
 
 
@@ -247,22 +249,30 @@ def leader_rows(keys, i_rows, i_lanes, i_x, offset, q_rows, q_lanes, cx):
     nq = q_rows.shape[0]
     out = np.full(nq, -1, dtype=np.int64)
     xo = np.full(nq, np.inf)
-    nk = keys.shape[0]
-    if nk == 0:
+    if keys.shape[0] == 0:
         return out, xo
     for q in range(nq):
-        ql = q_lanes[q]
-        qr = q_rows[q]
-        pos = np.searchsorted(keys, ql * offset + cx[qr])
-        for j in range(3):
-            p = pos + j
-            if p >= nk or i_lanes[p] != ql:
-                break
-            if i_rows[p] != qr:
-                out[q] = i_rows[p]
-                xo[q] = i_x[p]
-                break
+        p = _leader_entry(keys, i_rows, i_lanes, offset, q_lanes[q], q_rows[q], cx[q_rows[q]])
+        if p >= 0:
+            out[q] = i_rows[p]
+            xo[q] = i_x[p]
     return out, xo
+
+
+@nb.njit(cache=True)
+def _leader_entry(keys, i_rows, i_lanes, offset, ql, qr, x):
+    """The index entry of row ``qr``'s leader in lane ``ql`` from position
+    ``x``: the first entry at or after ``ql * offset + x`` that is in lane
+    ``ql`` and is not ``qr`` itself (at most 3 entries looked at), or -1."""
+    nk = keys.shape[0]
+    pos = np.searchsorted(keys, ql * offset + x)
+    for j in range(3):
+        p = pos + j
+        if p >= nk or i_lanes[p] != ql:
+            return -1
+        if i_rows[p] != qr:
+            return p
+    return -1
 
 
 @nb.njit(cache=True)
@@ -275,22 +285,12 @@ def own_lane_gap_rows(keys, i_rows, i_lanes, i_x, offset, cx, cy, length, lane_w
     n = cx.shape[0]
     gap = np.full(n, np.inf)
     lead = np.full(n, -1, dtype=np.int64)
-    nk = keys.shape[0]
-    if nk == 0:
+    if keys.shape[0] == 0:
         return gap, lead
-    hi = total_lanes - 1
     for q in range(n):
-        lf = np.rint(cy[q] / lane_width)
-        lf = min(max(lf, 0.0), float(hi))
-        ql = np.int64(lf)
-        pos = np.searchsorted(keys, ql * offset + cx[q])
-        for j in range(3):
-            p = pos + j
-            if p >= nk or i_lanes[p] != ql:
-                break
-            if i_rows[p] != q:
-                r = i_rows[p]
-                lead[q] = r
-                gap[q] = i_x[p] - cx[q] - 0.5 * (length[r] + length[q])
-                break
+        p = _leader_entry(keys, i_rows, i_lanes, offset, lane_of1(cy[q], lane_width, total_lanes), q, cx[q])
+        if p >= 0:
+            r = i_rows[p]
+            lead[q] = r
+            gap[q] = i_x[p] - cx[q] - 0.5 * (length[r] + length[q])
     return gap, lead

@@ -9,7 +9,7 @@ import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.formation import _wrap1
-from icv_envs.sim._kernels.physics import interval_ends, npy_mod
+from icv_envs.sim._kernels.physics import interval_ends_at, lane_of1, npy_mod
 
 __all__ = ["nearest_along_road", "kinematics_rows", "formation_feature_rows", "formation_reward_terms"]
 
@@ -130,8 +130,6 @@ def formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member
     n = cx.shape[0]
     F = np.zeros((n, 13))
     lane = np.empty(n, dtype=np.int64)
-    xm = np.empty(n)
-    hi = float(total_lanes - 1)
     for i in range(n):
         F[i, 0] = 1.0
         F[i, 1] = cx[i]
@@ -146,13 +144,10 @@ def formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member
             F[i, 9] = v_ref[i] - speed[i]
             F[i, 10] = 1.0
         F[i, 11] = 1.0
-        lf = np.rint(cy[i] / lane_width)
-        lane[i] = np.int64(min(max(lf, 0.0), hi))
-        xm[i] = npy_mod(cx[i], period) if period > 0.0 else cx[i]
-    ends = interval_ends(lane, xm, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+        lane[i] = lane_of1(cy[i], lane_width, total_lanes)
+    ends = interval_ends_at(lane, cx, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     for i in range(n):
-        e = ends[i] + (cx[i] - xm[i]) if period > 0.0 else ends[i]
-        u = (e - cx[i]) / 200.0
+        u = (ends[i] - cx[i]) / 200.0
         if u == u:
             u = min(max(u, 0.0), 1.0)
         F[i, 12] = u

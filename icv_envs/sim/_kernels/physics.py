@@ -10,7 +10,8 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["npy_mod", "kinematic_substep", "road_check", "interval_ends", "lanes_available"]
+__all__ = ["npy_mod", "lane_of1", "kinematic_substep", "road_check", "interval_ends", "interval_ends_at",
+           "lanes_available"]
 
 
 @nb.njit(cache=True, inline="always")
@@ -110,6 +111,15 @@ def _available1(ln, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
 
 
 @nb.njit(cache=True)
+def lane_of1(y, lane_width, total_lanes):
+    """``RoadLayout.lane_of`` of one lateral position: ``rint(y /
+    lane_width)`` clipped to ``[0, total_lanes - 1]``."""
+    li = np.rint(y / lane_width)
+    li = min(max(li, 0.0), total_lanes - 1.0)
+    return np.int64(li)
+
+
+@nb.njit(cache=True)
 def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, edge_margin,
                road_end):
     """Per vehicle: the lane whose centre is nearest
@@ -129,9 +139,7 @@ def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_
     n_off = 0
     n_end = 0
     for i in range(n):
-        li = np.rint(cy[i] / lane_width)
-        li = min(max(li, 0.0), total_lanes - 1.0)
-        ln = np.int64(li)
+        ln = lane_of1(cy[i], lane_width, total_lanes)
         lane[i] = ln
         x = cx[i]
         ok = _available1(ln, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
@@ -184,4 +192,21 @@ def lanes_available(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     out = np.empty(n, dtype=np.bool_)
     for i in range(n):
         out[i] = _available1(lane[i], x[i], n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    return out
+
+
+@nb.njit(cache=True)
+def interval_ends_at(lane, x, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """``RoadLayout.interval_end(lane, x)`` compiled: :func:`interval_ends`
+    at ``mod(x, period)``, moved back by ``x - mod(x, period)`` on a ring
+    (``period < 0``: a straight road, ``x`` as it is)."""
+    if period < 0.0:
+        return interval_ends(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    n = x.shape[0]
+    xm = np.empty(n)
+    for i in range(n):
+        xm[i] = npy_mod(x[i], period)
+    out = interval_ends(lane, xm, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    for i in range(n):
+        out[i] = out[i] + (x[i] - xm[i])
     return out
