@@ -97,8 +97,9 @@ class World:
             self._gaps = None
         k = 0 if reserved else 1
         if self._index[k] is None:
-            res = self._reservations()
             other = self._index[1 - k]
+            # the reservations: for the reserved view, or to see whether the view already built serves
+            res = self._reservations() if reserved or other is not None else None
             if other is not None and not (res >= 0).any():
                 # nobody holds a reservation: the two views are the same index
                 self._index[k] = other
