@@ -68,6 +68,7 @@ __all__ = ["FormationManager"]
 _EMPTY_READONLY = np.zeros(0)
 _EMPTY_READONLY.flags.writeable = False
 
+
 class FormationManager:
     def __init__(
         self,
