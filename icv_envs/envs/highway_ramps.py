@@ -408,7 +408,7 @@ class HighwayRampsEnv(HighwayFormationEnv):
                 "collisions": int(st["collisions"]),
                 "stopped": int((tr.speed < 0.1).sum()),
                 "jammed": int(st["jammed"]),
-                "formations": len(w.manager.anchor),
+                "formations": w.manager.n_formations,
             }
         )
         self._next_sample += float(c["sample_period"])

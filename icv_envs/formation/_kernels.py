@@ -30,7 +30,7 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["join_search", "join_search_banded", "quintic_rows"]
+__all__ = ["join_search", "join_search_banded", "plan_rows", "quintic_rows"]
 
 
 @nb.njit(cache=True)
@@ -150,3 +150,36 @@ def quintic_rows(t, t3, t4, t5, vid, d0, v0, a0, c3, c4, c5, at, d_out, v_out, a
         d_out[j] = d + v * ti + 0.5 * a * t2 + p3 * t3[i] + p4 * t4[i] + p5 * t5[i]
         v_out[j] = v + a * ti + 3.0 * p3 * t2 + 4.0 * p4 * t3[i] + 5.0 * p5 * t4[i]
         a_out[j] = a + 6.0 * p3 * ti + 12.0 * p4 * t2 + 20.0 * p5 * t3[i]
+
+
+@nb.njit(cache=True)
+def plan_rows(vid, time, T, T3, T4, T5, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab,
+              c5_tab, fd_tab, fv_tab, fa_tab, stamp_tab, count):
+    """Store new join plans (:meth:`icv_envs.sim.join_plans.JoinPlans.plan`
+    after its duration search) in the tables indexed by vehicle id: start
+    ``time``, duration ``T``, initial state ``(d0, v0, a0)``, the quintic's
+    coefficients (``control._quintic_coeffs``: its products, sums and
+    divisions in its order, from the powers ``T3 = T**3``, ``T4``, ``T5``
+    taken by numpy; ``T**2`` is numpy's exact square ``T * T``), the
+    profile's values at ``T`` (:func:`quintic_rows` at ``t = T``) and the
+    stamp ``count + len(vid)`` (the count of plans once these are made).
+    With a repeated id the last plan wins, as with numpy's fancy
+    assignment.
+    Exactly rounded arithmetic only: bit for bit the numpy code's values
+    (``tests/test_kernels.py``)."""
+    stamp = count + vid.shape[0]
+    for i in range(vid.shape[0]):
+        k = vid[i]
+        Ti, d, v, a = T[i], d0[i], v0[i], a0[i]
+        t2, t3, t4, t5 = Ti * Ti, T3[i], T4[i], T5[i]
+        p3 = -(20.0 * d + 12.0 * v * Ti + 3.0 * a * t2) / (2.0 * t3)
+        p4 = (30.0 * d + 16.0 * v * Ti + 3.0 * a * t2) / (2.0 * t4)
+        p5 = -(12.0 * d + 6.0 * v * Ti + a * t2) / (2.0 * t5)
+        t0_tab[k], T_tab[k] = time, Ti
+        d0_tab[k], v0_tab[k], a0_tab[k] = d, v, a
+        c3_tab[k], c4_tab[k], c5_tab[k] = p3, p4, p5
+        # quintic_rows at t = T
+        fd_tab[k] = d + v * Ti + 0.5 * a * t2 + p3 * t3 + p4 * t4 + p5 * t5
+        fv_tab[k] = v + a * Ti + 3.0 * p3 * t2 + 4.0 * p4 * t3 + 5.0 * p5 * t4
+        fa_tab[k] = a + 6.0 * p3 * Ti + 12.0 * p4 * t2 + 20.0 * p5 * t3
+        stamp_tab[k] = stamp

@@ -45,7 +45,6 @@ Decisions the paper leaves open (docs/decisions.md), each a config value:
 
 from __future__ import annotations
 
-import itertools
 
 import numpy as np
 
@@ -110,16 +109,23 @@ class FormationManager:
         self.max_anchor_lead = float(max_anchor_lead)
         self.stall_error = float(stall_error)
         self.stall_time = float(stall_time)
-        self.stalled_for: dict[int, float] = {}
         self.create_new = bool(create)
         self.new_formation_gap = float(new_formation_gap)
         self.formation_gap = float(formation_gap)
         self.anchor_brake = float(anchor_brake)
         self.allowed_lanes = None if allowed_lanes is None else tuple(int(v) for v in allowed_lanes)
-        self.anchor: dict[int, float] = {}
-        self.lanes: dict[int, tuple[int, ...]] = {}
-        self.count: dict[int, int] = {}
-        self.length: dict[int, float] = {}
+        # the formations' state, in arrays indexed by formation id (one entry
+        # per id ever made, grown as ids appear): front target (``nan``: no
+        # such formation, or one that has dissolved), length, member count,
+        # lane set as a bit set, how long it has been stalled; the lane sets
+        # as tuples in ``_lanes`` (see the read-only dict views ``anchor``,
+        # ``length``, ``count``, ``lanes``, ``stalled_for``)
+        self._A = np.full(16, np.nan)
+        self._L = np.zeros(16)
+        self._cnt = np.zeros(16, dtype=np.int64)
+        self._bits = np.zeros(16, dtype=np.int64)
+        self._stall = np.zeros(16)
+        self._lanes: dict[int, tuple[int, ...]] = {}
         self.next_gid = 0
         self.reforms = 0
         self.profile_limits = dict(accel=float(profile_accel), decel=float(profile_decel), jerk=float(profile_jerk),
@@ -135,6 +141,59 @@ class FormationManager:
         # per vehicle id: the join plans and the slot each was made for (sim/join_plans.py)
         self._plans = JoinPlans(self.profile_limits, self.profile_speeds, self.speed)
 
+    # ------------------------------------------------- formation state views
+    def _gids(self) -> np.ndarray:
+        """Ids of the live formations, ascending (the order they were made)."""
+        return np.flatnonzero(~np.isnan(self._A[:self.next_gid]))
+
+    def _new_gid(self, anchor: float) -> int:
+        """A new formation id with front target ``anchor``, no members yet."""
+        gid = self.next_gid
+        self.next_gid += 1
+        if self.next_gid + 1 > len(self._A):  # room for the id and the lookup table's extra entry (_anchor_lut)
+            pad = len(self._A)
+            self._A = np.concatenate([self._A, np.full(pad, np.nan)])
+            self._L, self._stall = (np.concatenate([x, np.zeros(pad)]) for x in (self._L, self._stall))
+            self._cnt, self._bits = (np.concatenate([x, np.zeros(pad, dtype=np.int64)]) for x in (self._cnt, self._bits))
+        self._A[gid] = anchor
+        self._L[gid] = 0.0
+        self._cnt[gid] = 0
+        self._stall[gid] = 0.0
+        return gid
+
+    def _view(self, arr: np.ndarray) -> dict:
+        return dict(zip(self._gids().tolist(), arr[self._gids()].tolist()))
+
+    @property
+    def anchor(self) -> dict[int, float]:
+        """Front target by live formation id (a snapshot)."""
+        return self._view(self._A)
+
+    @property
+    def length(self) -> dict[int, float]:
+        """Length (front target to rearmost target) by live formation id (a snapshot)."""
+        return self._view(self._L)
+
+    @property
+    def count(self) -> dict[int, int]:
+        """Member count by live formation id, as of the last re-forming (a snapshot)."""
+        return self._view(self._cnt)
+
+    @property
+    def stalled_for(self) -> dict[int, float]:
+        """Seconds each live formation has been stalled (a snapshot)."""
+        return self._view(self._stall)
+
+    @property
+    def lanes(self) -> dict[int, tuple[int, ...]]:
+        """Lane set by live formation id (a snapshot)."""
+        return {g: self._lanes[g] for g in self._gids().tolist() if g in self._lanes}
+
+    @property
+    def n_formations(self) -> int:
+        """How many formations there are."""
+        return len(self._gids())
+
     @property
     def plans(self) -> int:
         """How many join plans were made so far."""
@@ -146,6 +205,13 @@ class FormationManager:
         if self.allowed_lanes is not None:
             lanes = [lane for lane in lanes if lane in self.allowed_lanes]
         return tuple(lanes)
+
+    def _lane_bitset(self, lanes: tuple) -> int:
+        """A lane set as a bit set (bit ``l`` for lane ``l``), memoised."""
+        b = self._bits_memo.get(lanes)
+        if b is None:
+            b = self._bits_memo[lanes] = sum(1 << lane for lane in lanes)
+        return b
 
     def _targets(self, n: int, n_lanes: int) -> tuple[np.ndarray, np.ndarray]:
         """:func:`~icv_envs.formation.targets.formation_targets` of this
@@ -168,12 +234,10 @@ class FormationManager:
         return self._anchor_lut()[traffic.group[rows]] - traffic.tgt_behind[rows]
 
     def _anchor_lut(self) -> np.ndarray:
-        """Front target by formation id (``nan`` for ids with none)."""
-        lut = np.full(self.next_gid + 1, np.nan)
-        if self.anchor:
-            lut[np.fromiter(self.anchor.keys(), dtype=np.int64, count=len(self.anchor))] = np.fromiter(
-                self.anchor.values(), dtype=np.float64, count=len(self.anchor))
-        return lut
+        """Front target by formation id (``nan`` for ids with none), one
+        entry per id ever made and one more (a view of the state: read it,
+        do not keep it)."""
+        return self._A[:self.next_gid + 1]
 
     def _plan(self, traffic, road, rows, cx) -> np.ndarray:
         """Plan references for members ``rows`` from their current state
@@ -195,11 +259,8 @@ class FormationManager:
         rows = np.asarray(rows, dtype=np.int64)
         cx, _ = traffic.center()
         self._version += 1
-        gid = self.next_gid
-        self.next_gid += 1
-        self.anchor[gid] = float(cx[rows].max() if anchor is None else anchor)
+        gid = self._new_gid(float(cx[rows].max() if anchor is None else anchor))
         traffic.group[rows] = gid
-        self.length[gid] = 0.0
         self._reform(traffic, road, gid, cx)
         return gid
 
@@ -208,24 +269,26 @@ class FormationManager:
         drivable lanes and assign them by minimum total cost F_w."""
         rows = np.flatnonzero(traffic.group == gid)
         n = len(rows)
-        self.count[gid] = n
+        self._cnt[gid] = n
         if n == 0:
             return
-        anchor = self.anchor[gid]
+        anchor = float(self._A[gid])
+        old_length = float(self._L[gid])
         # lanes over the window the *new* formation will span
-        lanes = self._lane_set(road, anchor, self.length[gid])
+        lanes = self._lane_set(road, anchor, old_length)
         if not lanes:
             lanes = (0,)
         for _ in range(2):  # the length depends on the lane count and vice versa
             tx, tl = self._targets(n, len(lanes))
             length = float(tx.max()) if n else 0.0
-            new = self._lane_set(road, anchor, max(length, self.length[gid])) or lanes
+            new = self._lane_set(road, anchor, max(length, old_length)) or lanes
             if new == lanes:
                 break
             lanes = new
         tx, tl = self._targets(n, len(lanes))
-        self.lanes[gid] = lanes
-        self.length[gid] = float(tx.max())
+        self._lanes[gid] = lanes
+        self._bits[gid] = self._lane_bitset(lanes)
+        self._L[gid] = float(tx.max())
         # vehicles in the formation frame: metres behind the front target and
         # a (fractional) formation lane id interpolated over the lane set
         lanes_arr = np.asarray(lanes, dtype=np.float64)
@@ -298,10 +361,10 @@ class FormationManager:
         changed: set[int] = set()
         self._version += 1
         self.time += dt
-        gids = list(self.anchor)
+        g_arr = self._gids()
+        gids = g_arr.tolist()
         if gids:  # one array operation for all front targets
-            moved = road.mod(np.array([self.anchor[g] for g in gids]) + self.speed * dt)
-            self.anchor.update(zip(gids, moved.tolist()))
+            self._A[g_arr] = road.mod(self._A[g_arr] + self.speed * dt)
         if traffic.n and road.n_exits:
             # members about to exit leave (the vehicle becomes free and heads for its ramp)
             rows = np.flatnonzero((traffic.exit >= 0) & (traffic.group >= 0))
@@ -324,31 +387,30 @@ class FormationManager:
         counts = np.bincount(traffic.group[traffic.group >= 0], minlength=self.next_gid) if traffic.n else np.zeros(
             self.next_gid, dtype=np.int64
         )
-        for gid in gids:
-            if counts[gid] != self.count.get(gid, 0):
-                changed.add(gid)  # a member crashed, left the road or left
+        # a member crashed, left the road or left
+        changed.update(g_arr[counts[g_arr] != self._cnt[g_arr]].tolist())
         free = self._eligible_free(traffic, road, cx) if traffic.n else np.zeros(0, dtype=np.int64)
         # joins
         if len(free) and gids:
             # which free vehicle is within reach of which formation, all pairs
             # at once (the same element-wise arithmetic as one formation at a
             # time); then the formations in order take the vehicles still free
-            sizes = np.array([int(counts[g]) if g < len(counts) else 0 for g in gids], dtype=np.int64)
+            sizes = counts[g_arr]  # (every id is below next_gid, the bincount's minimum length)
             open_ = (sizes > 0) & (sizes < self.max_size)
             if open_.any():
                 ko = np.flatnonzero(open_)
-                A = np.array([self.anchor[gids[k]] for k in ko.tolist()])
-                Lf = np.array([self.length[gids[k]] for k in ko.tolist()])
+                A = self._A[g_arr[ko]]
+                Lf = self._L[g_arr[ko]]
                 rel = wrap(cx[free][None, :] - A[:, None])
                 reach = (rel >= -Lf[:, None] - self.join_distance) & (rel <= self.join_distance)
                 still = np.ones(len(free), dtype=bool)
                 for q in np.flatnonzero(reach.any(axis=1)).tolist():
                     gid = gids[int(ko[q])]
-                    near = free[reach[q] & still][: self.max_size - int(sizes[ko[q]])]
-                    if len(near):
-                        traffic.group[near] = gid
+                    take = np.flatnonzero(reach[q] & still)[: self.max_size - int(sizes[ko[q]])]
+                    if len(take):
+                        traffic.group[free[take]] = gid
                         changed.add(gid)
-                        still &= ~np.isin(free, near)
+                        still[take] = False  # (the rows in ``free`` are distinct)
                         if not still.any():
                             break
                 free = free[still]
@@ -360,32 +422,26 @@ class FormationManager:
                     continue
                 # clear of every formation (those founded in this loop included)
                 clear = True
-                if self.anchor:
-                    A = np.fromiter(self.anchor.values(), dtype=np.float64, count=len(self.anchor))
-                    Lf = np.array([self.length[g] for g in self.anchor])
-                    rel = wrap(cx[r] - A)
+                live = self._gids()
+                if len(live):
+                    rel = wrap(cx[r] - self._A[live])
+                    Lf = self._L[live]
                     clear = not bool(np.any((-Lf - self.new_formation_gap < rel) & (rel < self.new_formation_gap)))
                 if clear:
-                    gid = self.next_gid
-                    self.next_gid += 1
-                    self.anchor[gid] = float(cx[r])
-                    self.length[gid] = 0.0
-                    self.count[gid] = 0
+                    gid = self._new_gid(float(cx[r]))
                     traffic.group[r] = gid
                     changed.add(gid)
-        gids = list(self.anchor)
+        g_arr = self._gids()
         # front targets: behind the formation ahead, and not running away.
         # room[i]: distance from formation i's front target to the rear of
-        # the nearest formation ahead, minus formation_gap (vectorised)
-        room = {}
-        if len(gids) > 1:
-            A = np.array([self.anchor[g] for g in gids])
-            Lf = np.array([self.length[g] for g in gids])
+        # the nearest formation ahead, minus formation_gap (nan: none ahead)
+        room = np.full(len(g_arr), np.nan)
+        if len(g_arr) > 1:
             # (compiled: the pairwise differences row by row, sim/_kernels/formation.py)
-            nearest = room_ahead(A, Lf, float(road.length) if road.periodic else -1.0)
+            nearest = room_ahead(self._A[g_arr], self._L[g_arr], float(road.length) if road.periodic else -1.0)
             fin = np.isfinite(nearest)
-            room = dict(zip(itertools.compress(gids, fin.tolist()), (nearest[fin] - self.formation_gap).tolist()))
-        self._hold_targets(traffic, road, gids, changed, room, cx, dt)
+            room[fin] = nearest[fin] - self.formation_gap
+        self._hold_targets(traffic, road, g_arr, changed, room, cx, dt)
         for gid in sorted(changed):
             self._reform(traffic, road, gid, cx)
         # members that fell off their reference (held back by traffic) re-plan
@@ -396,14 +452,14 @@ class FormationManager:
             off = np.abs(wrap(cx[m] - (self._slot_x(traffic, m) + d))) > self.replan_error
             if off.any():
                 self._plan(traffic, road, m[off], cx)
-        for gid in list(self.anchor):
-            if self.count.get(gid, 0) == 0:
-                for d in (self.anchor, self.lanes, self.count, self.length, self.stalled_for):
-                    d.pop(gid, None)
+        g_arr = self._gids()
+        for gid in g_arr[self._cnt[g_arr] == 0].tolist():  # formations without members dissolve
+            self._A[gid] = np.nan
+            self._lanes.pop(gid, None)
         self._version += 1
         return sorted(changed)
 
-    def _hold_targets(self, traffic, road, gids, changed: set, room: dict, cx, dt: float) -> None:
+    def _hold_targets(self, traffic, road, g_arr: np.ndarray, changed: set, room: np.ndarray, cx, dt: float) -> None:
         """Per formation (all at once, as arrays): the front target slows
         down (by at most ``anchor_brake`` m/s, so members see a smooth
         reference) when it leads its best-placed member by more than
@@ -415,19 +471,20 @@ class FormationManager:
         per-formation pass (lead, brake, stall test) and the lane windows run
         in :mod:`icv_envs.sim._kernels`; the arithmetic is the scalar code's,
         element by element."""
-        if not traffic.n or not gids:
+        if not traffic.n or not len(g_arr):
             return
         grp = traffic.group
         m = np.flatnonzero(grp >= 0)
         if not len(m):
             return
-        G = len(gids)
-        A = np.array([self.anchor[g] for g in gids])
-        Lf = np.array([self.length[g] for g in gids])
-        chg = np.array([g in changed for g in gids])
-        r = np.array([room.get(g, np.nan) for g in gids])
-        slot_of_gid = np.full(max(gids) + 1, -1, dtype=np.int64)
-        slot_of_gid[gids] = np.arange(G)
+        G = len(g_arr)
+        A = self._A[g_arr]
+        chg = np.zeros(self.next_gid, dtype=bool)
+        if changed:
+            chg[list(changed)] = True
+        chg = chg[g_arr]
+        slot_of_gid = np.full(int(g_arr[-1]) + 1, -1, dtype=np.int64)
+        slot_of_gid[g_arr] = np.arange(G)
         # the lead of the front target over its members is measured against
         # each member's REFERENCE (slot + join profile), not its slot: a member
         # on its join plan is meant to be behind its slot, and holding the
@@ -440,40 +497,33 @@ class FormationManager:
         # the lead, the brake and the stall test per formation, compiled
         # (icv_envs.sim._kernels.hold_targets: the arithmetic of the array
         # code it replaced, element by element)
-        has, brake, late = hold_targets(grp, slot_of_gid, A, chg, r, traffic.tgt_behind, cx, d_ref, traffic.vid,
+        has, brake, late = hold_targets(grp, slot_of_gid, A, chg, room, traffic.tgt_behind, cx, d_ref, traffic.vid,
                                         self._plans.deadline, float(self.time), float(self.max_anchor_lead),
                                         -self.anchor_brake * dt, float(self.stall_error),
                                         float(road.length) if road.periodic else -1.0)
         if not has.any():
             return
         if brake.any():
-            self.anchor.update(zip([gids[k] for k in np.flatnonzero(brake)], A[brake].tolist()))
+            self._A[g_arr[brake]] = A[brake]
         check = np.flatnonzero(has & ~chg)
         if len(check):
-            bits = self._lane_bits(road, A[check], Lf[check])
-            memo = self._bits_memo
-            want = np.empty(len(check), dtype=np.int64)
-            for q, k in enumerate(check.tolist()):
-                lanes = self.lanes[gids[k]]
-                b = memo.get(lanes)
-                if b is None:
-                    b = memo[lanes] = sum(1 << lane for lane in lanes)
-                want[q] = b
-            for k in check[bits != want].tolist():
-                changed.add(gids[k])
+            g = g_arr[check]
+            bits = self._lane_bits(road, A[check], self._L[g])
+            changed.update(g[bits != self._bits[g]].tolist())
         # a member far from its target AFTER its plan should have brought it
         # there (the join profile's deadline) counts as stalled (``late``)
-        for k in np.flatnonzero(has).tolist():
-            gid = gids[k]
-            if gid in changed:
-                self.stalled_for[gid] = 0.0
-            elif late[k]:
-                self.stalled_for[gid] = self.stalled_for.get(gid, 0.0) + dt
-                if self.stalled_for[gid] >= self.stall_time:
-                    changed.add(gid)
-                    self.stalled_for[gid] = 0.0
-            else:
-                self.stalled_for[gid] = 0.0
+        # for ``stall_time`` in a row: the formation re-forms (and the count
+        # restarts); a formation that re-forms anyway restarts it too
+        g = g_arr[has]
+        inch = np.zeros(self.next_gid, dtype=bool)
+        inch[list(changed)] = True
+        lt = late[has] & ~inch[g]
+        stall = np.where(lt, self._stall[g] + dt, 0.0)
+        due = lt & (stall >= self.stall_time)
+        if due.any():
+            changed.update(g[due].tolist())
+            stall[due] = 0.0
+        self._stall[g] = stall
 
     def _lane_bits(self, road, anchors: np.ndarray, lengths: np.ndarray) -> np.ndarray:
         """:meth:`_lane_set` for many formations at once, as bit sets."""
@@ -556,6 +606,6 @@ class FormationManager:
 
     def summary(self) -> list[dict]:
         return [
-            {"id": g, "anchor": self.anchor[g], "lanes": list(self.lanes.get(g, ())), "members": self.count.get(g, 0)}
-            for g in sorted(self.anchor)
+            {"id": g, "anchor": float(self._A[g]), "lanes": list(self._lanes.get(g, ())), "members": int(self._cnt[g])}
+            for g in self._gids().tolist()
         ]

@@ -16,8 +16,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.formation._kernels import quintic_rows
-from icv_envs.formation.control import _join_duration_banded, _quintic_coeffs, join_profile
+from icv_envs.formation._kernels import join_search_banded, plan_rows, quintic_rows
+from icv_envs.formation.control import (
+    _PROFILE_SAMPLES,
+    JOIN_GROW,
+    JOIN_SEARCH_CAP,
+    _quintic_coeffs,
+    join_profile,
+)
 
 __all__ = ["JoinPlans", "JOIN_MAX_DURATION"]
 
@@ -48,6 +54,7 @@ class JoinPlans:
         self.count = 0  # plans made: which cached profiles a plan makes stale (profile)
         self._cache = None  # (key, count when computed, profiles): see profile
         self._cap = 0
+        self._bands: dict[int, tuple] = {}  # member count -> speed band arrays (_band)
         self.slot_gid = np.zeros(0, dtype=np.int64)  # the formation a plan was made for (-1: none)
         self.stamp = np.zeros(0, dtype=np.int64)  # the count of plans when each was made
         for name in self.FLOATS:
@@ -89,20 +96,29 @@ class JoinPlans:
         # (one compiled search for both; unchecked: d0, v0, a0 are finite
         # float64 arrays, the limits were checked when the manager was made)
         d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
-        T = _join_duration_banded(d0, v0, a0, lim["accel"], lim["decel"], lim["jerk"], lim["t_min"],
-                                  self.speeds[0] - self.speed, self.speeds[1] - self.speed, JOIN_MAX_DURATION)
-        self.t0[vid], self.T[vid] = time, T
-        self.d0[vid], self.v0[vid], self.a0[vid] = d0, v0, a0
-        # the polynomial's coefficients, fixed for the plan (_eval)
-        self.c3[vid], self.c4[vid], self.c5[vid] = _quintic_coeffs(T, d0, v0, a0)
-        # the profile's values once it has ended (evaluated at t = T, where
-        # every later time is clamped to: the same numbers profile() would get;
-        # the quintic at t = T from the stored coefficients, written in place)
-        quintic_rows(T, T ** 3, T ** 4, T ** 5, vid, self.d0, self.v0, self.a0, self.c3, self.c4, self.c5, vid,
-                     self.fd, self.fv, self.fa)
+        # (control._join_duration_banded's search, called directly with the
+        # band as the plans' fixed arrays: the cube roots from numpy, the
+        # search compiled)
+        n = d0.shape[0]
+        cb = np.cbrt(60.0 * np.abs(d0) / lim["jerk"])
+        T = join_search_banded(cb, d0, v0, a0, float(lim["accel"]), float(lim["decel"]), float(lim["jerk"]),
+                               float(lim["t_min"]), JOIN_GROW, JOIN_MAX_DURATION, *self._band(n), True,
+                               JOIN_SEARCH_CAP, _PROFILE_SAMPLES)
+        # the plans, their coefficients and their values at t = T stored in
+        # one compiled pass (the powers from numpy, as _quintic_coeffs takes
+        # them; formation._kernels.plan_rows)
+        plan_rows(vid, float(time), T, T ** 3, T ** 4, T ** 5, d0, v0, a0, self.t0, self.T, self.d0, self.v0,
+                  self.a0, self.c3, self.c4, self.c5, self.fd, self.fv, self.fa, self.stamp, self.count)
         self.count += len(vid)
-        self.stamp[vid] = self.count
         return T
+
+    def _band(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """The speed band relative to the formation speed, as two arrays of
+        length ``n`` (kept between calls; the search only reads them)."""
+        b = self._bands.get(n)
+        if b is None:
+            b = self._bands[n] = (np.full(n, self.speeds[0] - self.speed), np.full(n, self.speeds[1] - self.speed))
+        return b
 
     def profile(self, vid: np.ndarray, time: float):
         """``join_profile`` ``(d, v, a)`` of vehicles ``vid`` at ``time``,
