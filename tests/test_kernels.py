@@ -9,6 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from icv_envs.sim._kernels import drivable_lane_bits, sweep_candidates
+from icv_envs.sim._kernels.formation import drivable_lane_bits1
+from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.road import Obstacle, RoadLayout
 from icv_envs.sim.traffic import LaneIndex, occupied_lanes, rect_overlap
 
@@ -150,6 +152,15 @@ def test_drivable_lane_bits_match_road(x0, length, periodic, seed):
                              np.asarray(road._ob_lo, dtype=np.float64), np.asarray(road._ob_hi, dtype=np.float64),
                              np.ones(4, dtype=bool))
     assert int(got[0]) == want
+    # the one-window kernel and the manager's lane set built on it (with an allowed-lane mask)
+    args = (road.lane_ends, np.asarray(road._ob_lane, dtype=np.int64), np.asarray(road._ob_lo, dtype=np.float64),
+            np.asarray(road._ob_hi, dtype=np.float64))
+    assert drivable_lane_bits1(x0, x1, periodic, L, *args, np.ones(4, dtype=bool)) == want
+    allowed = tuple(int(v) for v in np.flatnonzero(rng.random(5) < 0.6))  # lane 4 does not exist: ignored
+    fm = FormationManager(allowed_lanes=allowed, lookahead=float(rng.uniform(0.0, 400.0)))
+    anchor, flen = x0 + fm.lookahead * 0.5, float(rng.uniform(0.0, 200.0))
+    lanes = road.drivable_main_lanes(anchor - flen - 10.0, anchor + fm.lookahead)
+    assert fm._lane_set(road, anchor, flen) == tuple(lane for lane in lanes if lane in allowed)
 
 
 # ------------------------------------------- formation/_kernels.join_search
@@ -1397,3 +1408,37 @@ print(multi)
     seen, multi = out.stdout.strip().splitlines()[-2:]
     assert int(seen) >= 20  # the kernels a run calls (25 when written)
     assert multi == "[]", multi
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 40), seed=st.integers(0, 2**31), dup=st.booleans())
+def test_plan_rows_equal_numpy_plan(n, seed, dup):
+    """JoinPlans.plan's compiled store gives the tables the array code gave
+    (_quintic_coeffs, then quintic_rows at t = T from the stored
+    coefficients, then the stamps), bit for bit; a repeated id keeps its
+    last plan, as numpy's fancy assignment does."""
+    from icv_envs.formation._kernels import plan_rows, quintic_rows
+    from icv_envs.formation.control import _quintic_coeffs
+
+    rng = np.random.default_rng(seed)
+    m = n + 9
+    vid = rng.choice(m, n, replace=dup).astype(np.int64)
+    T = rng.uniform(0.5, 120.0, n)
+    d0, v0, a0 = rng.uniform(-300, 300, n), rng.uniform(-15, 15, n), rng.uniform(-6, 3, n)
+    time, count = float(rng.uniform(0, 500)), int(rng.integers(0, 1000))
+    names = ("t0", "T", "d0", "v0", "a0", "c3", "c4", "c5", "fd", "fv", "fa")
+    want = {k: rng.normal(size=m) for k in names}
+    got = {k: v.copy() for k, v in want.items()}
+    want_stamp = rng.integers(0, 50, m)
+    got_stamp = want_stamp.copy()
+    # the array code plan() ran before
+    want["t0"][vid], want["T"][vid] = time, T
+    want["d0"][vid], want["v0"][vid], want["a0"][vid] = d0, v0, a0
+    want["c3"][vid], want["c4"][vid], want["c5"][vid] = _quintic_coeffs(T, d0, v0, a0)
+    quintic_rows(T, T ** 3, T ** 4, T ** 5, vid, want["d0"], want["v0"], want["a0"], want["c3"], want["c4"],
+                 want["c5"], vid, want["fd"], want["fv"], want["fa"])
+    want_stamp[vid] = count + n
+    plan_rows(vid, time, T, T ** 3, T ** 4, T ** 5, d0, v0, a0, *(got[k] for k in names), got_stamp, count)
+    for k in names:
+        np.testing.assert_array_equal(got[k], want[k], err_msg=k)
+    np.testing.assert_array_equal(got_stamp, want_stamp)

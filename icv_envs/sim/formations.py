@@ -58,7 +58,7 @@ from icv_envs.formation.control import (
 )
 from icv_envs.formation.targets import formation_targets
 from icv_envs.sim._kernels import drivable_lane_bits, hold_targets
-from icv_envs.sim._kernels.formation import reference_rows, room_ahead
+from icv_envs.sim._kernels.formation import drivable_lane_bits1, reference_rows, room_ahead
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.sim.join_plans import JoinPlans
 
@@ -135,7 +135,8 @@ class FormationManager:
         self.time = 0.0
         self._version = 0  # bumped whenever the formation state may change (update, create): references' cache key
         self._refs_cache = None  # (key, references): see references
-        self._bits_memo: dict[tuple, int] = {}  # lane set -> bit set (_hold_targets)
+        self._bits_memo: dict[tuple, int] = {}  # lane set -> bit set (_lane_bitset)
+        self._lanes_memo: dict[int, tuple] = {}  # bit set -> lane set (_lane_set)
         self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
         self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_lane_bits)
         # per vehicle id: the join plans and the slot each was made for (sim/join_plans.py)
@@ -201,10 +202,32 @@ class FormationManager:
 
     # ---------------------------------------------------------------- helpers
     def _lane_set(self, road, anchor: float, length: float) -> tuple[int, ...]:
-        lanes = road.drivable_main_lanes(anchor - length - 10.0, anchor + self.lookahead)
-        if self.allowed_lanes is not None:
-            lanes = [lane for lane in lanes if lane in self.allowed_lanes]
-        return tuple(lanes)
+        """The main lanes drivable over the window a formation with front
+        target ``anchor`` and ``length`` spans (``road.drivable_main_lanes``
+        over ``[anchor - length - 10, anchor + lookahead]``) that this
+        manager may use, ascending: one compiled pass
+        (:func:`icv_envs.sim._kernels.formation.drivable_lane_bits1`), the
+        bit set decoded through a memo."""
+        bits = drivable_lane_bits1(anchor - length - 10.0, anchor + self.lookahead, bool(road.periodic),
+                                   float(road.length), road.lane_ends, np.asarray(road._ob_lane, dtype=np.int64),
+                                   np.asarray(road._ob_lo, dtype=np.float64), np.asarray(road._ob_hi, dtype=np.float64),
+                                   self._allowed(road.n_lanes))
+        lanes = self._lanes_memo.get(bits)
+        if lanes is None:
+            lanes = self._lanes_memo[bits] = tuple(lane for lane in range(bits.bit_length()) if bits >> lane & 1)
+        return lanes
+
+    def _allowed(self, n_lanes: int) -> np.ndarray:
+        """The lanes this manager may use, as a read-only mask over ``n_lanes`` main lanes."""
+        allowed = self._allowed_memo.get(n_lanes)
+        if allowed is None:  # (fixed per lane count)
+            allowed = np.ones(n_lanes, dtype=bool)
+            if self.allowed_lanes is not None:
+                allowed[:] = False
+                allowed[[lane for lane in self.allowed_lanes if lane < n_lanes]] = True
+            allowed.flags.writeable = False
+            self._allowed_memo[n_lanes] = allowed
+        return allowed
 
     def _lane_bitset(self, lanes: tuple) -> int:
         """A lane set as a bit set (bit ``l`` for lane ``l``), memoised."""
@@ -532,14 +555,7 @@ class FormationManager:
         L = float(road.length)
         span = np.minimum(np.maximum(x1 - x0, 0.0), L)
         a = np.mod(x0, L)
-        allowed = self._allowed_memo.get(road.n_lanes)
-        if allowed is None:  # the lanes this manager may use, as a mask (fixed per lane count)
-            allowed = np.ones(road.n_lanes, dtype=bool)
-            if self.allowed_lanes is not None:
-                allowed[:] = False
-                allowed[[lane for lane in self.allowed_lanes if lane < road.n_lanes]] = True
-            allowed.flags.writeable = False
-            self._allowed_memo[road.n_lanes] = allowed
+        allowed = self._allowed(road.n_lanes)
         ob_lane = np.asarray(road._ob_lane, dtype=np.int64)
         ob_lo = np.asarray(road._ob_lo, dtype=np.float64)
         ob_hi = np.asarray(road._ob_hi, dtype=np.float64)

@@ -9,7 +9,62 @@ import numpy as np
 
 from icv_envs.sim._kernels.physics import npy_mod
 
-__all__ = ["drivable_lane_bits", "hold_targets", "room_ahead"]
+__all__ = ["drivable_lane_bits", "drivable_lane_bits1", "hold_targets", "room_ahead"]
+
+
+@nb.njit(cache=True)
+def _window_bits(npc, p0s, p1s, lane_ends, ob_lane, ob_lo, ob_hi, allowed):
+    """Bit set of the lanes in ``allowed`` that do not end within and are
+    not blocked by an obstacle over any of the ``npc`` pieces
+    ``[p0s[p], p1s[p]]`` of a window (``drivable_main_lanes``' test)."""
+    bits = 0
+    for lane in range(lane_ends.shape[0]):
+        if not allowed[lane]:
+            continue
+        ok = True
+        for p in range(npc):
+            if not lane_ends[lane] > p1s[p]:
+                ok = False
+                break
+            for o in range(ob_lane.shape[0]):
+                if ob_lane[o] == lane and ob_hi[o] >= p0s[p] and ob_lo[o] <= p1s[p]:
+                    ok = False
+                    break
+            if not ok:
+                break
+        if ok:
+            bits |= 1 << lane
+    return bits
+
+
+@nb.njit(cache=True)
+def drivable_lane_bits1(x0, x1, periodic, length, lane_ends, ob_lane, ob_lo, ob_hi, allowed):
+    """:meth:`icv_envs.sim.road.RoadLayout.drivable_main_lanes` of one
+    window ``[x0, x1]``, as a bit set of the lanes also in ``allowed``: its
+    window pieces (on a ring the start folded with NumPy's ``mod``, the
+    span clipped to the road; on a straight road clipped at 0), then
+    :func:`_window_bits`."""
+    p0s = np.empty(2)
+    p1s = np.empty(2)
+    if periodic:
+        span = min(max(x1 - x0, 0.0), length)
+        a = npy_mod(x0, length)
+        if a + span <= length:
+            npc = 1
+            p0s[0] = a
+            p1s[0] = a + span
+        else:
+            npc = 2
+            p0s[0] = a
+            p1s[0] = length
+            p0s[1] = 0.0
+            p1s[1] = a + span - length
+    else:
+        npc = 1
+        lo = max(x0, 0.0)
+        p0s[0] = lo
+        p1s[0] = max(x1, lo)
+    return _window_bits(npc, p0s, p1s, lane_ends, ob_lane, ob_lo, ob_hi, allowed)
 
 
 @nb.njit(cache=True)
@@ -21,7 +76,6 @@ def drivable_lane_bits(a, span, x0, x1, periodic, length, lane_ends, ob_lane, ob
     computed by the caller with numpy, as the scalar code does); on a
     straight road ``x0``/``x1`` are the window ends."""
     G = a.shape[0]
-    n_lanes = lane_ends.shape[0]
     out = np.zeros(G, dtype=np.int64)
     p0s = np.empty(2)
     p1s = np.empty(2)
@@ -42,23 +96,7 @@ def drivable_lane_bits(a, span, x0, x1, periodic, length, lane_ends, ob_lane, ob
             lo = max(x0[g], 0.0)
             p0s[0] = lo
             p1s[0] = max(x1[g], lo)
-        bits = 0
-        for lane in range(n_lanes):
-            if not allowed[lane]:
-                continue
-            ok = True
-            for p in range(npc):
-                if not lane_ends[lane] > p1s[p]:
-                    ok = False
-                    break
-                for o in range(ob_lane.shape[0]):
-                    if ob_lane[o] == lane and ob_hi[o] >= p0s[p] and ob_lo[o] <= p1s[p]:
-                        ok = False
-                        break
-                if not ok:
-                    break
-            if ok:
-                bits |= 1 << lane
+        bits = _window_bits(npc, p0s, p1s, lane_ends, ob_lane, ob_lo, ob_hi, allowed)
         out[g] = bits
     return out
 
