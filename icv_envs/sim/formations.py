@@ -126,6 +126,7 @@ class FormationManager:
         self._bits = np.zeros(16, dtype=np.int64)
         self._stall = np.zeros(16)
         self._lanes: dict[int, tuple[int, ...]] = {}
+        self._live = None  # cached _gids()
         self.next_gid = 0
         self.reforms = 0
         self.profile_limits = dict(accel=float(profile_accel), decel=float(profile_decel), jerk=float(profile_jerk),
@@ -144,13 +145,19 @@ class FormationManager:
 
     # ------------------------------------------------- formation state views
     def _gids(self) -> np.ndarray:
-        """Ids of the live formations, ascending (the order they were made)."""
-        return np.flatnonzero(~np.isnan(self._A[:self.next_gid]))
+        """Ids of the live formations, ascending (the order they were made),
+        read-only; kept until a formation is made or dissolves."""
+        g = self._live
+        if g is None:
+            g = self._live = np.flatnonzero(~np.isnan(self._A[:self.next_gid]))
+            g.flags.writeable = False
+        return g
 
     def _new_gid(self, anchor: float) -> int:
         """A new formation id with front target ``anchor``, no members yet."""
         gid = self.next_gid
         self.next_gid += 1
+        self._live = None
         if self.next_gid + 1 > len(self._A):  # room for the id and the lookup table's extra entry (_anchor_lut)
             pad = len(self._A)
             self._A = np.concatenate([self._A, np.full(pad, np.nan)])
@@ -479,6 +486,7 @@ class FormationManager:
         for gid in g_arr[self._cnt[g_arr] == 0].tolist():  # formations without members dissolve
             self._A[gid] = np.nan
             self._lanes.pop(gid, None)
+            self._live = None
         self._version += 1
         return sorted(changed)
 
