@@ -1442,3 +1442,200 @@ def test_plan_rows_equal_numpy_plan(n, seed, dup):
     for k in names:
         np.testing.assert_array_equal(got[k], want[k], err_msg=k)
     np.testing.assert_array_equal(got_stamp, want_stamp)
+
+
+def _numpy_lane_change_starts(expert, world, index, active, lane, desired, member):
+    """FormationExpert.compute's "start lane changes" as array code (what
+    policies/_kernels.lane_change_starts replaced), frozen here as its
+    reference: ``(start rows, target lanes, curve lengths, blocked)``."""
+    from icv_envs.sim._ufuncs import clip as uclip
+    from icv_envs.sim.traffic import followers, idm_acceleration, leaders
+
+    p = expert.p
+    tr, road = world.traffic, world.road
+    n = tr.n
+    cx, cy = tr.center()
+    v = tr.speed
+    W = road.lane_width
+    n_tot = road.total_lanes
+    settled = ~active & (np.abs(cy - lane * W) < 0.6)
+    blocked = np.zeros(n, dtype=bool)
+    want = settled & (desired >= 0) & (desired != lane)
+    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0), blocked)
+    if not want.any():
+        return empty
+    w_rows = np.flatnonzero(want)
+    nxt = lane[w_rows] + np.sign(desired[w_rows] - lane[w_rows])
+    vw = v[w_rows]
+    length = uclip(vw * p.lc_duration, p.lc_min_length, p.lc_max_length)
+    xw = cx[w_rows]
+    ok = (nxt >= 0) & (nxt < n_tot)
+    nxt = uclip(nxt, 0, n_tot - 1)
+    ok &= road.available(nxt, xw)
+    end_own = road.interval_end(lane[w_rows], xw)
+    end_nxt = road.interval_end(nxt, xw)
+    k_after = np.abs(desired[w_rows] - nxt)
+    room_own = 2.0 * (end_own - xw - 0.5 * tr.length[w_rows])
+    room_nxt = end_nxt - xw - 0.5 * p.idm_s0 - k_after * p.lc_min_length
+    length = np.minimum(length, np.minimum(room_own, room_nxt))
+    ok &= length >= np.maximum(expert._lc_length_min, vw * expert._lc_time_min)
+    if road.has_ramp_lane:
+        into_ramp = nxt == road.ramp_lane
+        from_ramp = lane[w_rows] == road.ramp_lane
+        ok &= ~into_ramp | road.in_diverge(xw)
+        ok &= ~from_ramp | road.in_merge(xw)
+    lead, lx = leaders(index, w_rows, nxt, cx, return_x=True)
+    foll, fx = followers(index, w_rows, nxt, cx, return_x=True)
+    lw = tr.length[w_rows]
+    gap_f = np.where(lead >= 0, lx - xw - 0.5 * (tr.length[lead] + lw), np.inf)
+    gap_r = np.where(foll >= 0, xw - fx - 0.5 * (tr.length[foll] + lw), np.inf)
+    vl = np.where(lead >= 0, v[lead], vw)
+    vf = np.where(foll >= 0, v[foll], 0.0)
+    Tw = np.where(member[w_rows], p.member_time_gap, p.idm_T)
+    Tf = np.where(member[np.maximum(foll, 0)] & (foll >= 0), p.member_time_gap, p.idm_T)
+    own = idm_acceleration(vw, p.v_max, gap_f, vw - vl, p.a_max, p.idm_b, Tw, p.idm_s0, free_term=False)
+    fol = idm_acceleration(vf, p.v_max, gap_r, vf - vw, p.a_max, p.idm_b, Tf, p.idm_s0, free_term=False)
+    possible = ok.copy()
+    min_r = np.where(vf < 0.5, 0.5 * p.idm_s0, p.lc_min_gap)
+    ok &= (gap_f > p.lc_min_gap) & (gap_r > min_r) & (own > -p.b_safe) & (fol > -p.b_safe)
+    lo, lox = leaders(index, w_rows, lane[w_rows], cx, return_x=True)
+    t_half = 0.5 * length / np.maximum(vw, 1.0)
+    gap_o = np.where(lo >= 0, lox - xw - 0.5 * (tr.length[lo] + lw), np.inf)
+    gap_o = gap_o + np.where(lo >= 0, v[lo], 0.0) * t_half - np.maximum(vw, 1.0) * t_half
+    ok &= gap_o >= p.idm_s0
+    cand = np.flatnonzero(ok)
+    dropped = 0
+    if len(cand) > 1:
+        o = cand[np.lexsort((-xw[cand], nxt[cand]))]
+        dx = road.wrap(xw[o][:-1] - xw[o][1:])
+        gap_p = dx - 0.5 * (lw[o][:-1] + lw[o][1:])
+        v_rear = vw[o][1:]
+        T_rear = np.where(member[w_rows[o][1:]], p.member_time_gap, p.idm_T)
+        acc_rear = idm_acceleration(v_rear, p.v_max, np.maximum(gap_p, 1e-3), v_rear - vw[o][:-1], p.a_max,
+                                    p.idm_b, T_rear, p.idm_s0, free_term=False)
+        near = dx < lw[o][1:] + p.lc_min_gap + 2.0 * p.idm_s0 + v_rear * p.member_time_gap
+        same = (nxt[o][1:] == nxt[o][:-1]) & (near | (gap_p <= p.lc_min_gap) | (acc_rear <= -p.b_safe))
+        drop = np.zeros(len(o), dtype=bool)
+        for k in np.flatnonzero(same):
+            if not drop[k]:
+                drop[k + 1] = True
+        if drop.any():
+            last = {}
+            for i in range(len(o)):
+                if drop[i]:
+                    continue
+                j = last.get(int(nxt[o[i]]))
+                if j is not None:
+                    d = road.wrap(xw[o[j]] - xw[o[i]])
+                    g = d - 0.5 * (lw[o[j]] + lw[o[i]])
+                    Ti = p.member_time_gap if member[w_rows[o[i]]] else p.idm_T
+                    a_i = idm_acceleration(vw[o[i]], p.v_max, max(g, 1e-3), vw[o[i]] - vw[o[j]], p.a_max,
+                                           p.idm_b, Ti, p.idm_s0, free_term=False)
+                    if (d < lw[o[i]] + p.lc_min_gap + 2.0 * p.idm_s0 + vw[o[i]] * p.member_time_gap
+                            or g <= p.lc_min_gap or a_i <= -p.b_safe):
+                        drop[i] = True
+                        continue
+                last[int(nxt[o[i]])] = i
+        ok[o[drop]] = False
+        dropped = int(drop.sum())
+    blocked[w_rows[possible & ~ok]] = True
+    return w_rows[ok], nxt[ok], length[ok], blocked, dropped
+
+
+@pytest.mark.parametrize("module, config, random_share, steps", [
+    ("highway_formation_v0", {"vehicles_count": 20}, 0.5, 150),
+    ("highway_formation_v0", {"scenario": "lane-drop"}, 0.0, 200),
+    ("highway_formation_v0", {"scenario": "on-ramp"}, 0.0, 300),
+    ("highway_formation_v0", {"scenario": "off-ramp"}, 0.0, 300),
+    ("highway_formation_v0", {"vehicles_count": 8, "obstacle": {"lane": 1, "position": 300.0}}, 0.3, 300),
+    ("highway_ramps_v0", {"vgr": 0.5, "duration": 80.0}, 0.0, 400),  # the ring (pairs into one lane)
+])
+def test_expert_lane_change_starts_equal_the_array_code(module, config, random_share, steps):
+    """FormationExpert's lane-change decision (compiled) gives the array
+    code's starts, target lanes, curve lengths and blocked vehicles bit for
+    bit on every call of a run: lane drops, ramps both ways, obstacles,
+    random actions, and on the ring several vehicles starting into one lane."""
+    import importlib
+
+    from icv_envs.policies.formation_expert import FormationExpert
+
+    mod = importlib.import_module(f"icv_envs.envs.{module}")
+    env = mod.parallel_env(**config)
+    env.reset(seed=5)
+    rng = np.random.default_rng(5)
+    seen = {"calls": 0, "starts": 0, "blocked": 0, "dropped": 0}
+    orig = FormationExpert._lane_change_starts
+
+    def checked(self, world, index, active, lane, desired, member):
+        got = orig(self, world, index, active, lane, desired, member)
+        want = _numpy_lane_change_starts(self, world, index, active, lane, desired, member)
+        for g, w in zip(got, want[:4]):
+            np.testing.assert_array_equal(g, w)
+        assert got[0].dtype == np.int64 and got[2].dtype == np.float64 and got[3].dtype == bool
+        seen["calls"] += 1
+        seen["starts"] += len(got[0])
+        seen["blocked"] += int(got[3].sum())
+        seen["dropped"] += want[4] if len(want) > 4 else 0
+        return got
+
+    FormationExpert._lane_change_starts = checked
+    try:
+        for _ in range(steps):
+            if not env.agents:
+                break
+            ex = env.expert_actions()
+            env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
+    finally:
+        FormationExpert._lane_change_starts = orig
+    assert seen["calls"] > 50 and seen["starts"] > 0
+    if module == "highway_ramps_v0":
+        assert seen["blocked"] > 0 and seen["dropped"] > 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31), scenario=st.sampled_from(["on-ramp", "off-ramp", "lane-drop", "ring"]))
+def test_lane_change_starts_on_random_dense_states(seed, scenario):
+    """The compiled lane-change decision against the array code on random
+    dense states (the runs above rarely reach some rules): vehicles packed
+    within a few car lengths, some standing, some slower than 1 m/s, random
+    desired lanes (several lane changes away, into and out of the ramp
+    lane), members and non-members, so pairs and chains of vehicles start
+    into one lane and the second drop pass decides."""
+    from icv_envs.envs import highway_formation_v0, highway_ramps_v0
+
+    rng = np.random.default_rng(seed)
+    if scenario == "ring":
+        env = highway_ramps_v0.parallel_env(vgr=0.5, duration=20.0)
+    else:
+        env = highway_formation_v0.parallel_env(scenario=scenario)
+    env.reset(seed=int(seed % 1000))
+    core = env.core
+    world, expert = core.world, core.expert
+    tr, road = world.traffic, world.road
+    tr.add(np.zeros(60), np.zeros(60), np.zeros(60))  # 60 more vehicles, placed below
+    n = tr.n
+    W = road.lane_width
+    x0 = float(rng.uniform(0.0, road.length - 400.0)) if not road.periodic else float(rng.uniform(0, road.length))
+    # per lane a queue with bumper gaps from 0 to 5..45 m
+    lane = rng.choice(road.total_lanes, n, p=rng.dirichlet(np.full(road.total_lanes, 0.7)))  # some lanes nearly empty
+    gaps = rng.uniform(5.0, 10.0 + 40.0 * rng.random(), n)
+    xs = np.empty(n)
+    for ln in range(road.total_lanes):
+        k = np.flatnonzero(lane == ln)
+        xs[k] = x0 + rng.uniform(0.0, 20.0) + np.cumsum(gaps[k])
+    tr.x = xs
+    tr.y = lane * W + rng.choice([0.0, 0.0, 0.3, -0.4, 0.8], n)
+    tr.heading = np.zeros(n)
+    tr.speed = np.where(rng.random(n) < 0.3, rng.uniform(0.0, 1.5, n), rng.uniform(0.0, 30.0, n))
+    tr.lc_lane = np.where(rng.random(n) < 0.15, rng.integers(0, road.total_lanes, n), -1)
+    world.invalidate()
+    cx, cy = tr.center()
+    lane_now = road.lane_of(cy)
+    desired = np.where(rng.random(n) < 0.7, rng.integers(-1, road.total_lanes, n), lane_now)
+    member = rng.random(n) < 0.5
+    active = tr.lc_lane >= 0
+    index = world.lane_index()
+    got = expert._lane_change_starts(world, index, active, lane_now, desired, member)
+    want = _numpy_lane_change_starts(expert, world, index, active, lane_now, desired, member)
+    for g, w in zip(got, want[:4]):
+        np.testing.assert_array_equal(g, w)

@@ -49,8 +49,8 @@ from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steeri
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.policies._params import check_steering_and_gains, real_param
-from icv_envs.policies._kernels import normalised_actions, safety_cap
-from icv_envs.sim.traffic import LAT_ACCEL_MAX, followers, idm_acceleration, leaders
+from icv_envs.policies._kernels import lane_change_starts, normalised_actions, safety_cap
+from icv_envs.sim.traffic import LAT_ACCEL_MAX, idm_acceleration
 
 
 def _bezier_peak() -> float:
@@ -154,6 +154,25 @@ class FormationExpert:
         return desired
 
     # ----------------------------------------------------------------- helpers
+    def _lane_change_starts(self, world, index, active, lane, desired, member):
+        """Which vehicles start a lane change now: ``(rows, target lanes,
+        curve lengths, blocked)``, ``blocked`` marking those whose
+        manoeuvre was allowed but refused by the gaps (the rules:
+        :func:`icv_envs.policies._kernels.lane_change_starts`)."""
+        p = self.p
+        tr, road = world.traffic, world.road
+        cx, cy = tr.center()
+        return lane_change_starts(
+            np.asarray(active, dtype=bool), cx, cy, tr.speed, np.asarray(tr.length, dtype=np.float64),
+            np.asarray(lane, dtype=np.int64), np.asarray(desired, dtype=np.int64), np.asarray(member, dtype=bool),
+            index.keys, index.rows, index.lanes, index.x, float(index.offset),
+            float(road.length) if road.periodic else -1.0, int(road.n_lanes), int(road.total_lanes), road.lane_ends,
+            road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, road._merge_iv, road._diverge_iv,
+            bool(road.has_ramp_lane), float(road.lane_width), float(p.lc_duration), float(p.lc_min_length),
+            float(p.lc_max_length), float(self._lc_length_min), float(self._lc_time_min), float(p.idm_s0),
+            float(p.member_time_gap), float(p.idm_T), float(p.a_max), float(2.0 * np.sqrt(p.a_max * p.idm_b)),
+            float(p.b_safe), float(p.lc_min_gap))
+
     def _safety_cap(self, world, index, acc, lane, desired, member, exiting, bounds=None) -> np.ndarray:
         """The safety envelope on top of the longitudinal law, clipped to
         ``[a_min, a_max]``: the IDM interaction term (Treiber et al. 2000)
@@ -269,127 +288,16 @@ class FormationExpert:
             active = tr.lc_lane >= 0
 
         # ------------------------------------------------ start lane changes
-        settled = ~active & (np.abs(cy - lane * W) < 0.6)
-        blocked = np.zeros(n, dtype=bool)
-        want = settled & (desired >= 0) & (desired != lane)
-        if want.any():
-            w_rows = np.flatnonzero(want)
-            nxt = lane[w_rows] + np.sign(desired[w_rows] - lane[w_rows])
-            vw = v[w_rows]
-            length = uclip(vw * p.lc_duration, p.lc_min_length, p.lc_max_length)
-            xw = cx[w_rows]
-            ok = (nxt >= 0) & (nxt < n_tot)
-            nxt = uclip(nxt, 0, n_tot - 1)
-            # the target lane must exist now; the body centre crosses the lane
-            # line half way along the curve, which must come before the own
-            # lane ends (half a body length to spare); and the manoeuvre plus
-            # the k_after lane changes still needed after it (each
-            # ``lc_min_length`` from standstill) must fit before the target
-            # lane ends (lanes that end together: a lane drop to fewer lanes
-            # than the vehicle must cross), s0 / 2 to spare. The lane-end
-            # envelope below stops such a vehicle s0 before the line
-            # ``end - k * lc_min_length``, which always leaves this room.
-            ok &= road.available(nxt, xw)
-            end_own = road.interval_end(lane[w_rows], xw)
-            end_nxt = road.interval_end(nxt, xw)
-            k_after = np.abs(desired[w_rows] - nxt)
-            room_own = 2.0 * (end_own - xw - 0.5 * tr.length[w_rows])
-            room_nxt = end_nxt - xw - 0.5 * p.idm_s0 - k_after * p.lc_min_length
-            length = np.minimum(length, np.minimum(room_own, room_nxt))
-            # shortened curves must stay within the vehicle's lateral-acceleration
-            # bound and, at low speed, its steering limit (lc_min_length is
-            # the planning unit of the lane-end stop lines, the physical
-            # minimum is shorter: slack for a vehicle that stopped late)
-            ok &= length >= np.maximum(self._lc_length_min, vw * self._lc_time_min)
-            if road.has_ramp_lane:
-                into_ramp = nxt == road.ramp_lane
-                from_ramp = lane[w_rows] == road.ramp_lane
-                ok &= ~into_ramp | road.in_diverge(xw)
-                ok &= ~from_ramp | road.in_merge(xw)
-                # a merge must end before the ramp lane does
-            # gap acceptance in the target lane
-            lead, lx = leaders(index, w_rows, nxt, cx, return_x=True)
-            foll, fx = followers(index, w_rows, nxt, cx, return_x=True)
-            lw = tr.length[w_rows]
-            gap_f = np.where(lead >= 0, lx - xw - 0.5 * (tr.length[lead] + lw), np.inf)
-            gap_r = np.where(foll >= 0, xw - fx - 0.5 * (tr.length[foll] + lw), np.inf)
-            vl = np.where(lead >= 0, v[lead], vw)
-            vf = np.where(foll >= 0, v[foll], 0.0)
-            Tw = np.where(member[w_rows], p.member_time_gap, p.idm_T)
-            Tf = np.where(member[np.maximum(foll, 0)] & (foll >= 0), p.member_time_gap, p.idm_T)
-            own = idm_acceleration(vw, p.v_max, gap_f, vw - vl, p.a_max, p.idm_b, Tw, p.idm_s0, free_term=False)
-            fol = idm_acceleration(vf, p.v_max, gap_r, vf - vw, p.a_max, p.idm_b, Tf, p.idm_s0, free_term=False)
-            possible = ok.copy()  # the manoeuvre is allowed here; only the gaps may refuse it
-            # a standing follower cannot close the gap while the manoeuvre
-            # starts (its own envelope holds it): half the jam distance s0
-            # suffices behind it (two vehicles queued at a lane end must be
-            # able to file into the continuing lane one after the other)
-            min_r = np.where(vf < 0.5, 0.5 * p.idm_s0, p.lc_min_gap)
-            ok &= (gap_f > p.lc_min_gap) & (gap_r > min_r) & (own > -p.b_safe) & (fol > -p.b_safe)
-            # the body stays in the old lane for the first half of the curve:
-            # at constant speeds the old lane's leader must still be s0 ahead
-            # when the vehicle has covered it (a vehicle cannot move sideways
-            # without moving forward, so a lane change started behind a
-            # standing leader would stop half way, blocking both lanes)
-            lo, lox = leaders(index, w_rows, lane[w_rows], cx, return_x=True)
-            t_half = 0.5 * length / np.maximum(vw, 1.0)
-            gap_o = np.where(lo >= 0, lox - xw - 0.5 * (tr.length[lo] + lw), np.inf)
-            gap_o = gap_o + np.where(lo >= 0, v[lo], 0.0) * t_half - np.maximum(vw, 1.0) * t_half
-            ok &= gap_o >= p.idm_s0
-            # two vehicles must not start into the same lane in one step
-            # unless the rear one could accept the front one as its leader
-            # there (neither sees the other yet): keep the front one. The
-            # rear one needs the gap acceptance above towards the front one
-            # (before: distance only; idm on the ring, VGR 1/3, seed 0,
-            # t = 659 s: one from lane 1 at 25 m/s and one from lane 3 at
-            # 7.9 m/s, 27 m ahead, both into lane 2: collision)
-            cand = np.flatnonzero(ok)
-            if len(cand) > 1:
-                o = cand[np.lexsort((-xw[cand], nxt[cand]))]
-                dx = road.wrap(xw[o][:-1] - xw[o][1:])  # front minus rear, >= 0
-                gap_p = dx - 0.5 * (lw[o][:-1] + lw[o][1:])
-                v_rear = vw[o][1:]
-                T_rear = np.where(member[w_rows[o][1:]], p.member_time_gap, p.idm_T)
-                acc_rear = idm_acceleration(v_rear, p.v_max, np.maximum(gap_p, 1e-3), v_rear - vw[o][:-1], p.a_max,
-                                            p.idm_b, T_rear, p.idm_s0, free_term=False)
-                near = dx < lw[o][1:] + p.lc_min_gap + 2.0 * p.idm_s0 + v_rear * p.member_time_gap
-                same = (nxt[o][1:] == nxt[o][:-1]) & (near | (gap_p <= p.lc_min_gap) | (acc_rear <= -p.b_safe))
-                drop = np.zeros(len(o), dtype=bool)
-                for k in np.flatnonzero(same):
-                    if not drop[k]:
-                        drop[k + 1] = True
-                # a dropped vehicle between two others no longer separates them:
-                # check each kept one against the previous kept one in its lane
-                # (idm ring, t = 2299 s: the one in between was dropped and the
-                # rear one, 17.7 m behind the front one at 25 vs 10.4 m/s, went)
-                if drop.any():
-                    last = {}
-                    for i in range(len(o)):
-                        if drop[i]:
-                            continue
-                        j = last.get(int(nxt[o[i]]))
-                        if j is not None:
-                            d = road.wrap(xw[o[j]] - xw[o[i]])
-                            g = d - 0.5 * (lw[o[j]] + lw[o[i]])
-                            Ti = p.member_time_gap if member[w_rows[o[i]]] else p.idm_T
-                            a_i = idm_acceleration(vw[o[i]], p.v_max, max(g, 1e-3), vw[o[i]] - vw[o[j]], p.a_max,
-                                                   p.idm_b, Ti, p.idm_s0, free_term=False)
-                            if (d < lw[o[i]] + p.lc_min_gap + 2.0 * p.idm_s0 + vw[o[i]] * p.member_time_gap
-                                    or g <= p.lc_min_gap or a_i <= -p.b_safe):
-                                drop[i] = True
-                                continue
-                        last[int(nxt[o[i]])] = i
-                ok[o[drop]] = False
-            start = w_rows[ok]
-            blocked = np.zeros(n, dtype=bool)
-            blocked[w_rows[possible & ~ok]] = True
-            if len(start):
-                tr.lc_lane[start] = nxt[ok]
-                tr.lc_x0[start] = tr.x[start]
-                tr.lc_y0[start] = tr.y[start]
-                tr.lc_y1[start] = nxt[ok] * W
-                tr.lc_len[start] = length[ok]
-                active = tr.lc_lane >= 0
+        # (compiled: policies/_kernels.lane_change_starts, which documents the
+        # rules; the array code it replaced is its reference in tests/test_kernels.py)
+        start, s_lane, s_len, blocked = self._lane_change_starts(world, index, active, lane, desired, member)
+        if len(start):
+            tr.lc_lane[start] = s_lane
+            tr.lc_x0[start] = tr.x[start]
+            tr.lc_y0[start] = tr.y[start]
+            tr.lc_y1[start] = s_lane * W
+            tr.lc_len[start] = s_len
+            active = tr.lc_lane >= 0
 
         # ---------------------------------------------------------- steering
         ld = np.maximum(p.preview_min, v * p.preview_time)
