@@ -1592,15 +1592,12 @@ def test_expert_lane_change_starts_equal_the_array_code(module, config, random_s
         assert seen["blocked"] > 0 and seen["dropped"] > 0
 
 
-@settings(max_examples=60, deadline=None)
-@given(seed=st.integers(0, 2**31), scenario=st.sampled_from(["on-ramp", "off-ramp", "lane-drop", "ring"]))
-def test_lane_change_starts_on_random_dense_states(seed, scenario):
-    """The compiled lane-change decision against the array code on random
-    dense states (the runs above rarely reach some rules): vehicles packed
-    within a few car lengths, some standing, some slower than 1 m/s, random
-    desired lanes (several lane changes away, into and out of the ramp
-    lane), members and non-members, so pairs and chains of vehicles start
-    into one lane and the second drop pass decides."""
+def _random_dense_state(seed, scenario):
+    """A highway world put into a random dense state (the runs rarely reach
+    some of the expert's rules): 60 vehicles more, queued per lane with
+    bumper gaps from 0 to 5..45 m (some lanes nearly empty), some standing,
+    some slower than 1 m/s, some changing lanes, some off their lane
+    centre; with random exits where the road has them."""
     from icv_envs.envs import highway_formation_v0, highway_ramps_v0
 
     rng = np.random.default_rng(seed)
@@ -1612,11 +1609,10 @@ def test_lane_change_starts_on_random_dense_states(seed, scenario):
     core = env.core
     world, expert = core.world, core.expert
     tr, road = world.traffic, world.road
-    tr.add(np.zeros(60), np.zeros(60), np.zeros(60))  # 60 more vehicles, placed below
+    tr.add(np.zeros(60), np.zeros(60), np.zeros(60))
     n = tr.n
     W = road.lane_width
     x0 = float(rng.uniform(0.0, road.length - 400.0)) if not road.periodic else float(rng.uniform(0, road.length))
-    # per lane a queue with bumper gaps from 0 to 5..45 m
     lane = rng.choice(road.total_lanes, n, p=rng.dirichlet(np.full(road.total_lanes, 0.7)))  # some lanes nearly empty
     gaps = rng.uniform(5.0, 10.0 + 40.0 * rng.random(), n)
     xs = np.empty(n)
@@ -1628,14 +1624,161 @@ def test_lane_change_starts_on_random_dense_states(seed, scenario):
     tr.heading = np.zeros(n)
     tr.speed = np.where(rng.random(n) < 0.3, rng.uniform(0.0, 1.5, n), rng.uniform(0.0, 30.0, n))
     tr.lc_lane = np.where(rng.random(n) < 0.15, rng.integers(0, road.total_lanes, n), -1)
+    if road.n_exits:
+        tr.exit = np.where(rng.random(n) < 0.5, rng.integers(0, road.n_exits, n), -1)
     world.invalidate()
     cx, cy = tr.center()
     lane_now = road.lane_of(cy)
-    desired = np.where(rng.random(n) < 0.7, rng.integers(-1, road.total_lanes, n), lane_now)
     member = rng.random(n) < 0.5
+    return rng, world, expert, lane_now, member
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31), scenario=st.sampled_from(["on-ramp", "off-ramp", "lane-drop", "ring"]))
+def test_lane_change_starts_on_random_dense_states(seed, scenario):
+    """The compiled lane-change decision against the array code on random
+    dense states (:func:`_random_dense_state`), with random desired lanes
+    (several lane changes away, into and out of the ramp lane), so pairs
+    and chains of vehicles start into one lane and the second drop pass
+    decides."""
+    rng, world, expert, lane_now, member = _random_dense_state(seed, scenario)
+    tr, road = world.traffic, world.road
+    n = tr.n
+    desired = np.where(rng.random(n) < 0.7, rng.integers(-1, road.total_lanes, n), lane_now)
     active = tr.lc_lane >= 0
     index = world.lane_index()
     got = expert._lane_change_starts(world, index, active, lane_now, desired, member)
     want = _numpy_lane_change_starts(expert, world, index, active, lane_now, desired, member)
     for g, w in zip(got, want[:4]):
         np.testing.assert_array_equal(g, w)
+
+
+def _numpy_exit_lanes(expert, world, lane, lane_ref, member):
+    """FormationExpert.compute's desired lanes before the hook, as array code
+    (what policies/_kernels.exit_lanes replaced), frozen as its reference."""
+    p = expert.p
+    tr, road = world.traffic, world.road
+    n = tr.n
+    cx, _ = tr.center()
+    desired = np.where(member, lane_ref, lane)
+    if road.has_ramp_lane:
+        ramp = road.ramp_lane
+        exiting = np.zeros(n, dtype=bool)
+        has = (tr.exit >= 0) & ~member
+        has_any = tr.exit >= 0
+        if has_any.any() and road.n_exits:
+            ha = np.flatnonzero(has_any)
+            ds_a = road.diverge_start(tr.exit[ha])
+            past_a = road.wrap(cx[ha] - ds_a)
+            exiting[ha] = (lane[ha] == ramp) & (past_a >= 0) & (past_a <= road.exit_position(tr.exit[ha]) - ds_a)
+        if has.any() and road.n_exits:
+            dist = road.exit_ahead(tr.exit[has], cx[has])
+            dlen = road.diverge_end(tr.exit[has]) - road.diverge_start(tr.exit[has])
+            ds = road.diverge_start(tr.exit[has])
+            past_ds = road.wrap(cx[has] - ds)
+            on_its_off_ramp = (lane[has] == ramp) & (past_ds >= 0) & (past_ds <= road.exit_position(tr.exit[has]) - ds)
+            la = road.exit_lookahead(lane[has], p.exit_lookahead, p.exit_lookahead_per_lane)
+            exiting[has] |= ((dist < la) & (dist >= -dlen)) | on_its_off_ramp
+        desired = np.where(exiting, ramp, desired)
+        on_ramp = (lane == ramp) & ~exiting & ~member
+        desired = np.where(on_ramp, road.n_lanes - 1, desired)
+    else:
+        exiting = np.zeros(n, dtype=bool)
+    return desired, exiting
+
+
+def _numpy_lane_end_escape(expert, world, desired, lane, member, exiting):
+    """The free vehicles' lane-end escape of FormationExpert.compute as array
+    code (what policies/_kernels.lane_end_escape replaced), frozen."""
+    p = expert.p
+    tr, road = world.traffic, world.road
+    cx, _ = tr.center()
+    desired = np.array(desired, copy=True)
+    free = ~member & ~exiting & (desired == lane) & (lane < road.n_lanes)
+    moved = 0
+    if free.any():
+        end = road.interval_end(lane, cx)
+        f_rows = np.flatnonzero(free & np.isfinite(end))
+        if len(f_rows):
+            lanes_all = np.arange(road.n_lanes)
+            ends = road.interval_end(lanes_all[None, :], cx[f_rows][:, None])
+            dist = np.abs(lanes_all[None, :] - lane[f_rows][:, None]).astype(np.float64)
+            dist = np.where(ends > end[f_rows][:, None] + 50.0, dist, np.inf)
+            best = np.argmin(dist + 1e-3 * lanes_all[None, :], axis=1)
+            k = dist[np.arange(len(f_rows)), best]
+            go = np.isfinite(k) & (end[f_rows] - cx[f_rows] < (k + 1.0) * p.lc_max_length)
+            desired[f_rows[go]] = best[go]
+            moved = int(go.sum())
+    return desired, moved
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31), scenario=st.sampled_from(["on-ramp", "off-ramp", "lane-drop", "ring"]))
+def test_exit_lanes_and_lane_end_escape_on_random_dense_states(seed, scenario):
+    """The compiled desired-lane rules (exits, ramps, lane ends) against the
+    array code on random dense states with random exits and target lanes."""
+    rng, world, expert, lane_now, member = _random_dense_state(seed, scenario)
+    road = world.road
+    n = world.traffic.n
+    lane_ref = rng.integers(0, road.n_lanes, n)
+    got = expert._exit_lanes(world, lane_now, lane_ref, member)
+    want = _numpy_exit_lanes(expert, world, lane_now, lane_ref, member)
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+    desired = np.where(rng.random(n) < 0.3, rng.integers(0, road.total_lanes, n), want[0])
+    got_d = expert._lane_end_escape(world, desired, lane_now, member, want[1])
+    np.testing.assert_array_equal(got_d, _numpy_lane_end_escape(expert, world, desired, lane_now, member, want[1])[0])
+
+
+@pytest.mark.parametrize("module, config, random_share, steps", [
+    ("highway_formation_v0", {"scenario": "lane-drop"}, 0.0, 200),
+    ("highway_formation_v0", {"scenario": "on-ramp"}, 0.0, 300),
+    ("highway_formation_v0", {"scenario": "off-ramp"}, 0.0, 300),
+    ("highway_formation_v0", {"vehicles_count": 8, "obstacle": {"lane": 1, "position": 300.0}}, 0.3, 300),
+    ("highway_ramps_v0", {"vgr": 0.5, "duration": 80.0}, 0.0, 400),
+])
+def test_expert_desired_lanes_equal_the_array_code(module, config, random_share, steps):
+    """On every call of a run, the compiled desired-lane rules give the array
+    code's lanes and exiting flags bit for bit; the runs reach exits, ramps
+    and lane ends."""
+    import importlib
+
+    from icv_envs.policies.formation_expert import FormationExpert
+
+    mod = importlib.import_module(f"icv_envs.envs.{module}")
+    env = mod.parallel_env(**config)
+    env.reset(seed=6)
+    rng = np.random.default_rng(6)
+    seen = {"calls": 0, "exiting": 0, "moved": 0}
+    orig_x, orig_e = FormationExpert._exit_lanes, FormationExpert._lane_end_escape
+
+    def checked_x(self, world, lane, lane_ref, member):
+        got = orig_x(self, world, lane, lane_ref, member)
+        want = _numpy_exit_lanes(self, world, lane, lane_ref, member)
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g, w)
+        seen["calls"] += 1
+        seen["exiting"] += int(got[1].sum())
+        return got
+
+    def checked_e(self, world, desired, lane, member, exiting):
+        got = orig_e(self, world, desired, lane, member, exiting)
+        want, moved = _numpy_lane_end_escape(self, world, desired, lane, member, exiting)
+        np.testing.assert_array_equal(got, want)
+        seen["moved"] += moved
+        return got
+
+    FormationExpert._exit_lanes, FormationExpert._lane_end_escape = checked_x, checked_e
+    try:
+        for _ in range(steps):
+            if not env.agents:
+                break
+            ex = env.expert_actions()
+            env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
+    finally:
+        FormationExpert._exit_lanes, FormationExpert._lane_end_escape = orig_x, orig_e
+    assert seen["calls"] > 50
+    if config.get("scenario") == "off-ramp" or module == "highway_ramps_v0":
+        assert seen["exiting"] > 0
+    # (the expert's runs keep their vehicles in formation, so the lane-end
+    # escape of free vehicles is reached by the random dense states above)

@@ -4,7 +4,8 @@
 normalised actions in one pass (five numpy calls and their temporaries
 before), and :func:`safety_cap` is its safety envelope (about thirty numpy
 calls before), :func:`lane_change_starts` its decision which lane changes
-start (about eighty). The rest serve the intersection experts:
+start (about eighty), :func:`exit_lanes` and :func:`lane_end_escape` the
+lanes it heads for (about thirty). The rest serve the intersection experts:
 
 :func:`corridor_index` builds the sorted entries of
 :class:`icv_envs.policies.platoon_common.Corridors`, which the experts
@@ -24,9 +25,10 @@ import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.neighbours import _leader_entry, leader_rows
-from icv_envs.sim._kernels.physics import _available1, interval_ends_at, npy_mod
+from icv_envs.sim._kernels.physics import _available1, interval_end_at1, interval_ends_at, npy_mod
 
-__all__ = ["corridor_index", "lane_change_starts", "normalised_actions", "repair_order", "safety_cap"]
+__all__ = ["corridor_index", "exit_lanes", "lane_change_starts", "lane_end_escape", "normalised_actions",
+           "repair_order", "safety_cap"]
 
 
 @nb.njit(cache=True)
@@ -544,3 +546,88 @@ def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i
             s_len[c] = clen[q]
             c += 1
     return start, s_lane, s_len, blocked
+
+
+@nb.njit(cache=True)
+def exit_lanes(member, lane_ref, lane, exit_id, cx, has_ramp, n_exits, n_lanes, diverge_iv, exit_x, period,
+               exit_lookahead, per_lane):
+    """The highway expert's desired lanes before its ``_desired_lanes`` hook
+    (:meth:`icv_envs.policies.formation_expert.FormationExpert.compute`):
+    members their target lane, the others their own; with a ramp lane
+    (``n_lanes``), a vehicle with an exit is exiting once on its off-ramp
+    (in the ramp lane between the diverge start and the exit, member or
+    not) or, not a member, within its exit lookahead (``exit_lookahead +
+    per_lane`` per main lane still to cross) of the diverge start and not
+    past the diverge end; exiting vehicles head for the ramp lane, other
+    free vehicles in the ramp lane for the outermost main lane.
+    ``RoadLayout.wrap``/``exit_ahead``/``exit_lookahead``'s operations in
+    their order. Returns ``(desired, exiting)``."""
+    n = cx.shape[0]
+    desired = np.empty(n, dtype=np.int64)
+    exiting = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        desired[i] = lane_ref[i] if member[i] else lane[i]
+    if not has_ramp:
+        return desired, exiting
+    ramp = n_lanes
+    if n_exits:
+        half = 0.5 * period
+        for i in range(n):
+            e = exit_id[i]
+            if e < 0:
+                continue
+            ds = diverge_iv[e, 0]
+            de = diverge_iv[e, 1]
+            past = cx[i] - ds
+            if period > 0.0:
+                past = npy_mod(past + half, period) - half
+            ex = lane[i] == ramp and past >= 0 and past <= exit_x[e] - ds
+            if not member[i]:
+                if period > 0.0:
+                    dist = npy_mod(de - cx[i], period) - (de - ds)
+                else:
+                    dist = ds - cx[i]
+                extra = ramp - lane[i] - 1
+                la = exit_lookahead + per_lane * (extra if extra > 0 else 0)
+                ex = ex or (dist < la and dist >= -(de - ds))
+            exiting[i] = ex
+    for i in range(n):
+        if exiting[i]:
+            desired[i] = ramp
+        elif lane[i] == ramp and not member[i]:
+            desired[i] = n_lanes - 1
+    return desired, exiting
+
+
+@nb.njit(cache=True)
+def lane_end_escape(desired, lane, member, exiting, cx, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv,
+                    lc_max_length):
+    """Free vehicles (not members, not exiting, keeping their main lane)
+    whose lane ends ahead head for the nearest main lane that continues at
+    least 50 m further (ties: the left lane), starting ``(k + 1)
+    lc_max_length`` before the end for ``k`` lane changes
+    (:meth:`icv_envs.policies.formation_expert.FormationExpert.compute`);
+    ``RoadLayout.interval_end``'s operations. Returns the new desired lanes."""
+    n = cx.shape[0]
+    out = desired.copy()
+    for i in range(n):
+        ln = lane[i]
+        if member[i] or exiting[i] or desired[i] != ln or ln >= n_lanes:
+            continue
+        end = interval_end_at1(ln, cx[i], period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+        if not np.isfinite(end):
+            continue
+        best = -1
+        best_key = np.inf
+        k = np.inf
+        for l in range(n_lanes):
+            e = interval_end_at1(l, cx[i], period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+            d = float(abs(l - ln)) if e > end + 50.0 else np.inf
+            key = d + 1e-3 * l
+            if best < 0 or key < best_key:  # numpy's argmin: the first smallest
+                best = l
+                best_key = key
+                k = d
+        if np.isfinite(k) and end - cx[i] < (k + 1.0) * lc_max_length:
+            out[i] = best
+    return out

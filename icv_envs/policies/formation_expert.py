@@ -49,7 +49,13 @@ from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steeri
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.policies._params import check_steering_and_gains, real_param
-from icv_envs.policies._kernels import lane_change_starts, normalised_actions, safety_cap
+from icv_envs.policies._kernels import (
+    exit_lanes,
+    lane_change_starts,
+    lane_end_escape,
+    normalised_actions,
+    safety_cap,
+)
 from icv_envs.sim.traffic import LAT_ACCEL_MAX, idm_acceleration
 
 
@@ -154,6 +160,29 @@ class FormationExpert:
         return desired
 
     # ----------------------------------------------------------------- helpers
+    def _exit_lanes(self, world, lane, lane_ref, member):
+        """``(desired, exiting)`` before the ``_desired_lanes`` hook: targets
+        of members, the ramp lane for exiting vehicles, the main road for
+        free vehicles on a ramp (:func:`icv_envs.policies._kernels.exit_lanes`)."""
+        p = self.p
+        tr, road = world.traffic, world.road
+        cx, _ = tr.center()
+        return exit_lanes(np.asarray(member, dtype=bool), np.asarray(lane_ref, dtype=np.int64),
+                          np.asarray(lane, dtype=np.int64), tr.exit, cx, bool(road.has_ramp_lane), int(road.n_exits),
+                          int(road.n_lanes), road._diverge_iv, road._exit_x,
+                          float(road.length) if road.periodic else -1.0, float(p.exit_lookahead),
+                          float(p.exit_lookahead_per_lane))
+
+    def _lane_end_escape(self, world, desired, lane, member, exiting):
+        """``desired`` with free vehicles whose lane ends ahead sent to the
+        nearest continuing main lane (:func:`icv_envs.policies._kernels.lane_end_escape`)."""
+        tr, road = world.traffic, world.road
+        cx, _ = tr.center()
+        return lane_end_escape(np.asarray(desired, dtype=np.int64), np.asarray(lane, dtype=np.int64),
+                               np.asarray(member, dtype=bool), np.asarray(exiting, dtype=bool), cx,
+                               float(road.length) if road.periodic else -1.0, int(road.n_lanes), road.lane_ends,
+                               road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, float(self.p.lc_max_length))
+
     def _lane_change_starts(self, world, index, active, lane, desired, member):
         """Which vehicles start a lane change now: ``(rows, target lanes,
         curve lengths, blocked)``, ``blocked`` marking those whose
@@ -222,50 +251,12 @@ class FormationExpert:
         x_ref, lane_ref, v_ref, member = world.manager.references(tr)
 
         # ------------------------------------------------------ desired lane
-        desired = np.where(member, lane_ref, lane)
-        if road.has_ramp_lane:
-            ramp = road.ramp_lane
-            exiting = np.zeros(n, dtype=bool)
-            has = (tr.exit >= 0) & ~member
-            # a vehicle on its off-ramp lane is exiting, member or not (the
-            # ramp leads nowhere else; it must not stop at the ramp's end)
-            has_any = tr.exit >= 0
-            if has_any.any() and road.n_exits:
-                ha = np.flatnonzero(has_any)
-                ds_a = road.diverge_start(tr.exit[ha])
-                past_a = road.wrap(cx[ha] - ds_a)
-                exiting[ha] = (lane[ha] == ramp) & (past_a >= 0) & (past_a <= road.exit_position(tr.exit[ha]) - ds_a)
-            if has.any() and road.n_exits:
-                dist = road.exit_ahead(tr.exit[has], cx[has])
-                dlen = road.diverge_end(tr.exit[has]) - road.diverge_start(tr.exit[has])
-                ds = road.diverge_start(tr.exit[has])
-                past_ds = road.wrap(cx[has] - ds)
-                on_its_off_ramp = (lane[has] == ramp) & (past_ds >= 0) & (past_ds <= road.exit_position(tr.exit[has]) - ds)
-                la = road.exit_lookahead(lane[has], p.exit_lookahead, p.exit_lookahead_per_lane)
-                exiting[has] |= ((dist < la) & (dist >= -dlen)) | on_its_off_ramp
-            desired = np.where(exiting, ramp, desired)
-            # free vehicles on the ramp lane of an on-ramp move onto the main road
-            on_ramp = (lane == ramp) & ~exiting & ~member
-            desired = np.where(on_ramp, road.n_lanes - 1, desired)
-        else:
-            exiting = np.zeros(n, dtype=bool)
+        # (compiled: policies/_kernels.exit_lanes and lane_end_escape, which
+        # document the rules; the array code they replaced is their
+        # reference in tests/test_kernels.py)
+        desired, exiting = self._exit_lanes(world, lane, lane_ref, member)
         desired = self._desired_lanes(world, desired, lane, member, exiting, cx, v, index)
-        # free vehicles whose lane ends ahead head for the nearest main lane
-        # that continues at least 50 m further (possibly several lanes away),
-        # starting (k + 1) * lc_max_length before the end for k lane changes
-        free = ~member & ~exiting & (desired == lane) & (lane < road.n_lanes)
-        if free.any():
-            end = road.interval_end(lane, cx)
-            f_rows = np.flatnonzero(free & np.isfinite(end))
-            if len(f_rows):
-                lanes_all = np.arange(road.n_lanes)
-                ends = road.interval_end(lanes_all[None, :], cx[f_rows][:, None])
-                dist = np.abs(lanes_all[None, :] - lane[f_rows][:, None]).astype(np.float64)
-                dist = np.where(ends > end[f_rows][:, None] + 50.0, dist, np.inf)
-                best = np.argmin(dist + 1e-3 * lanes_all[None, :], axis=1)  # ties: the left lane
-                k = dist[np.arange(len(f_rows)), best]
-                go = np.isfinite(k) & (end[f_rows] - cx[f_rows] < (k + 1.0) * p.lc_max_length)
-                desired[f_rows[go]] = best[go]
+        desired = self._lane_end_escape(world, desired, lane, member, exiting)
 
         # --------------------------------------------- lane-change plan state
         active = tr.lc_lane >= 0

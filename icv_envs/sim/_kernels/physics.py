@@ -152,6 +152,25 @@ def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_
     return lane, off, at_end, n_off, n_end
 
 
+@nb.njit(cache=True, inline="always")
+def interval_end1(ln, xi, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """One element of :func:`interval_ends` (``xi`` on the road: folded onto a ring)."""
+    if ln >= 0 and ln < n_lanes:
+        cand = np.inf
+        for o in range(ob_lane.shape[0]):
+            if ob_lane[o] == ln and ob_hi[o] >= xi and ob_lo[o] < cand:
+                cand = ob_lo[o]
+        e = lane_ends[ln]
+        return e if e <= cand else cand
+    if ln == n_lanes and ramp_iv.shape[0]:
+        cand = np.inf
+        for r in range(ramp_iv.shape[0]):
+            if ramp_iv[r, 1] >= xi and ramp_iv[r, 1] < cand:
+                cand = ramp_iv[r, 1]
+        return cand
+    return -np.inf
+
+
 @nb.njit(cache=True)
 def interval_ends(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
     """:meth:`icv_envs.sim.road.RoadLayout._interval_end` compiled, over
@@ -164,23 +183,7 @@ def interval_ends(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
     n = lane.shape[0]
     out = np.empty(n)
     for i in range(n):
-        ln = lane[i]
-        xi = x[i]
-        if ln >= 0 and ln < n_lanes:
-            cand = np.inf
-            for o in range(ob_lane.shape[0]):
-                if ob_lane[o] == ln and ob_hi[o] >= xi and ob_lo[o] < cand:
-                    cand = ob_lo[o]
-            e = lane_ends[ln]
-            out[i] = e if e <= cand else cand
-        elif ln == n_lanes and ramp_iv.shape[0]:
-            cand = np.inf
-            for r in range(ramp_iv.shape[0]):
-                if ramp_iv[r, 1] >= xi and ramp_iv[r, 1] < cand:
-                    cand = ramp_iv[r, 1]
-            out[i] = cand
-        else:
-            out[i] = -np.inf
+        out[i] = interval_end1(lane[i], x[i], n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     return out
 
 
@@ -210,3 +213,12 @@ def interval_ends_at(lane, x, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi,
     for i in range(n):
         out[i] = out[i] + (x[i] - xm[i])
     return out
+
+
+@nb.njit(cache=True, inline="always")
+def interval_end_at1(ln, x, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+    """One element of :func:`interval_ends_at`."""
+    if period < 0.0:
+        return interval_end1(ln, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    xm = npy_mod(x, period)
+    return interval_end1(ln, xm, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv) + (x - xm)
