@@ -1782,3 +1782,72 @@ def test_expert_desired_lanes_equal_the_array_code(module, config, random_share,
         assert seen["exiting"] > 0
     # (the expert's runs keep their vehicles in formation, so the lane-end
     # escape of free vehicles is reached by the random dense states above)
+
+
+def _numpy_eligible_free(fm, traffic, road, cx):
+    """FormationManager._eligible_free as array code (what
+    sim/_kernels/formation.eligible_free_rows replaced), frozen."""
+    free = np.flatnonzero((traffic.group < 0) & ~traffic.crashed)
+    _, cy = traffic.center()
+    if len(free) and road.has_ramp_lane:
+        free = free[(road.lane_of(cy[free]) < road.n_lanes) & (traffic.lc_lane[free] != road.ramp_lane)]
+    if len(free) and road.n_exits:
+        ex = traffic.exit[free]
+        has = ex >= 0
+        soon = np.zeros(len(free), dtype=bool)
+        if has.any():
+            d = road.exit_ahead(ex[has], cx[free[has]])
+            dlen = road.diverge_end(ex[has]) - road.diverge_start(ex[has])
+            la = road.exit_lookahead(road.lane_of(cy[free[has]]), fm.exit_lookahead, fm.exit_lookahead_per_lane)
+            soon[has] = (d < la + 100.0) & (d >= -dlen)
+            if not road.periodic:
+                soon[has] |= d < -dlen
+        free = free[~soon]
+    return free
+
+
+def _numpy_leaving(fm, traffic, road, cx):
+    """The members leaving for their exit in FormationManager.update, as
+    array code (what sim/_kernels/formation.leaving_rows replaced), frozen."""
+    _, cy = traffic.center()
+    rows = np.flatnonzero((traffic.exit >= 0) & (traffic.group >= 0))
+    if not len(rows):
+        return rows
+    d = road.exit_ahead(traffic.exit[rows], cx[rows])
+    lane_r = road.lane_of(cy[rows])
+    la = road.exit_lookahead(lane_r, fm.exit_lookahead, fm.exit_lookahead_per_lane)
+    leave = rows[d < la]
+    if road.has_ramp_lane:
+        on_ramp = (lane_r == road.ramp_lane) | (traffic.lc_lane[rows] == road.ramp_lane)
+        leave = rows[(d < la) | on_ramp]
+    return leave
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31), scenario=st.sampled_from(["on-ramp", "off-ramp", "lane-drop", "ring"]),
+       per_lane=st.sampled_from([0.0, 150.0]))
+def test_eligible_free_and_leaving_rows_on_random_dense_states(seed, scenario, per_lane):
+    """The formation layer's free-vehicle and exit-leaving rules, compiled,
+    against the array code on random dense states with random exits,
+    memberships and crashes, on straight roads and the ring."""
+    from icv_envs.sim._kernels.formation import leaving_rows
+
+    rng, world, _, _, _ = _random_dense_state(seed, scenario)
+    tr, road = world.traffic, world.road
+    n = tr.n
+    fm = world.manager
+    fm.exit_lookahead_per_lane = per_lane
+    tr.group = np.where(rng.random(n) < 0.5, rng.integers(0, 3, n), -1)
+    tr.crashed = rng.random(n) < 0.1
+    if road.n_exits:  # some vehicles past their exit (straight road: never rejoin)
+        tr.x = tr.x + np.where(rng.random(n) < 0.2, rng.uniform(-800.0, 800.0, n), 0.0)
+    cx, cy = tr.center()
+    got = fm._eligible_free(tr, road, cx)
+    np.testing.assert_array_equal(got, _numpy_eligible_free(fm, tr, road, cx))
+    assert got.dtype == np.int64
+    if road.n_exits:
+        got = leaving_rows(tr.group, tr.exit, cx, cy, tr.lc_lane, float(road.lane_width), int(road.total_lanes),
+                           int(road.n_lanes), bool(road.has_ramp_lane), road._diverge_iv,
+                           float(road.length) if road.periodic else -1.0, float(fm.exit_lookahead),
+                           float(fm.exit_lookahead_per_lane))
+        np.testing.assert_array_equal(got, _numpy_leaving(fm, tr, road, cx))

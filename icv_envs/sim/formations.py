@@ -58,7 +58,13 @@ from icv_envs.formation.control import (
 )
 from icv_envs.formation.targets import formation_targets
 from icv_envs.sim._kernels import drivable_lane_bits, hold_targets
-from icv_envs.sim._kernels.formation import drivable_lane_bits1, reference_rows, room_ahead
+from icv_envs.sim._kernels.formation import (
+    drivable_lane_bits1,
+    eligible_free_rows,
+    leaving_rows,
+    reference_rows,
+    room_ahead,
+)
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.sim.join_plans import JoinPlans
 
@@ -351,29 +357,19 @@ class FormationManager:
     # ----------------------------------------------------------------- update
     def _eligible_free(self, traffic, road, cx) -> np.ndarray:
         """Rows of free vehicles that may join or found a formation: not
-        crashed, not heading for an exit within ``exit_lookahead + 100 m``."""
-        free = np.flatnonzero((traffic.group < 0) & ~traffic.crashed)
+        crashed, not heading for an exit within ``exit_lookahead + 100 m``.
+        Vehicles still on a ramp merge first, as free vehicles, and join
+        from the main road (a formation cannot help them merge), and so do
+        vehicles changing lanes into the ramp lane (an exit taken late: the
+        centre crosses after the diverge segment ends)."""
+        # compiled: sim/_kernels/formation.eligible_free_rows (the array code it
+        # replaced is its reference in tests/test_kernels.py)
         _, cy = traffic.center()
-        if len(free) and road.has_ramp_lane:
-            # vehicles still on a ramp merge first, as free vehicles, and join
-            # from the main road (a formation cannot help them merge)
-            # ... and so do vehicles changing lanes into the ramp lane (an exit
-            # taken late: the centre crosses after the diverge segment ends)
-            free = free[(road.lane_of(cy[free]) < road.n_lanes) & (traffic.lc_lane[free] != road.ramp_lane)]
-        if len(free) and road.n_exits:
-            ex = traffic.exit[free]
-            has = ex >= 0
-            soon = np.zeros(len(free), dtype=bool)
-            if has.any():
-                d = road.exit_ahead(ex[has], cx[free[has]])
-                dlen = road.diverge_end(ex[has]) - road.diverge_start(ex[has])
-                la = road.exit_lookahead(road.lane_of(cy[free[has]]), self.exit_lookahead,
-                                         self.exit_lookahead_per_lane)
-                soon[has] = (d < la + 100.0) & (d >= -dlen)
-                if not road.periodic:
-                    soon[has] |= d < -dlen  # exit passed on a straight road: never rejoin
-            free = free[~soon]
-        return free
+        return eligible_free_rows(traffic.group, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
+                                  float(road.lane_width), int(road.total_lanes), int(road.n_lanes),
+                                  bool(road.has_ramp_lane), int(road.n_exits), road._diverge_iv,
+                                  float(road.length) if road.periodic else -1.0, float(self.exit_lookahead),
+                                  float(self.exit_lookahead_per_lane))
 
     def update(self, traffic, road, dt: float) -> list[int]:
         """Advance the front targets by ``dt`` and process membership and
@@ -397,23 +393,18 @@ class FormationManager:
             self._A[g_arr] = road.mod(self._A[g_arr] + self.speed * dt)
         if traffic.n and road.n_exits:
             # members about to exit leave (the vehicle becomes free and heads for its ramp)
-            rows = np.flatnonzero((traffic.exit >= 0) & (traffic.group >= 0))
-            if len(rows):
-                d = road.exit_ahead(traffic.exit[rows], cx[rows])
-                lane_r = road.lane_of(cy[rows])
-                la = road.exit_lookahead(lane_r, self.exit_lookahead, self.exit_lookahead_per_lane)
-                leave = rows[d < la]
-                if road.has_ramp_lane:
-                    # a member on (or moving to) the ramp lane cannot hold a main-lane target
-                    on_ramp = (lane_r == road.ramp_lane) | (traffic.lc_lane[rows] == road.ramp_lane)
-                    leave = rows[(d < la) | on_ramp]
+            # (compiled: sim/_kernels/formation.leaving_rows)
+            leave = leaving_rows(traffic.group, traffic.exit, cx, cy, traffic.lc_lane, float(road.lane_width),
+                                 int(road.total_lanes), int(road.n_lanes), bool(road.has_ramp_lane), road._diverge_iv,
+                                 float(road.length) if road.periodic else -1.0, float(self.exit_lookahead),
+                                 float(self.exit_lookahead_per_lane))
+            if len(leave):
                 for gid in np.unique(traffic.group[leave]):
                     changed.add(int(gid))
                 traffic.group[leave] = -1
                 traffic.tgt_lane[leave] = -1
-                if len(leave):
-                    self._plans.grow(int(traffic.vid[leave].max()) + 1)
-                    self._plans.slot_gid[traffic.vid[leave]] = -1
+                self._plans.grow(int(traffic.vid[leave].max()) + 1)
+                self._plans.slot_gid[traffic.vid[leave]] = -1
         counts = np.bincount(traffic.group[traffic.group >= 0], minlength=self.next_gid) if traffic.n else np.zeros(
             self.next_gid, dtype=np.int64
         )

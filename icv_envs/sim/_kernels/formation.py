@@ -7,9 +7,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from icv_envs.sim._kernels.physics import npy_mod
+from icv_envs.sim._kernels.physics import lane_of1, npy_mod
 
-__all__ = ["drivable_lane_bits", "drivable_lane_bits1", "hold_targets", "room_ahead"]
+__all__ = ["drivable_lane_bits", "drivable_lane_bits1", "eligible_free_rows", "hold_targets", "leaving_rows",
+           "room_ahead"]
 
 
 @nb.njit(cache=True)
@@ -221,3 +222,77 @@ def reference_rows(group, tgt_lane, tgt_behind, anchor_of, m, d, dv, dd, speed, 
         v_ref[r] = speed + dv[q]
         a_ref[r] = dd[q]
     return x_ref, lane_ref, v_ref, member, a_ref
+
+
+@nb.njit(cache=True, inline="always")
+def _exit_ahead1(e, x, diverge_iv, period):
+    """``RoadLayout.exit_ahead`` of one vehicle (``period < 0``: a straight road)."""
+    ds = diverge_iv[e, 0]
+    de = diverge_iv[e, 1]
+    if period < 0.0:
+        return ds - x
+    return npy_mod(de - x, period) - (de - ds)
+
+
+@nb.njit(cache=True, inline="always")
+def _exit_lookahead1(lane, ramp_lane, base, per_lane):
+    """``RoadLayout.exit_lookahead`` of one vehicle."""
+    extra = ramp_lane - lane - 1
+    return base + per_lane * (extra if extra > 0 else 0)
+
+
+@nb.njit(cache=True)
+def eligible_free_rows(group, crashed, cx, cy, lc_lane, exit_id, lane_width, total_lanes, n_lanes, has_ramp, n_exits,
+                       diverge_iv, period, exit_lookahead, per_lane):
+    """``FormationManager._eligible_free`` in one pass: rows (ascending) of
+    free vehicles (``group < 0``) not crashed; with a ramp lane, on a main
+    lane and not changing lanes into the ramp lane; with exits, not within
+    their exit lookahead ``+ 100 m`` of the diverge start unless past the
+    diverge end (on a straight road: never once past it). The operations of
+    ``RoadLayout.lane_of``/``exit_ahead``/``exit_lookahead``, in order."""
+    n = cx.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if group[i] >= 0 or crashed[i]:
+            continue
+        if has_ramp:
+            if not (lane_of1(cy[i], lane_width, total_lanes) < n_lanes and lc_lane[i] != n_lanes):
+                continue
+        if n_exits and exit_id[i] >= 0:
+            e = exit_id[i]
+            d = _exit_ahead1(e, cx[i], diverge_iv, period)
+            dlen = diverge_iv[e, 1] - diverge_iv[e, 0]
+            la = _exit_lookahead1(lane_of1(cy[i], lane_width, total_lanes), n_lanes, exit_lookahead, per_lane)
+            soon = d < la + 100.0 and d >= -dlen
+            if period < 0.0:
+                soon = soon or d < -dlen
+            if soon:
+                continue
+        out[m] = i
+        m += 1
+    return out[:m]
+
+
+@nb.njit(cache=True)
+def leaving_rows(group, exit_id, cx, cy, lc_lane, lane_width, total_lanes, n_lanes, has_ramp, diverge_iv, period,
+                 exit_lookahead, per_lane):
+    """Members that leave their formation for their exit
+    (``FormationManager.update``), rows ascending: a member with an exit
+    whose diverge start is nearer than its exit lookahead, or, with a ramp
+    lane, one on or changing into the ramp lane."""
+    n = cx.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if exit_id[i] < 0 or group[i] < 0:
+            continue
+        ln = lane_of1(cy[i], lane_width, total_lanes)
+        leave = _exit_ahead1(exit_id[i], cx[i], diverge_iv, period) < _exit_lookahead1(ln, n_lanes, exit_lookahead,
+                                                                                        per_lane)
+        if has_ramp and (ln == n_lanes or lc_lane[i] == n_lanes):
+            leave = True
+        if leave:
+            out[m] = i
+            m += 1
+    return out[:m]
