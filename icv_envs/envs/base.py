@@ -403,9 +403,16 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         else:
             agents = [f"icv_{v}" for v in step_vid.tolist()]
             observations, rewards, terms, truncs = self._agent_dicts(agents, obs, rew, crashed_now, trunc)
-            infos = self._ma_infos(agents, rows, parts)  # expert labels at the end of the step
-            for i in np.flatnonzero(crashed_now).tolist():
-                infos[agents[i]]["crashed"] = True
+            # the agents' info columns now (the state they report), their
+            # dicts at the end of the step with the expert's labels, which
+            # come from the final state; then the infos of those that left
+            # and of late spawns, in this order (``extra``)
+            cols = self._ma_info_columns(rows) if len(rows) else None
+            if cols is not None and crashed_now.any():
+                crashed_col = cols["crashed"]
+                for i in np.flatnonzero(crashed_now).tolist():
+                    crashed_col[i] = True
+            extra = []
             for v in new:
                 rewards[f"icv_{v}"] = 0.0
             for (vid, info), o in zip(departed, gone_obs):
@@ -414,7 +421,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
                 rewards[a] = 0.0
                 terms[a] = bool(info["exited"])
                 truncs[a] = bool(info["left_road"])
-                infos[a] = info
+                extra.append((a, info))
         # crashed vehicles leave the road after reporting
         if crashed_now.any():
             w.remove_crashed_vehicles()
@@ -433,7 +440,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
                     rewards[a] = 0.0
                     terms[a] = False
                     truncs[a] = bool(truncated_all)
-                    infos[a] = inf2[a]
+                    extra.append((a, inf2[a]))
         # every agent reported this step as rows, in the dicts' key order
         if np.ndim(trunc) == 0:
             trunc_rows = np.full(len(step_vid), bool(trunc))
@@ -452,7 +459,13 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         else:  # nobody left or arrived (most steps): the step's own rows (fresh arrays, as concatenate's)
             out = StepRows(step_vid, obs, rew if arrays else None, crashed_now, trunc_rows)
         if not arrays:
-            self._fill_expert_labels(infos, agents, step_vid)
+            # (the expert is computed only when some info will carry its label)
+            lab = self._expert_label_rows(step_vid) if (len(agents) or extra) else None
+            infos = {} if cols is None else self._info_dicts(agents, cols, parts, None if lab is None else list(lab[0]))
+            for a, info in extra:
+                infos[a] = info
+            if lab is not None:
+                self._label_rest(infos, lab[1], lab[2], len(agents))
         keep = ~(out.terminated | out.truncated)
         self._last_obs = (out.vid[keep], out.obs[keep])
         self._on_step_end(events)

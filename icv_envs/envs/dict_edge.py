@@ -67,15 +67,21 @@ class DictEdge:
         return observations, rewards, terms, truncs
 
     @staticmethod
-    def _info_dicts(agents: list, columns: dict, parts: dict | None = None) -> dict:
+    def _info_dicts(agents: list, columns: dict, parts: dict | None = None, labels=None) -> dict:
         """One info dict per agent from per-agent columns (lists aligned with
-        ``agents``) and the reward components (``info["rewards"]``); the
-        expert's labels are added by :meth:`_label_infos`."""
+        ``agents``), the reward components (``info["rewards"]``) and, given
+        ``labels`` (rows aligned with ``agents``), the expert's labels
+        (``info["expert_action"]``, last); otherwise the labels are added by
+        :meth:`_label_infos`."""
         keys = list(columns)
         vals = [columns[k] for k in keys]
         pk = list(parts) if parts else []
         vals += [np.asarray(parts[k], dtype=np.float64).tolist() for k in pk]
-        return _dict_builder(tuple(keys), tuple(pk))(agents, vals)
+        tail = ()
+        if labels is not None:
+            tail = ("expert_action",)
+            vals.append(labels)
+        return _dict_builder(tuple(keys), tuple(pk), tail)(agents, vals)
 
     @staticmethod
     def _realign_rows(before_vid: np.ndarray, values: np.ndarray, vid: np.ndarray) -> np.ndarray:
@@ -102,6 +108,37 @@ class DictEdge:
         veh = self._vehicles()
         ex = self.expert_actions() if veh.n else np.zeros((0, 2), dtype=np.float32)
         self._label_infos(infos, veh.vid, ex, agents, agents_vid)
+
+    def _expert_label_rows(self, agents_vid: np.ndarray):
+        """The expert's labels of a step from its final state (as
+        :meth:`_fill_expert_labels`), computed once: ``(rows aligned with
+        the sorted ids agents_vid (zeros for agents no longer on the road),
+        ids of the vehicles on the road not among them, their rows)``, or
+        None when the infos carry no labels."""
+        if not self.config["expert_in_info"]:
+            return None
+        veh = self._vehicles()
+        ex = self.expert_actions() if veh.n else np.zeros((0, 2), dtype=np.float32)
+        rows = np.array(ex, dtype=np.float32, copy=True)
+        aligned = DictEdge._realign_rows(veh.vid, rows, agents_vid)
+        if len(veh.vid) == len(agents_vid) and np.array_equal(veh.vid, agents_vid):  # nobody came or went
+            return aligned, veh.vid[:0], rows[:0]
+        late = ~np.isin(veh.vid, agents_vid)
+        return aligned, veh.vid[late], rows[late]
+
+    @staticmethod
+    def _label_rest(infos: dict, rest_vid: np.ndarray, rest_rows: np.ndarray, skip: int) -> None:
+        """Labels of the infos after the first ``skip`` (the step's agents,
+        labelled when their dicts were built): vehicles that appeared late
+        in the step by name (``rest_vid``, ``rest_rows``), zeros for the
+        others (agents that left)."""
+        for a, row in zip([f"icv_{v}" for v in rest_vid.tolist()], rest_rows):
+            info = infos.get(a)
+            if info is not None:
+                info["expert_action"] = row
+        for info in itertools.islice(infos.values(), skip, None):
+            if "expert_action" not in info:
+                info["expert_action"] = np.zeros(2, dtype=np.float32)
 
     @staticmethod
     def _label_infos(infos: dict, vid: np.ndarray, ex: np.ndarray, agents: list | None = None,
@@ -139,17 +176,19 @@ _DTYPE_KIND = operator.attrgetter("dtype.kind")
 
 
 @functools.lru_cache(maxsize=64)
-def _dict_builder(keys: tuple, reward_keys: tuple):
+def _dict_builder(keys: tuple, reward_keys: tuple, tail_keys: tuple = ()):
     """A function ``(agents, columns) -> {agent: {key: value, ...}}`` for
     these keys, written as one dict display per agent (about twice as fast
     as ``dict(zip(keys, row))``; CPython builds a literal in one opcode). The
     keys are the envs' own info names, never user input; ``repr`` quotes
-    them. ``reward_keys`` go into a nested ``"rewards"`` dict."""
-    names = [f"c{i}" for i in range(len(keys) + len(reward_keys))]
+    them. ``reward_keys`` go into a nested ``"rewards"`` dict, ``tail_keys``
+    after it (the columns in that order: keys, reward keys, tail keys)."""
+    names = [f"c{i}" for i in range(len(keys) + len(reward_keys) + len(tail_keys))]
     items = [f"{k!r}: {v}" for k, v in zip(keys, names)]
     if reward_keys:
         inner = ", ".join(f"{k!r}: {v}" for k, v in zip(reward_keys, names[len(keys):]))
         items.append(f"'rewards': {{{inner}}}")
+    items += [f"{k!r}: {v}" for k, v in zip(tail_keys, names[len(keys) + len(reward_keys):])]
     src = (f"lambda agents, cols: {{a: {{{', '.join(items)}}} "
            f"for a, {', '.join(names) + ','} in zip(agents, *cols)}}")
     return eval(src, {})  # noqa: S307 - the source is built from the repr of the envs' constant key names

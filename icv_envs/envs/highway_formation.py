@@ -405,6 +405,10 @@ class HighwayFormationEnv(IcvAgentsEnv):
         return self._spawn_due()
 
     def _ma_infos(self, agents, rows, parts) -> dict:
+        return self._info_dicts(agents, self._ma_info_columns(rows), parts)
+
+    def _ma_info_columns(self, rows) -> dict:
+        """Per-agent info columns (lists aligned with ``rows``)."""
         tr = self.world.traffic
         lane_ref = np.where(tr.group >= 0, tr.tgt_lane, -1)  # references()' lane_ref, without the profiles
         rows = np.asarray(rows, dtype=np.int64)
@@ -415,7 +419,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
             "target_lane": lane_ref[rows].tolist(),
             "crashed": [False] * len(rows),
         }
-        return self._info_dicts(agents, cols, parts)
+        return cols
 
     # ------------------------------------------------------- gymnasium (ego)
 

@@ -498,6 +498,10 @@ class IntersectionEnv(IcvAgentsEnv):
     def _ma_infos(self, agents, rows, parts) -> dict:
         if not len(rows):
             return {}
+        return self._info_dicts(agents, self._ma_info_columns(rows), parts)
+
+    def _ma_info_columns(self, rows) -> dict:
+        """Per-agent info columns (lists aligned with ``rows``, non-empty)."""
         f = self.world.fleet
         rs = self.world.route()
         rows = np.asarray(rows, dtype=np.int64)
@@ -511,7 +515,7 @@ class IntersectionEnv(IcvAgentsEnv):
             "tree_layer": [depth.get(nd, -1) for nd in nodes],
             "crashed": [False] * len(rows),
         }
-        return self._info_dicts(agents, cols, parts)
+        return cols
 
     # ------------------------------------------------------- gymnasium (ego)
 
