@@ -18,7 +18,8 @@ numpy code's, bit for bit (``tests/test_trajectory_hash.py``).
 :func:`join_search_banded` is the formation layer's plan search in one call
 (its start, the search within the speed band, the fallback without it);
 :func:`quintic_rows` evaluates join profiles from coefficients stored with
-the plan. Both leave the transcendental steps (``cbrt``, ``pow``) to numpy
+the plan, and :func:`plan_rows` stores new plans (coefficients, end values,
+stamps) in one pass. Both leave the transcendental steps (``cbrt``, ``pow``) to numpy
 and do only exactly rounded arithmetic themselves, so their results are the
 numpy code's on every SIMD level (``tests/test_kernels.py``).
 """

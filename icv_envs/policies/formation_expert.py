@@ -245,7 +245,6 @@ class FormationExpert:
         cx, cy = tr.center()
         v = tr.speed
         W = road.lane_width
-        n_tot = road.total_lanes
         lane = road.lane_of(cy)
         index = world.lane_index()
         x_ref, lane_ref, v_ref, member = world.manager.references(tr)

@@ -14,7 +14,10 @@ the world must handle in Python (:func:`quiet_substeps`), the run statistics (:f
 :func:`own_lane_gap_rows`) and the observation's
 neighbour search (:func:`nearest_along_road`), the highway env's feature
 rows and reward terms (:func:`formation_feature_rows`,
-:func:`formation_reward_terms`). They take and return plain
+:func:`formation_reward_terms`), and the formation layer's per-vehicle
+rules (one lane window, :func:`drivable_lane_bits1`; the free vehicles that
+may join, :func:`eligible_free_rows`; the members leaving for their exit,
+:func:`leaving_rows`). They take and return plain
 arrays (no Python objects inside), and they perform the same IEEE-754
 operations, in the same order, as the numpy code they replace (reductions
 included: :func:`pairwise_sum` is NumPy's own summation order), so
@@ -45,7 +48,8 @@ functions, so :func:`pairwise_sum` runs its halving on an explicit stack.
 
 from __future__ import annotations
 
-from icv_envs.sim._kernels.formation import drivable_lane_bits, hold_targets, reference_rows
+from icv_envs.sim._kernels.formation import (drivable_lane_bits, drivable_lane_bits1, eligible_free_rows,
+                                             hold_targets, leaving_rows, reference_rows)
 from icv_envs.sim._kernels.frames import quiet_substeps
 from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows, own_lane_gap_rows
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_reward_terms, kinematics_rows,
@@ -73,6 +77,9 @@ __all__ = [
     "headway_record",
     "pet_transitions",
     "drivable_lane_bits",
+    "drivable_lane_bits1",
+    "eligible_free_rows",
+    "leaving_rows",
     "hold_targets",
     "reference_rows",
     "quiet_substeps",
