@@ -7,7 +7,9 @@ PettingZoo parallel API. The dict layer is the time inside the functions
 that only convert between arrays and the per-agent dicts (the batched
 action check, the observation/reward/termination dicts, the info dicts and
 their expert labels,
-re-aligning actions to rows), garbage collections included where they fall;
+re-aligning actions to rows; from stop 31 the step's agents get their labels
+inside ``_info_dicts``, as a column, and ``_label_rest`` labels the agents
+that left or arrived late), garbage collections included where they fall;
 it is reported as a share of ``env.step`` and per agent, then per function
 (a function called inside another, ``_realign_rows`` in ``_label_infos``,
 is counted in both). Times are
@@ -52,8 +54,9 @@ def main() -> None:
 
         setattr(base.IcvAgentsEnv, name, staticmethod(g) if static else g)
 
-    for name in ("_agent_dicts", "_info_dicts", "_label_infos", "_realign_rows"):
-        wrap(name, True)
+    for name in ("_agent_dicts", "_info_dicts", "_label_infos", "_label_rest", "_realign_rows"):
+        if hasattr(base.IcvAgentsEnv, name):  # (_label_rest: from stop 31; _label_infos: before it, and for resets)
+            wrap(name, True)
     wrap("_check_actions", False)
     t_gc = [0.0]
     gc.callbacks.append(lambda ph, info: t_gc.__setitem__(0, time.perf_counter()) if ph == "start"
