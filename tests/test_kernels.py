@@ -1261,6 +1261,26 @@ def test_formation_features_and_rewards_equal_the_array_code(module, config, ran
         assert seen["lane_end"] > 0
 
 
+def _drive_patched(env, rng, steps, random_share, **patches):
+    """``steps`` policy steps of ``env`` with ``FormationExpert``'s methods
+    replaced by ``patches`` (restored afterwards); each agent takes a random
+    action with probability ``random_share``, else the expert's."""
+    from icv_envs.policies.formation_expert import FormationExpert
+
+    saved = {k: getattr(FormationExpert, k) for k in patches}
+    for k, f in patches.items():
+        setattr(FormationExpert, k, f)
+    try:
+        for _ in range(steps):
+            if not env.agents:
+                break
+            ex = env.expert_actions()
+            env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
+    finally:
+        for k, f in saved.items():
+            setattr(FormationExpert, k, f)
+
+
 def _numpy_safety_cap(expert, world, index, acc, lane, desired, member, exiting, bounds=None):
     """FormationExpert's safety envelope as the array code wrote it before it
     was compiled (frozen here as the oracle)."""
@@ -1345,15 +1365,7 @@ def test_expert_safety_cap_equals_the_array_code(module, config, random_share, s
         seen["active"] += act
         return got
 
-    FormationExpert._safety_cap = checked
-    try:
-        for _ in range(steps):
-            if not env.agents:
-                break
-            ex = env.expert_actions()
-            env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
-    finally:
-        FormationExpert._safety_cap = orig
+    _drive_patched(env, rng, steps, random_share, _safety_cap=checked)
     assert seen["calls"] > 50 and seen["active"] > 0
     if config.get("scenario") == "on-ramp":
         assert seen["must_leave"] > 0
@@ -1461,7 +1473,7 @@ def _numpy_lane_change_starts(expert, world, index, active, lane, desired, membe
     settled = ~active & (np.abs(cy - lane * W) < 0.6)
     blocked = np.zeros(n, dtype=bool)
     want = settled & (desired >= 0) & (desired != lane)
-    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0), blocked)
+    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0), blocked, 0)
     if not want.any():
         return empty
     w_rows = np.flatnonzero(want)
@@ -1575,18 +1587,10 @@ def test_expert_lane_change_starts_equal_the_array_code(module, config, random_s
         seen["calls"] += 1
         seen["starts"] += len(got[0])
         seen["blocked"] += int(got[3].sum())
-        seen["dropped"] += want[4] if len(want) > 4 else 0
+        seen["dropped"] += want[4]
         return got
 
-    FormationExpert._lane_change_starts = checked
-    try:
-        for _ in range(steps):
-            if not env.agents:
-                break
-            ex = env.expert_actions()
-            env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
-    finally:
-        FormationExpert._lane_change_starts = orig
+    _drive_patched(env, rng, steps, random_share, _lane_change_starts=checked)
     assert seen["calls"] > 50 and seen["starts"] > 0
     if module == "highway_ramps_v0":
         assert seen["blocked"] > 0 and seen["dropped"] > 0
@@ -1768,15 +1772,7 @@ def test_expert_desired_lanes_equal_the_array_code(module, config, random_share,
         seen["moved"] += moved
         return got
 
-    FormationExpert._exit_lanes, FormationExpert._lane_end_escape = checked_x, checked_e
-    try:
-        for _ in range(steps):
-            if not env.agents:
-                break
-            ex = env.expert_actions()
-            env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
-    finally:
-        FormationExpert._exit_lanes, FormationExpert._lane_end_escape = orig_x, orig_e
+    _drive_patched(env, rng, steps, random_share, _exit_lanes=checked_x, _lane_end_escape=checked_e)
     assert seen["calls"] > 50
     if config.get("scenario") == "off-ramp" or module == "highway_ramps_v0":
         assert seen["exiting"] > 0

@@ -97,24 +97,23 @@ class DictEdge:
             out[ok] = values[pos[ok]]
         return out
 
-    def _fill_expert_labels(self, infos: dict, agents: list | None = None, agents_vid: np.ndarray | None = None) -> None:
-        """``infos[a]["expert_action"]`` for every agent of a step's infos,
-        from the state the next action is taken in: after the step's
-        removals and spawns, so each label is exactly what
-        :meth:`expert_actions` returns for the next step, and the expert is
-        computed once per step. Agents no longer on the road get zeros."""
-        if not self.config["expert_in_info"] or not infos:
+    def _fill_expert_labels(self, infos: dict) -> None:
+        """``infos[a]["expert_action"]`` for every agent of ``infos`` (a
+        reset's), from the current state: exactly what :meth:`expert_actions`
+        returns for the next step. Agents not on the road get zeros."""
+        if not infos:
             return
-        veh = self._vehicles()
-        ex = self.expert_actions() if veh.n else np.zeros((0, 2), dtype=np.float32)
-        self._label_infos(infos, veh.vid, ex, agents, agents_vid)
+        lab = self._expert_label_rows(np.zeros(0, dtype=np.int64))
+        if lab is not None:
+            self._label_rest(infos, lab[1], lab[2], 0)
 
     def _expert_label_rows(self, agents_vid: np.ndarray):
-        """The expert's labels of a step from its final state (as
-        :meth:`_fill_expert_labels`), computed once: ``(rows aligned with
-        the sorted ids agents_vid (zeros for agents no longer on the road),
-        ids of the vehicles on the road not among them, their rows)``, or
-        None when the infos carry no labels."""
+        """The expert's labels from the current state (a step's final one,
+        after its removals and spawns, so each label is exactly what
+        :meth:`expert_actions` returns for the next step), computed once:
+        ``(rows aligned with the sorted ids agents_vid (zeros for agents no
+        longer on the road), ids of the vehicles on the road not among them,
+        their rows)``, or None when the infos carry no labels."""
         if not self.config["expert_in_info"]:
             return None
         veh = self._vehicles()
@@ -141,33 +140,11 @@ class DictEdge:
                 info["expert_action"] = np.zeros(2, dtype=np.float32)
 
     @staticmethod
-    def _label_infos(infos: dict, vid: np.ndarray, ex: np.ndarray, agents: list | None = None,
-                     agents_vid: np.ndarray | None = None) -> None:
-        """Array -> dict edge of :meth:`_fill_expert_labels`: one row view of
-        a copy of ``ex`` per live agent (vehicle ``vid[i]``), zeros for the
-        others. ``agents`` (the first keys of ``infos``, in order) with their sorted vehicle
-        ids ``agents_vid`` are labelled by one aligned array (no agent names
-        are rebuilt: the step's agents are most of the infos); the other infos
-        (vehicles that appeared late in the step, agents that left) by name."""
-        rows = np.array(ex, dtype=np.float32, copy=True)
-        rest, unlabelled = vid, infos.values()
-        if agents is not None and len(agents):
-            # the step builds its infos from ``agents`` first, in order; only the keys after them can lack a label
-            unlabelled = itertools.islice(infos.values(), len(agents), None)
-            for a, row in zip(agents, DictEdge._realign_rows(vid, rows, agents_vid)):
-                infos[a]["expert_action"] = row
-            if len(vid) == len(agents_vid) and np.array_equal(vid, agents_vid):  # nobody came or went
-                rest, rows = vid[:0], rows[:0]
-            else:
-                late = ~np.isin(vid, agents_vid)
-                rest, rows = vid[late], rows[late]
-        for a, row in zip([f"icv_{v}" for v in rest.tolist()], rows):
-            info = infos.get(a)
-            if info is not None:
-                info["expert_action"] = row
-        for info in unlabelled:
-            if "expert_action" not in info:
-                info["expert_action"] = np.zeros(2, dtype=np.float32)
+    def _label_infos(infos: dict, vid: np.ndarray, ex: np.ndarray) -> None:
+        """Label the infos of vehicles ``vid`` by name with a row view of a
+        copy of ``ex`` each, zeros for the other infos (:meth:`_label_rest`
+        with nothing labelled before)."""
+        DictEdge._label_rest(infos, vid, np.array(ex, dtype=np.float32, copy=True), 0)
 
 
 _NDARRAY_ONLY = {np.ndarray}

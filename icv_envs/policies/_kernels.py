@@ -25,6 +25,7 @@ import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.neighbours import _leader_entry, leader_rows
+from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wrap1
 from icv_envs.sim._kernels.physics import _available1, interval_end_at1, interval_ends_at, npy_mod
 
 __all__ = ["corridor_index", "exit_lanes", "lane_change_starts", "lane_end_escape", "normalised_actions",
@@ -345,6 +346,35 @@ def _in_intervals(x, iv):
     return False
 
 
+@nb.njit(cache=True, inline="always")
+def _leader_gap(keys, i_rows, i_lanes, i_x, offset, lane, r, x, lr, length, v, v_none):
+    """Row ``r``'s leader in ``lane`` (:func:`_leader_entry`; none without
+    an index): the bumper gap ``x_lead - x - (length_lead + lr) / 2`` and
+    its speed, ``(inf, v_none)`` for none."""
+    if keys.shape[0]:
+        p = _leader_entry(keys, i_rows, i_lanes, offset, lane, r, x)
+        if p >= 0:
+            ld = i_rows[p]
+            return i_x[p] - x - 0.5 * (length[ld] + lr), v[ld]
+    return np.inf, v_none
+
+
+@nb.njit(cache=True, inline="always")
+def _rear_refused(a, b, xw, lw, vw, member_b, period, lc_min_gap, idm_s0, member_time_gap, idm_T, a_max, idm_denom,
+                  b_safe):
+    """Of two vehicles starting into one lane, front ``a`` and rear ``b``
+    (indices into the candidates' positions ``xw``, lengths ``lw`` and
+    speeds ``vw``): may the rear one not follow the front one there? Too
+    near (one body, ``lc_min_gap``, ``2 s0`` and a member time gap), a gap
+    at most ``lc_min_gap``, or an IDM interaction term at most
+    ``-b_safe``."""
+    d = _wrap1(xw[a] - xw[b], period)
+    g = d - 0.5 * (lw[a] + lw[b])
+    T = member_time_gap if member_b else idm_T
+    acc = _idm_interaction(vw[b], _max_nan(g, 1e-3), vw[b] - vw[a], T, a_max, idm_s0, idm_denom)
+    return d < lw[b] + lc_min_gap + 2.0 * idm_s0 + vw[b] * member_time_gap or g <= lc_min_gap or acc <= -b_safe
+
+
 @nb.njit(cache=True)
 def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i_rows, i_lanes, i_x, offset, period,
                        n_lanes, n_tot, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, merge_iv, diverge_iv, has_ramp,
@@ -425,17 +455,11 @@ def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i
         # gap acceptance in the target lane: the leader (traffic.leaders) and
         # the follower (traffic.followers: the last entry before the key, if
         # in the lane and not the vehicle itself)
-        gap_f = np.inf
-        vl = vw[q]
+        gap_f, vl = _leader_gap(keys, i_rows, i_lanes, i_x, offset, nxt[q], r, xw[q], lw[q], length, v, vw[q])
         gap_r = np.inf
         vf = 0.0
         Tf = idm_T
         if nk:
-            p = _leader_entry(keys, i_rows, i_lanes, offset, nxt[q], r, xw[q])
-            if p >= 0:
-                ld = i_rows[p]
-                gap_f = i_x[p] - xw[q] - 0.5 * (length[ld] + lw[q])
-                vl = v[ld]
             pf = np.searchsorted(keys, nxt[q] * offset + xw[q]) - 1
             if pf >= 0 and i_lanes[pf] == nxt[q] and i_rows[pf] != r:
                 fo = i_rows[pf]
@@ -450,14 +474,7 @@ def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i
         if not (gap_f > lc_min_gap and gap_r > min_r and own > -b_safe and fol > -b_safe):
             ok[q] = False
         # the old lane's leader half way along the curve
-        gap_o = np.inf
-        v_o = 0.0
-        if nk:
-            p = _leader_entry(keys, i_rows, i_lanes, offset, own_lane[q], r, xw[q])
-            if p >= 0:
-                lo = i_rows[p]
-                gap_o = i_x[p] - xw[q] - 0.5 * (length[lo] + lw[q])
-                v_o = v[lo]
+        gap_o, v_o = _leader_gap(keys, i_rows, i_lanes, i_x, offset, own_lane[q], r, xw[q], lw[q], length, v, 0.0)
         vm = _max_nan(vw[q], 1.0)
         t_half = 0.5 * clen[q] / vm
         gap_o = gap_o + v_o * t_half - vm * t_half
@@ -490,17 +507,9 @@ def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i
         drop = np.zeros(nc, dtype=np.bool_)
         for k in range(nc - 1):
             a, b = o[k], o[k + 1]
-            d = xw[a] - xw[b]
-            if period > 0.0:
-                half = 0.5 * period
-                d = npy_mod(d + half, period) - half
-            gap_p = d - 0.5 * (lw[a] + lw[b])
-            T_rear = member_time_gap if member[w_rows[b]] else idm_T
-            acc_rear = _idm_interaction(vw[b], _max_nan(gap_p, 1e-3), vw[b] - vw[a], T_rear, a_max, idm_s0,
-                                        idm_denom)
-            near = d < lw[b] + lc_min_gap + 2.0 * idm_s0 + vw[b] * member_time_gap
-            same = nxt[b] == nxt[a] and (near or gap_p <= lc_min_gap or acc_rear <= -b_safe)
-            if same and not drop[k]:
+            if (not drop[k] and nxt[b] == nxt[a]
+                    and _rear_refused(a, b, xw, lw, vw, member[w_rows[b]], period, lc_min_gap, idm_s0,
+                                      member_time_gap, idm_T, a_max, idm_denom, b_safe)):
                 drop[k + 1] = True
         any_drop = False
         for k in range(nc):
@@ -512,19 +521,10 @@ def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i
                 if drop[i]:
                     continue
                 j = last[nxt[o[i]]]
-                if j >= 0:
-                    a, b = o[j], o[i]
-                    d = xw[a] - xw[b]
-                    if period > 0.0:
-                        half = 0.5 * period
-                        d = npy_mod(d + half, period) - half
-                    g = d - 0.5 * (lw[a] + lw[b])
-                    Ti = member_time_gap if member[w_rows[b]] else idm_T
-                    a_i = _idm_interaction(vw[b], _max_nan(g, 1e-3), vw[b] - vw[a], Ti, a_max, idm_s0, idm_denom)
-                    if (d < lw[b] + lc_min_gap + 2.0 * idm_s0 + vw[b] * member_time_gap or g <= lc_min_gap
-                            or a_i <= -b_safe):
-                        drop[i] = True
-                        continue
+                if j >= 0 and _rear_refused(o[j], o[i], xw, lw, vw, member[w_rows[o[i]]], period, lc_min_gap,
+                                            idm_s0, member_time_gap, idm_T, a_max, idm_denom, b_safe):
+                    drop[i] = True
+                    continue
                 last[nxt[o[i]]] = i
         for k in range(nc):
             if drop[k]:
@@ -571,25 +571,17 @@ def exit_lanes(member, lane_ref, lane, exit_id, cx, has_ramp, n_exits, n_lanes, 
         return desired, exiting
     ramp = n_lanes
     if n_exits:
-        half = 0.5 * period
         for i in range(n):
             e = exit_id[i]
             if e < 0:
                 continue
             ds = diverge_iv[e, 0]
-            de = diverge_iv[e, 1]
-            past = cx[i] - ds
-            if period > 0.0:
-                past = npy_mod(past + half, period) - half
+            past = _wrap1(cx[i] - ds, period)
             ex = lane[i] == ramp and past >= 0 and past <= exit_x[e] - ds
             if not member[i]:
-                if period > 0.0:
-                    dist = npy_mod(de - cx[i], period) - (de - ds)
-                else:
-                    dist = ds - cx[i]
-                extra = ramp - lane[i] - 1
-                la = exit_lookahead + per_lane * (extra if extra > 0 else 0)
-                ex = ex or (dist < la and dist >= -(de - ds))
+                dist = _exit_ahead1(e, cx[i], diverge_iv, period)
+                la = _exit_lookahead1(lane[i], ramp, exit_lookahead, per_lane)
+                ex = ex or (dist < la and dist >= -(diverge_iv[e, 1] - ds))
             exiting[i] = ex
     for i in range(n):
         if exiting[i]:

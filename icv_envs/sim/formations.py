@@ -74,6 +74,12 @@ _EMPTY_READONLY = np.zeros(0)
 _EMPTY_READONLY.flags.writeable = False
 
 
+def _obstacles(road) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The road's obstacles as the lane-window kernels take them: lanes, rear and front ends."""
+    return (np.asarray(road._ob_lane, dtype=np.int64), np.asarray(road._ob_lo, dtype=np.float64),
+            np.asarray(road._ob_hi, dtype=np.float64))
+
+
 class FormationManager:
     def __init__(
         self,
@@ -222,9 +228,7 @@ class FormationManager:
         (:func:`icv_envs.sim._kernels.formation.drivable_lane_bits1`), the
         bit set decoded through a memo."""
         bits = drivable_lane_bits1(anchor - length - 10.0, anchor + self.lookahead, bool(road.periodic),
-                                   float(road.length), road.lane_ends, np.asarray(road._ob_lane, dtype=np.int64),
-                                   np.asarray(road._ob_lo, dtype=np.float64), np.asarray(road._ob_hi, dtype=np.float64),
-                                   self._allowed(road.n_lanes))
+                                   float(road.length), road.lane_ends, *_obstacles(road), self._allowed(road.n_lanes))
         lanes = self._lanes_memo.get(bits)
         if lanes is None:
             lanes = self._lanes_memo[bits] = tuple(lane for lane in range(bits.bit_length()) if bits >> lane & 1)
@@ -555,11 +559,7 @@ class FormationManager:
         span = np.minimum(np.maximum(x1 - x0, 0.0), L)
         a = np.mod(x0, L)
         allowed = self._allowed(road.n_lanes)
-        ob_lane = np.asarray(road._ob_lane, dtype=np.int64)
-        ob_lo = np.asarray(road._ob_lo, dtype=np.float64)
-        ob_hi = np.asarray(road._ob_hi, dtype=np.float64)
-        return drivable_lane_bits(a, span, x0, x1, bool(road.periodic), L, road.lane_ends, ob_lane, ob_lo, ob_hi,
-                                  allowed)
+        return drivable_lane_bits(a, span, x0, x1, bool(road.periodic), L, road.lane_ends, *_obstacles(road), allowed)
 
     def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-vehicle ``(x_ref, lane_ref, v_ref, member)``: body-centre
