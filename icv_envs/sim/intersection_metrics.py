@@ -256,9 +256,33 @@ class PetStats:
         for q, k in entered.tolist():
             self._enter(t, int(ids[q, k]), int(side[q, k]))
 
+    def tables(self, top: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(lo, hi, occ, path, busy)`` for the compiled frames
+        (:func:`icv_envs.sim._kernels.intersection_frames`), which call
+        :func:`~icv_envs.sim._kernels.pet_transitions` as :meth:`record`
+        does; ``occ`` and ``path`` hold ids ``< top`` and are updated in
+        place, the new ``busy`` goes back through :meth:`apply`."""
+        self._fit_top(int(top))
+        return self._lo, self._hi, self._occ, self._pid, self._busy
+
+    def apply(self, t: float, busy: np.ndarray, transitions: np.ndarray) -> None:
+        """The PET events of one frame at time ``t`` after the compiled
+        occupancy update: ``transitions`` rows ``(kind, path, slot)``, kind 0
+        a slot left and 1 a slot entered, in the order :meth:`record`
+        handles them; ``busy``: the ids inside an area now."""
+        self._busy = busy
+        ids, side = self._ids, self._side
+        for kind, q, k in transitions.tolist():
+            if kind:
+                self._enter(t, int(ids[q, k]), int(side[q, k]))
+            else:
+                self._leave(t, int(ids[q, k]), int(side[q, k]))
+
     def _fit(self, vid: np.ndarray) -> None:
         """Grow the per-id tables to hold ids ``vid`` (at least doubling)."""
-        top = int(vid.max()) + 1 if len(vid) else 0
+        self._fit_top(int(vid.max()) + 1 if len(vid) else 0)
+
+    def _fit_top(self, top: int) -> None:
         if top > len(self._occ):
             grow = max(top, 2 * len(self._occ), 64) - len(self._occ)
             self._occ = np.concatenate([self._occ, np.zeros((grow, self._K), dtype=bool)])
@@ -313,17 +337,28 @@ class JamWatch:
         vid = np.asarray(vid, dtype=np.int64)
         if not len(vid):
             return
-        top = int(vid.max()) + 1
+        sf = self.standing_times(int(vid.max()) + 1)
+        stopped = np.asarray(speed) < STOPPED_SPEED
+        sf[vid] = np.where(stopped, sf[vid] + dt, 0.0)
+        rows = np.flatnonzero(stopped & (sf[vid] > JAM_SECONDS))
+        if len(rows):
+            self.judge(t, dt, vid, rows, in_queue_fn, dist)
+
+    def standing_times(self, top: int) -> np.ndarray:
+        """The standing time of every id ``< top`` (grown to hold them; updated
+        in place by :meth:`record`, or by the compiled frames,
+        :func:`icv_envs.sim._kernels.intersection_frames`, which then pass
+        the rows standing longer than :data:`JAM_SECONDS` to :meth:`judge`)."""
         if top > len(self._stopped_for):
             self._stopped_for = np.concatenate([self._stopped_for,
                                                 np.zeros(max(top, 2 * len(self._stopped_for), 64)
                                                          - len(self._stopped_for))])
-        stopped = np.asarray(speed) < STOPPED_SPEED
-        sf = self._stopped_for
-        sf[vid] = np.where(stopped, sf[vid] + dt, 0.0)
-        rows = np.flatnonzero(stopped & (sf[vid] > JAM_SECONDS))
-        if not len(rows):
-            return
+        return self._stopped_for
+
+    def judge(self, t: float, dt: float, vid, rows, in_queue_fn, dist=None) -> None:
+        """Of ``rows``, the vehicles standing longer than :data:`JAM_SECONDS`,
+        those not in a queue at the box are jammed (see :meth:`record`)."""
+        vid = np.asarray(vid, dtype=np.int64)
         jam = rows[~np.asarray(in_queue_fn(rows), dtype=bool)]
         self.jammed_seconds += dt * len(jam)
         where = np.full(len(jam), np.nan) if dist is None else np.asarray(dist, dtype=np.float64)[jam]

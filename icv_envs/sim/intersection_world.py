@@ -50,6 +50,7 @@ import numpy as np
 from icv_envs.platoon.geometry import N_LANES
 from icv_envs.sim.intersection_layout import DEFAULT_BOX_HALF, IntersectionLayout, validate_radii
 from icv_envs.sim.intersection_metrics import (
+    JAM_SECONDS,
     QUEUE_GAP,
     STOPPED_SPEED,
     ConflictAreas,
@@ -59,8 +60,8 @@ from icv_envs.sim.intersection_metrics import (
     PetStats,
     collision_fault,
 )
-from icv_envs.sim._kernels.intersection import box_collision_pairs, intersection_events, rows_of_ids
-from icv_envs.sim.traffic import bicycle_step
+from icv_envs.sim._kernels.frames import intersection_frames
+from icv_envs.sim._kernels.intersection import box_collision_pairs, rows_of_ids
 
 __all__ = [
     "IntersectionLayout",
@@ -290,37 +291,69 @@ class IntersectionWorld:
     # --------------------------------------------------------------- dynamics
     def substep(self, accel: np.ndarray, steer: np.ndarray, events: StepEvents) -> None:
         """One integration step of ``dt`` for all vehicles, then the events of
-        the module docstring."""
+        the module docstring (:meth:`substeps` with one frame)."""
+        self.substeps(accel, steer, 1, events)
+
+    def substeps(self, accel: np.ndarray, steer: np.ndarray, n: int, events: StepEvents) -> int:
+        """Up to ``n`` integration steps with the same controls, each with
+        the events of the module docstring, the run metrics (motion, PET,
+        jam watch) and the collision test, in one compiled call
+        (:func:`icv_envs.sim._kernels.intersection_frames`) that stops after
+        the first frame in which something happens that is handled here (a
+        wrong exit, a vehicle clearing the box, a crash, a removal, a
+        vehicle standing longer than the jam watch's limit). Returns how
+        many steps ran; the state, statistics, metrics and events are those
+        of as many single steps, bit for bit."""
         f = self.fleet
         lay = self.layout
-        v_before = f.speed.copy()
-        if f.n:
-            a = np.where(f.crashed, -6.0, accel)
-            st = np.where(f.crashed, 0.0, steer)
-            f.x, f.y, f.heading, f.speed = bicycle_step(f.x, f.y, f.heading, f.speed, a, st, self.dt,
-                                                        self.wheelbase, self.v_max)
-            f.accel = np.asarray(a, dtype=np.float64)
-            f.steer = np.asarray(st, dtype=np.float64)
-        self.time += self.dt
-        self.step_count += 1
-        self._route = None
+        n = int(n)
+        if n < 1:
+            raise ValueError(f"n = {n}; allowed: an integer >= 1")
         if not f.n:
-            return
+            self.time += self.dt
+            self.step_count += 1
+            self._route = None
+            return 1
+        accel = np.ascontiguousarray(accel, dtype=np.float64)
+        steer = np.ascontiguousarray(steer, dtype=np.float64)
+        if accel.shape != (f.n,) or steer.shape != (f.n,):
+            raise ValueError(f"accel and steer must have shape ({f.n},) (one per vehicle); got {accel.shape} and "
+                             f"{steer.shape}")
+        top = int(f.vid.max()) + 1
+        self.motion.reserve(top)
+        lo, hi, occ, path, busy = self.pet.tables(top)
+        (ran, event, f.x, f.y, f.heading, f.speed, f.accel, f.steer, sums, stopped, min_box, trans, busy, cx, cy, u,
+         lat_leg, crash, new_wrong, clear_now, removed, left, i, j, jam_rows) = intersection_frames(
+            n, f.x, f.y, f.heading, f.speed, accel, steer, f.crashed, self.dt, self.wheelbase, self.v_max, self.time,
+            f.vid, f.leg, f.mv, f.length, f.width, f.tlane, f.entered, f.departed, f.cleared, f.wrong_exit,
+            f.exit_leg, f.plane, f.enter_time, _OUT, lay.app_dir, lay.app_right, lay.dep_right, lay.exit_of,
+            lay.box_half, lay.lane_width, N_LANES, _OFFROAD_MARGIN, -(lay.R3 - lay.box_half + 50.0),
+            lay.departure_length, lay.P0, lay.D0, lay.P1, lay.D1, lay.L, lay.arc, lay.C, lay.TH0, lay.R, lay.SGN,
+            STOPPED_SPEED, *self.motion.moments(), lo, hi, occ, path, busy, self.jams.standing_times(top),
+            JAM_SECONDS)
         stt = self.stats
-        stt["vehicle_steps"] += f.n
-        stt["speed_sum"] += float(f.speed.sum())
-        stt["abs_accel_sum"] += float(np.abs(f.accel).sum())
-        self.motion.record(f.vid, v_before, f.speed, f.accel, self.dt)
-        cx, cy = self.centers()
-        b = lay.box_half
-        # the per-vehicle event tests and the PET candidates, compiled (sim/_kernels/intersection.py);
-        # what follows an event (stats, event sets) stays here
-        (u, lat_leg, crash, new_wrong, clear_now, removed, left, pet_rows, pet_pid, pet_s, pet_arc,
-         min_box) = intersection_events(
-            cx, cy, f.speed, f.leg, f.mv, f.length, f.crashed, f.tlane, f.entered, f.departed, f.cleared,
-            f.wrong_exit, f.exit_leg, f.plane, f.enter_time, _OUT, lay.app_dir, lay.app_right, lay.dep_right,
-            lay.exit_of, b, lay.lane_width, N_LANES, _OFFROAD_MARGIN, -(lay.R3 - b + 50.0),
-            lay.departure_length, self.time, lay.P0, lay.D0, lay.P1, lay.D1, lay.L, lay.arc)
+        nv = f.n
+        # the clock, the run statistics and the PET events, frame by frame as single steps add them
+        tf = trans[:, 0].tolist()
+        q = 0
+        for fr in range(ran):
+            self.time += self.dt
+            self.step_count += 1
+            sv, sa = float(sums[fr, 0]), float(sums[fr, 2])
+            stt["vehicle_steps"] += nv
+            stt["speed_sum"] += sv
+            stt["abs_accel_sum"] += sa
+            self.motion.add(nv, sv, float(sums[fr, 1]), sa, int(stopped[fr]), self.dt)
+            stt["min_speed_in_box"] = min(stt["min_speed_in_box"], float(min_box[fr]))
+            q1 = q
+            while q1 < len(tf) and tf[q1] == fr:
+                q1 += 1
+            self.pet.apply(self.time, busy, trans[q:q1, 1:])
+            q = q1
+        self._route = None
+        if not event:
+            return int(ran)
+        # what the last frame's events mean
         if new_wrong.any():
             stt["wrong_exits"] += int(new_wrong.sum())
             events.wrong_exit.update(int(v) for v in f.vid[new_wrong])
@@ -335,16 +368,10 @@ class IntersectionWorld:
                 stt["travel_time_sum"] += float(tt.sum())
                 stt["delay_sum"] += float((tt - dist / self.v_free).sum())
             events.cleared.update(int(v) for v in f.vid[kc])
-        stt["min_speed_in_box"] = min(stt["min_speed_in_box"], min_box)
-        # conflict-area occupancy of the vehicles near the box (PET, icv_envs.sim.intersection_metrics)
-        if pet_arc.any():
-            k = np.flatnonzero(pet_arc)
-            pet_s[k] = lay.arc_project(pet_pid[k], cx[pet_rows[k]], cy[pet_rows[k]])[0]
-        self.pet.record(self.time, f.vid[pet_rows], pet_pid, pet_s, f.length[pet_rows])
-        self.jams.record(self.time, self.dt, f.vid, f.speed, lambda rows: self._in_queue(rows, u, lat_leg),
-                         dist=self.layout.box_half - u)
+        if len(jam_rows):
+            self.jams.judge(self.time, self.dt, f.vid, jam_rows, lambda rows: self._in_queue(rows, u, lat_leg),
+                            dist=lay.box_half - u)
         # collisions
-        i, j = self.collision_pairs(cx, cy)
         if len(i):
             crash[i] = True
             crash[j] = True
@@ -370,6 +397,7 @@ class IntersectionWorld:
             stt["removed"] += int((removed & gone).sum())
             stt["left_road"] += int((left & gone).sum())
             f.remove(gone)
+        return int(ran)
 
     def _in_queue(self, rows, u, lat_leg) -> np.ndarray:
         """Is each of ``rows`` in a queue at the box (the :class:`~icv_envs.sim.intersection_metrics.JamWatch`

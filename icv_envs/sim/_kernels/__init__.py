@@ -7,7 +7,8 @@ front-target pass and drivable-lane windows), and the per-step work whose cost w
 the Python overhead of tens of small numpy calls rather than arithmetic
 (issue 10): the fused physics substep (:func:`kinematic_substep`,
 :func:`road_check`) and the run of substeps in which nothing happens that
-the world must handle in Python (:func:`quiet_substeps`), the run statistics (:func:`motion_record`,
+the world must handle in Python (:func:`quiet_substeps`; the intersection's
+frames with their events, PET transitions and jam watch, :func:`intersection_frames`), the run statistics (:func:`motion_record`,
 :func:`headway_record`), collision detection as a whole
 (:func:`collision_pairs`), the lane-sorted index and leader search
 (:func:`build_lane_index`, :func:`leader_rows`,
@@ -50,7 +51,7 @@ from __future__ import annotations
 
 from icv_envs.sim._kernels.formation import (drivable_lane_bits, drivable_lane_bits1, eligible_free_rows,
                                              hold_targets, leaving_rows, reference_rows)
-from icv_envs.sim._kernels.frames import quiet_substeps
+from icv_envs.sim._kernels.frames import intersection_frames, quiet_substeps
 from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows, own_lane_gap_rows
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_reward_terms, kinematics_rows,
                                                nearest_along_road)
@@ -83,4 +84,5 @@ __all__ = [
     "hold_targets",
     "reference_rows",
     "quiet_substeps",
+    "intersection_frames",
 ]

@@ -3,15 +3,18 @@ here follows: :mod:`icv_envs.sim._kernels`)."""
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.formation import _wrap1
+from icv_envs.sim._kernels.intersection import box_collision_pairs, intersection_events
 from icv_envs.sim._kernels.neighbours import collision_pairs
-from icv_envs.sim._kernels.physics import kinematic_substep, road_check
-from icv_envs.sim._kernels.stats import motion_record
+from icv_envs.sim._kernels.physics import kinematic_substep, npy_mod, road_check
+from icv_envs.sim._kernels.stats import motion_record, pet_transitions
 
-__all__ = ["quiet_substeps"]
+__all__ = ["quiet_substeps", "intersection_frames"]
 
 
 @nb.njit(cache=True)
@@ -82,3 +85,130 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
         missed += crossed
     return (n_frames, False, x, y, heading, speed, acc, st, stopped_for, cx, cy, cx_before, sums, stopped, missed, i,
             j, lane, off, at_end, n_off, n_end)
+
+
+@nb.njit(cache=True)
+def _push(buf, m, f, kind, path, slot):
+    """Append the row ``(f, kind, path, slot)`` to ``buf`` holding ``m`` rows (doubled when full)."""
+    if m == buf.shape[0]:
+        new = np.empty((2 * buf.shape[0], 4), dtype=np.int64)
+        new[:m] = buf
+        buf = new
+    buf[m, 0] = f
+    buf[m, 1] = kind
+    buf[m, 2] = path
+    buf[m, 3] = slot
+    return buf
+
+
+@nb.njit(cache=True)
+def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, dt, wheelbase, v_max, t,
+                        vid, leg, mv, length, width, tlane, entered, departed, cleared, wrong_exit, exit_leg, plane,
+                        enter_time, out, app_dir, app_right, dep_right, exit_of, box_half, lane_width, n_lanes,
+                        off_margin, left_u, departure_length, P0, D0, P1, D1, L, arc, C, TH0, R, SGN,
+                        stopped_speed, m_count, m_s1, m_s2, pet_lo, pet_hi, pet_occ, pet_path, pet_busy, jam_sf,
+                        jam_seconds):
+    """Up to ``n_frames`` frames of ``IntersectionWorld.substep`` with the
+    same controls, each in that method's order: the integration
+    (:func:`~icv_envs.sim._kernels.physics.kinematic_substep`: a crashed
+    vehicle brakes at -6 m/s^2 with the wheels straight, no steering limit,
+    no ring) and the body centres, the motion moments
+    (:func:`~icv_envs.sim._kernels.stats.motion_record`), the events
+    (:func:`~icv_envs.sim._kernels.intersection.intersection_events`, at
+    time ``t + dt``, ``t + 2 dt``, ... added frame by frame as the world's
+    clock adds them), the route coordinate of the PET candidates on a turn
+    arc (``IntersectionLayout.arc_project``: ``arctan2`` and ``mod`` as
+    NumPy's), their conflict-area transitions
+    (:func:`~icv_envs.sim._kernels.stats.pet_transitions`), the jam watch's
+    standing times (``JamWatch.record``) and the collision pairs
+    (:func:`~icv_envs.sim._kernels.intersection.box_collision_pairs`).
+    It stops after the first frame in which something happened that the
+    world handles in Python: a wrong exit, a vehicle clearing the box, a
+    crash (a colliding pair or leaving the drivable surface), a vehicle
+    removed or driven back out of its road, or a vehicle standing longer
+    than ``jam_seconds`` (the queue test).
+
+    The fleet's event arrays (``entered``, ``plane``, ``enter_time``,
+    ``departed``, ``exit_leg``, ``wrong_exit``, ``cleared``), the motion
+    moments, the PET tables ``pet_occ``/``pet_path`` and the standing times
+    ``jam_sf`` (all indexed by id; they must hold every id) are updated in
+    place.
+
+    Returns ``(k, event, x, y, heading, speed, accel, steer, sums (k, 3),
+    stopped (k,), min_box (k,), transitions (m, 4), pet_busy, cx, cy, u,
+    lat_leg, crash, new_wrong, clear_now, removed, left, i, j, jam_rows)``:
+    ``k`` frames ran; the state after the last; per frame the sums of
+    :func:`motion_record`, the number standing and the least speed in the
+    box; the PET transitions ``(frame, 0 left / 1 entered, path, slot)`` in
+    the order ``PetStats.record`` handles them; the last frame's centres,
+    events, collision pairs and the rows standing longer than
+    ``jam_seconds``."""
+    n = x.shape[0]
+    sums = np.zeros((n_frames, 3))
+    stopped = np.zeros(n_frames, dtype=np.int64)
+    min_box = np.zeros(n_frames)
+    trans = np.empty((16, 4), dtype=np.int64)
+    m = 0
+    dummy = np.zeros(n)
+    two_pi = 2.0 * math.pi
+    for fr in range(n_frames):
+        v_before = speed
+        x, y, heading, speed, acc, st, _, cx, cy = kinematic_substep(
+            x, y, heading, speed, accel, steer, crashed, dummy, wheelbase, -1.0, dt, v_max, -1.0)
+        t = t + dt
+        sv, sdv, sa, ns, _ = motion_record(vid, v_before, speed, acc, stopped_speed, m_count, m_s1, m_s2)
+        sums[fr, 0] = sv
+        sums[fr, 1] = sdv
+        sums[fr, 2] = sa
+        stopped[fr] = ns
+        (u, lat_leg, crash, new_wrong, clear_now, removed, left, pet_rows, pet_pid, pet_s, pet_arc,
+         mb) = intersection_events(cx, cy, speed, leg, mv, length, crashed, tlane, entered, departed, cleared,
+                                   wrong_exit, exit_leg, plane, enter_time, out, app_dir, app_right, dep_right,
+                                   exit_of, box_half, lane_width, n_lanes, off_margin, left_u, departure_length, t,
+                                   P0, D0, P1, D1, L, arc)
+        min_box[fr] = mb
+        npet = pet_rows.shape[0]
+        pvid = np.empty(npet, dtype=np.int64)
+        plen = np.empty(npet)
+        for q in range(npet):
+            r = pet_rows[q]
+            pvid[q] = vid[r]
+            plen[q] = length[r]
+            if pet_arc[q]:
+                p = pet_pid[q]
+                ang = math.atan2(cy[r] - C[p, 1], cx[r] - C[p, 0]) - TH0[p]
+                ang = npy_mod(ang + math.pi, two_pi) - math.pi
+                pet_s[q] = R[p] * ang * SGN[p]
+        lft, ent, pet_busy = pet_transitions(pvid, pet_pid, pet_s, plen, pet_lo, pet_hi, pet_occ, pet_path, pet_busy)
+        for q in range(lft.shape[0]):
+            trans = _push(trans, m, fr, 0, lft[q, 0], lft[q, 1])
+            m += 1
+        for q in range(ent.shape[0]):
+            trans = _push(trans, m, fr, 1, ent[q, 0], ent[q, 1])
+            m += 1
+        n_jam = 0
+        for q in range(n):
+            k = vid[q]
+            if speed[q] < stopped_speed:
+                jam_sf[k] = jam_sf[k] + dt
+                if jam_sf[k] > jam_seconds:
+                    n_jam += 1
+            else:
+                jam_sf[k] = 0.0
+        jam_rows = np.empty(n_jam, dtype=np.int64)
+        q2 = 0
+        for q in range(n):
+            if speed[q] < stopped_speed and jam_sf[vid[q]] > jam_seconds:
+                jam_rows[q2] = q
+                q2 += 1
+        i, j = box_collision_pairs(cx, cy, heading, length, width, box_half)
+        event = n_jam > 0 or i.shape[0] > 0
+        for q in range(n):
+            if new_wrong[q] or clear_now[q] or (crash[q] and not crashed[q]) or ((removed[q] or left[q]) and not crashed[q]):
+                event = True
+                break
+        if event or fr == n_frames - 1:
+            k = fr + 1
+            return (k, event, x, y, heading, speed, acc, st, sums[:k], stopped[:k], min_box[:k], trans[:m],
+                    pet_busy, cx, cy, u, lat_leg, crash, new_wrong, clear_now, removed, left, i, j, jam_rows)
+    raise ValueError("n_frames must be >= 1")
