@@ -132,3 +132,31 @@ def test_corridor_index_matches_the_numpy_code(method, throughput, seed):
                 for got, want in zip(cor.neighbours(q, qc, qx), _numpy_neighbours(cor, q, qc, qx)):
                     assert got.dtype == want.dtype and np.array_equal(got, want)
     assert checked > 1000
+
+
+def test_plain_corridors_are_shared_within_one_state_and_rebuilt_after_it():
+    """``Corridors.plain`` (no turn signals) is built once per route state:
+    the same object while the world's route state is unchanged, a new one
+    after a step, after a spawn-like invalidation and for another route
+    state; and always equal to a fresh build."""
+    env = parallel_env(method="multi-vp", throughput=3000.0, duration=60.0)
+    obs, infos = env.reset(seed=2)
+    w = env.core.world
+    names = ("rows", "corr", "coord", "keys", "signal_only", "lead")
+    seen = 0
+    for _ in range(120):
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+        rs = w.route()
+        a = Corridors.plain(w, rs)
+        assert Corridors.plain(w, w.route()) is a
+        fresh = Corridors(w, rs, np.full(w.fleet.n, -1))
+        assert all(np.array_equal(getattr(a, k), getattr(fresh, k)) for k in names)
+        w.invalidate()
+        # the state it was built for is no longer the world's: rebuilt
+        assert Corridors.plain(w, rs) is not a
+        b = Corridors.plain(w, w.route())
+        assert b is not a and all(np.array_equal(getattr(a, k), getattr(b, k)) for k in names)
+        # a stale route state (not the world's current one) is never served from the cache
+        assert Corridors.plain(w, rs) is not b
+        seen += w.fleet.n > 0
+    assert seen > 100

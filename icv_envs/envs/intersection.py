@@ -436,7 +436,7 @@ class IntersectionEnv(IcvAgentsEnv):
         self._leaders_cache = (key, (gap, dv))
         if f.n < 2:
             return gap, dv
-        cor = Corridors(w, w.route(), np.full(f.n, -1))
+        cor = Corridors.plain(w, w.route())
         e = np.flatnonzero(cor.lead >= 0)
         if len(e):
             me = cor.rows[e]

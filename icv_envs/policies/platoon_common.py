@@ -65,6 +65,23 @@ class Corridors:
             rs.s, np.asarray(signal_lane, dtype=np.int64), box, rs.pid.astype(np.int64, copy=False), early,
             np.maximum(f.plane, 0).astype(np.int64, copy=False), dep, dep_corr, rs.L, self.BIG)
 
+    @classmethod
+    def plain(cls, world, rs) -> "Corridors":
+        """The index without turn signals (no vehicle listed in a lane it
+        waits to change into) of route state ``rs``, built once per state:
+        the virtual platoon's order check and the env's leaders ask for the
+        same one within a step. Reused while ``rs`` is the world's current
+        route state and the fleet has the same vehicles (everything the
+        index reads changes only with a new route state: the physics, a
+        spawn, a removal or a rerouted movement); callers only read it."""
+        n = world.fleet.n
+        c = getattr(world, "_plain_corridors", None)
+        if c is not None and c[0] is rs and c[1] == n and world.route_is(rs):
+            return c[2]
+        cor = cls(world, rs, np.full(n, -1))
+        world._plain_corridors = (rs, n, cor)
+        return cor
+
     def neighbours(self, q_rows, q_corr, q_coord):
         """Nearest other vehicle ahead (coordinate >) and behind (<=) in corridor ``q_corr``.
 

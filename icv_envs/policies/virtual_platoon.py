@@ -130,7 +130,7 @@ class VirtualPlatoon:
         rows = np.flatnonzero((f.node >= 0) & (rs.phase == 0))
         if not len(rows):
             return
-        cor = Corridors(world, rs, np.full(f.n, -1))
+        cor = Corridors.plain(world, rs)
         lr, _, _, _ = cor.neighbours(rows, 3 * f.leg[rows] + rs.lane[rows], rs.s[rows])
         lr0 = np.maximum(lr, 0)
         bad = (lr >= 0) & (f.node[lr0] != f.node[rows]) & (rs.phase[lr0] == 0)

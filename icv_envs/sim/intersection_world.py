@@ -285,6 +285,10 @@ class IntersectionWorld:
                                  X=0.5 * L - s, dist=lay.box_half - s, phase=phase, L=L)
         return self._route
 
+    def route_is(self, rs) -> bool:
+        """Is ``rs`` the current route state (not invalidated since)?"""
+        return self._route is rs
+
     def invalidate(self) -> None:
         self._route = None
 
