@@ -16,7 +16,12 @@ operations on the same values (comparisons, one subtraction and product
 per lane test, ``corr * BIG + coord`` for the keys), no ``fastmath``; the
 trigonometry of the footprint's reach stays in numpy (numba's ``sin`` and
 numpy's SIMD ``sin`` may round differently), so the index is the same bit
-for bit (``tests/test_trajectory_hash.py``).
+for bit (``tests/test_trajectory_hash.py``). :func:`box_steering` is the
+intersection experts' pure-pursuit steering (about forty numpy calls
+before); its ``sin``, ``cos``, ``arctan``, ``sinh``, ``arcsinh`` and
+``hypot`` are libm's, as NumPy's float64 loops up to AVX2, the level the
+reference fingerprints are pinned at (the rule and its AVX-512 caveat:
+:mod:`icv_envs.sim._kernels`).
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ from icv_envs.sim._kernels.neighbours import _leader_entry, leader_rows
 from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wrap1
 from icv_envs.sim._kernels.physics import _available1, interval_end_at1, interval_ends_at, npy_mod
 
-__all__ = ["corridor_index", "exit_lanes", "lane_change_starts", "lane_end_escape", "normalised_actions",
+__all__ = ["box_steering", "corridor_index", "exit_lanes", "lane_change_starts", "lane_end_escape", "normalised_actions",
            "repair_order", "safety_cap"]
 
 
@@ -623,3 +628,76 @@ def lane_end_escape(desired, lane, member, exiting, cx, period, n_lanes, lane_en
         if np.isfinite(k) and end - cx[i] < (k + 1.0) * lc_max_length:
             out[i] = best
     return out
+
+
+@nb.njit(cache=True)
+def box_steering(x, y, heading, speed, klane, mv, pid, phase, s, u, lc_lane, lc_u0, lc_lat0, lc_lat1, lc_len, leg,
+                 L, P0, D0, P1, D1, arc, TH0, SGN, R, C, box_half, out, app_dir, app_right, lane_width, preview_min,
+                 preview_time, wheelbase, steer_max):
+    """The intersection expert's steering
+    (:meth:`icv_envs.policies.platoon_control.PlatoonControl._steering`)
+    compiled, per vehicle in the order of the array code: the preview
+    distance ``max(preview_min, v preview_time)`` ahead along the route
+    (``IntersectionLayout.route_points`` of the kept lane's path on the
+    approach, else of the vehicle's path: the approach or departure line,
+    the turn arc in the box), before the stop line the lane centre or the
+    lane-change curve (:func:`icv_envs.formation.bezier._lane_change_lateral`),
+    then pure pursuit (:func:`icv_envs.formation.bezier._pure_pursuit_steering`)
+    clipped to ``steer_max`` (paper Sec. 2.2, eq. (Bezier) and the preview
+    law). Returns the steering angles."""
+    n = x.shape[0]
+    phi = np.empty(n)
+    for i in range(n):
+        v = speed[i]
+        ld = max(preview_min, v * preview_time)
+        sp = s[i] + ld
+        appr = phase[i] == 0
+        kl = min(max(klane[i], 0), 2)
+        p = 3 * mv[i] + kl if appr else pid[i]
+        Lp = L[p]
+        if sp > Lp:
+            t = sp - Lp
+            px = P1[p, 0] + t * D1[p, 0]
+            py = P1[p, 1] + t * D1[p, 1]
+        else:
+            px = P0[p, 0] + sp * D0[p, 0]
+            py = P0[p, 1] + sp * D0[p, 1]
+            if arc[p] and sp >= 0.0:
+                th = TH0[p] + SGN[p] * sp / R[p]
+                px = C[p, 0] + R[p] * np.cos(th)
+                py = C[p, 1] + R[p] * np.sin(th)
+        if appr and sp < 0.0:
+            lat = (kl + 0.5) * lane_width
+            up = u[i] + ld
+            if lc_lane[i] >= 0:
+                xa = up
+                x0a = lc_u0[i]
+                y0a = lc_lat0[i]
+                y1a = lc_lat1[i]
+                d = lc_len[i]
+                sl = min(max((xa - x0a) / d, 0.0), 1.0)
+                tt = 0.5 + np.sinh(np.arcsinh(4.0 * sl - 2.0) / 3.0)
+                tt = tt - (((tt - 1.5) * tt + 1.5) * tt - sl) / ((3.0 * tt - 3.0) * tt + 1.5)
+                tt = min(max(tt, 0.0), 1.0)
+                if xa <= x0a:
+                    lat = y0a
+                elif xa >= x0a + d:
+                    lat = y1a
+                else:
+                    lat = y0a + (y1a - y0a) * (tt * tt * (3.0 - 2.0 * tt))
+            g = leg[i]
+            ox = box_half * out[g, 0]
+            oy = box_half * out[g, 1]
+            px = ox + up * app_dir[g, 0] + lat * app_right[g, 0]
+            py = oy + up * app_dir[g, 1] + lat * app_right[g, 1]
+        dx = px - x[i]
+        dy = py - y[i]
+        dist = np.hypot(dx, dy)
+        lateral = np.cos(heading[i]) * dy - np.sin(heading[i]) * dx
+        if dist > 0.0:
+            curv = 2.0 * lateral / (dist * dist)
+        else:
+            curv = 0.0
+        a = np.arctan(wheelbase * curv)
+        phi[i] = min(max(a, -steer_max), steer_max)
+    return phi

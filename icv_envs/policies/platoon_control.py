@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steering
 from icv_envs.formation.control import _longitudinal_feedback
+from icv_envs.policies._kernels import box_steering
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE, Corridors
 from icv_envs.sim.traffic import idm_acceleration
 
@@ -41,39 +41,19 @@ class PlatoonControl:
         return np.clip(np.stack([ua, phi / p.steer_max], axis=1), -1.0, 1.0)
 
     def _steering(self, world, rs) -> np.ndarray:
+        """Pure-pursuit steering along the kept lane, the lane-change curve or
+        the path through the box (compiled: :func:`icv_envs.policies._kernels.box_steering`;
+        the array code it replaced is its reference in ``tests/test_kernels.py``)."""
         p = self.p
         f = world.fleet
         lay = world.layout
-        v = f.speed
-        ld = np.maximum(p.preview_min, v * p.preview_time)
-        s_prev = rs.s + ld
-        appr = rs.phase == 0
-        # path of the lane being kept (approach) / entered (box, departure)
-        klane = np.clip(f.klane, 0, 2)
-        pid = np.where(appr, 3 * f.mv + klane, rs.pid)
-        px, py, _ = lay.route_points(pid, s_prev)
-        # approach preview points before the stop line: lane centre or lane-change curve
-        pre = appr & (s_prev < 0)
-        if pre.any():
-            k = np.flatnonzero(pre)
-            lat = (klane[k] + 0.5) * lay.lane_width
-            act = f.lc_lane[k] >= 0
-            if act.any():
-                a = k[act]
-                lat_a, _ = _lane_change_lateral(rs.u[a] + ld[a], f.lc_u0[a], f.lc_lat0[a], f.lc_lat1[a], f.lc_len[a])
-                lat = lat.astype(np.float64)
-                lat[act] = lat_a
-            leg = f.leg[k]
-            o = lay.box_half * lay.out[leg]
-            d = lay.app_dir[leg]
-            r = lay.app_right[leg]
-            up = rs.u[k] + ld[k]
-            px[k] = o[:, 0] + up * d[:, 0] + lat * r[:, 0]
-            py[k] = o[:, 1] + up * d[:, 1] + lat * r[:, 1]
         # (unchecked: the parameters were checked once, _check_params; the
-        # states and preview points are finite float64 arrays)
-        return _pure_pursuit_steering(f.x, f.y, f.heading, px, np.asarray(py, dtype=np.float64), float(p.wheelbase),
-                                      float(p.steer_max))
+        # states are finite float64 arrays)
+        return box_steering(f.x, f.y, f.heading, f.speed, f.klane, f.mv, rs.pid, rs.phase, rs.s, rs.u, f.lc_lane,
+                            f.lc_u0, f.lc_lat0, f.lc_lat1, f.lc_len, f.leg, lay.L, lay.P0, lay.D0, lay.P1, lay.D1,
+                            lay.arc, lay.TH0, lay.SGN, lay.R, lay.C, float(lay.box_half), lay.out, lay.app_dir,
+                            lay.app_right, float(lay.lane_width), float(p.preview_min), float(p.preview_time),
+                            float(p.wheelbase), float(p.steer_max))
 
     def _longitudinal(self, world, rs) -> np.ndarray:
         p = self.p
