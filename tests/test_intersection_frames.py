@@ -4,7 +4,9 @@
 step, with the same state, statistics, run metrics (motion, PET, jam watch,
 faults), collision log and PettingZoo outputs, bit for bit; expert-driven,
 with random drivers (collisions, wrong exits) and with drivers that stand
-(the jam watch's queue test)."""
+(the jam watch's queue test); and its compiled route coordinates
+(``IntersectionWorld.route``, :func:`icv_envs.sim._kernels.intersection.route_rows`)
+against the array code they replaced."""
 
 from __future__ import annotations
 
@@ -198,3 +200,55 @@ def test_substeps_refuses_bad_controls():
         w.substeps(np.zeros(n + 1), np.zeros(n), 2, env.core._new_events())
     with pytest.raises(ValueError, match=r"n = 0; allowed"):
         w.substeps(np.zeros(n), np.zeros(n), 0, env.core._new_events())
+
+
+def _frozen_route(w) -> dict:
+    """``IntersectionWorld.route`` as array code (before it was compiled)."""
+    from icv_envs.sim.intersection_world import _OUT
+
+    f = w.fleet
+    lay = w.layout
+    h = 0.5 * w.wheelbase
+    cx, cy = f.x + h * np.cos(f.heading), f.y + h * np.sin(f.heading)
+    leg = f.leg
+    ox = lay.box_half * _OUT[leg, 0]
+    oy = lay.box_half * _OUT[leg, 1]
+    d = lay.app_dir[leg]
+    r = lay.app_right[leg]
+    u = (cx - ox) * d[:, 0] + (cy - oy) * d[:, 1]
+    lat_leg = (cx - ox) * r[:, 0] + (cy - oy) * r[:, 1]
+    lane = np.clip(np.floor(lat_leg / lay.lane_width), 0, N_LANES - 1).astype(np.int64)
+    phase = np.where(f.departed, 2, np.where(f.entered, 1, 0))
+    plane = np.where(f.plane >= 0, f.plane, f.tlane)
+    pid = 3 * f.mv + plane
+    s, lat = lay.project(pid, cx, cy, phase)
+    L = lay.L[pid]
+    return dict(cx=cx, cy=cy, u=u, lat_leg=lat_leg, lane=lane, pid=pid, s=s, lat=lat, X=0.5 * L - s,
+                dist=lay.box_half - s, phase=phase, L=L)
+
+
+@pytest.mark.parametrize("method,seed", [("multi-vp", 5), ("fcfs", 6)])
+def test_compiled_route_equals_the_array_code(method, seed):
+    """``IntersectionWorld.route`` (compiled: ``route_rows``) against the array
+    code it replaced, on every state of a run with a third of the drivers at
+    random (vehicles off their lanes, on the turn arcs, departed)."""
+    env = parallel_env(method=method, throughput=3000.0, duration=150.0, missing_action="expert")
+    env.reset(seed=seed)
+    core = env.core
+    w = core.world
+    rng = np.random.default_rng(seed)
+    seen = {0: 0, 1: 0, 2: 0}
+    while not env.episode_over:
+        w.invalidate()
+        rs = w.route()
+        want = _frozen_route(w)
+        for k, v in want.items():
+            got = getattr(rs, k)
+            assert got.dtype == v.dtype and np.array_equal(got, v), k
+        for ph in seen:
+            seen[ph] += int((rs.phase == ph).sum())
+        acts = core.expert_actions()
+        rand = rng.random(len(acts)) < 0.3
+        acts[rand] = rng.uniform(-1.0, 1.0, (int(rand.sum()), 2))
+        env.step(dict(zip(env.agents, acts.astype(np.float32))))
+    assert min(seen.values()) > 200, seen

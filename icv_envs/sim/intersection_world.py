@@ -61,7 +61,7 @@ from icv_envs.sim.intersection_metrics import (
     collision_fault,
 )
 from icv_envs.sim._kernels.frames import intersection_frames
-from icv_envs.sim._kernels.intersection import box_collision_pairs, rows_of_ids
+from icv_envs.sim._kernels.intersection import box_collision_pairs, route_rows, rows_of_ids
 
 __all__ = [
     "IntersectionLayout",
@@ -267,22 +267,14 @@ class IntersectionWorld:
             return self._route
         f = self.fleet
         lay = self.layout
-        cx, cy = self.centers()
-        leg = f.leg
-        ox = lay.box_half * _OUT[leg, 0]
-        oy = lay.box_half * _OUT[leg, 1]
-        d = lay.app_dir[leg]
-        r = lay.app_right[leg]
-        u = (cx - ox) * d[:, 0] + (cy - oy) * d[:, 1]
-        lat_leg = (cx - ox) * r[:, 0] + (cy - oy) * r[:, 1]
-        lane = np.clip(np.floor(lat_leg / lay.lane_width), 0, N_LANES - 1).astype(np.int64)
-        phase = np.where(f.departed, 2, np.where(f.entered, 1, 0))
-        plane = np.where(f.plane >= 0, f.plane, f.tlane)
-        pid = 3 * f.mv + plane
-        s, lat = lay.project(pid, cx, cy, phase)
-        L = lay.L[pid]
-        self._route = RouteState(cx=cx, cy=cy, u=u, lat_leg=lat_leg, lane=lane, pid=pid, s=s, lat=lat,
-                                 X=0.5 * L - s, dist=lay.box_half - s, phase=phase, L=L)
+        # compiled (icv_envs.sim._kernels.intersection.route_rows; the array
+        # code it replaced is its reference in tests/test_intersection_frames.py)
+        cx, cy, u, lat_leg, lane, pid, s, lat, X, dist, phase, L = route_rows(
+            f.x, f.y, f.heading, 0.5 * self.wheelbase, f.leg, f.mv, f.plane, f.tlane, f.entered, f.departed, _OUT,
+            lay.app_dir, lay.app_right, lay.box_half, lay.lane_width, N_LANES, lay.P0, lay.D0, lay.P1, lay.D1, lay.L,
+            lay.arc, lay.C, lay.TH0, lay.R, lay.SGN)
+        self._route = RouteState(cx=cx, cy=cy, u=u, lat_leg=lat_leg, lane=lane, pid=pid, s=s, lat=lat, X=X, dist=dist,
+                                 phase=phase, L=L)
         return self._route
 
     def route_is(self, rs) -> bool:

@@ -15,8 +15,9 @@ import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.neighbours import collision_pairs
+from icv_envs.sim._kernels.physics import npy_mod
 
-__all__ = ["intersection_events", "box_collision_pairs", "rows_of_ids"]
+__all__ = ["intersection_events", "box_collision_pairs", "rows_of_ids", "route_rows"]
 
 PET_REACH = 20.0  # metres before the stop line / past the box edge inside which a vehicle is a PET candidate
 
@@ -188,3 +189,74 @@ def rows_of_ids(table, vids):
         v = vids[q]
         out[q] = table[v] if 0 <= v < n else -1
     return out
+
+
+@nb.njit(cache=True)
+def route_rows(x, y, heading, half_wheelbase, leg, mv, plane, tlane, entered, departed, out, app_dir, app_right,
+               box_half, lane_width, n_lanes, P0, D0, P1, D1, L, arc, C, TH0, R, SGN):
+    """``IntersectionWorld.route`` compiled, per vehicle in the order of the
+    array code: the body centre ``(x, y) + wheelbase/2 (cos, sin)(heading)``;
+    the approach-axis coordinates ``u``, ``lat_leg`` and lane of its leg;
+    the phase (0 approach, 1 in the box, 2 departed); the path (its locked
+    lane, else the expected one); the route coordinate and offset
+    (``IntersectionLayout.project``: along the approach or departure line,
+    on a turn arc by the angle around its centre, ``arctan2``, ``mod`` and
+    ``hypot`` as NumPy's); ``X = L/2 - s``, ``dist = box_half - s`` and the
+    path length ``L``.
+
+    Returns ``(cx, cy, u, lat_leg, lane, pid, s, lat, X, dist, phase, L)``."""
+    n = x.shape[0]
+    cx = np.empty(n)
+    cy = np.empty(n)
+    u = np.empty(n)
+    lat_leg = np.empty(n)
+    lane = np.empty(n, dtype=np.int64)
+    pid = np.empty(n, dtype=np.int64)
+    s = np.empty(n)
+    lat = np.empty(n)
+    X = np.empty(n)
+    dist = np.empty(n)
+    phase = np.empty(n, dtype=np.int64)
+    Lr = np.empty(n)
+    top = float(n_lanes - 1)
+    two_pi = 2.0 * math.pi
+    for i in range(n):
+        c = x[i] + half_wheelbase * np.cos(heading[i])
+        d = y[i] + half_wheelbase * np.sin(heading[i])
+        cx[i] = c
+        cy[i] = d
+        g = leg[i]
+        ox = box_half * out[g, 0]
+        oy = box_half * out[g, 1]
+        u[i] = (c - ox) * app_dir[g, 0] + (d - oy) * app_dir[g, 1]
+        ll = (c - ox) * app_right[g, 0] + (d - oy) * app_right[g, 1]
+        lat_leg[i] = ll
+        fl = np.floor(ll / lane_width)
+        lane[i] = np.int64(min(max(fl, 0.0), top))
+        ph = 2 if departed[i] else (1 if entered[i] else 0)
+        phase[i] = ph
+        p = 3 * mv[i] + (plane[i] if plane[i] >= 0 else tlane[i])
+        pid[i] = p
+        if ph == 2:
+            qx = c - P1[p, 0]
+            qy = d - P1[p, 1]
+            si = L[p] + qx * D1[p, 0] + qy * D1[p, 1]
+            li = qx * D1[p, 1] - qy * D1[p, 0]
+        elif ph == 1 and arc[p]:
+            qx = c - C[p, 0]
+            qy = d - C[p, 1]
+            ang = math.atan2(qy, qx) - TH0[p]
+            ang = npy_mod(ang + math.pi, two_pi) - math.pi
+            si = R[p] * ang * SGN[p]
+            li = SGN[p] * (math.hypot(qx, qy) - R[p])
+        else:
+            px = c - P0[p, 0]
+            py = d - P0[p, 1]
+            si = px * D0[p, 0] + py * D0[p, 1]
+            li = px * D0[p, 1] - py * D0[p, 0]
+        s[i] = si
+        lat[i] = li
+        Lr[i] = L[p]
+        X[i] = 0.5 * L[p] - si
+        dist[i] = box_half - si
+    return cx, cy, u, lat_leg, lane, pid, s, lat, X, dist, phase, Lr
