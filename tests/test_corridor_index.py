@@ -138,11 +138,14 @@ def test_plain_corridors_are_shared_within_one_state_and_rebuilt_after_it():
     """``Corridors.plain`` (no turn signals) is built once per route state:
     the same object while the world's route state is unchanged, a new one
     after a step, after a spawn-like invalidation and for another route
-    state; and always equal to a fresh build."""
+    state; and always equal to a fresh build. The per-vehicle inputs, kept
+    per route state too, give an index with signals equal to one built from
+    fresh inputs."""
     env = parallel_env(method="multi-vp", throughput=3000.0, duration=60.0)
     obs, infos = env.reset(seed=2)
     w = env.core.world
     names = ("rows", "corr", "coord", "keys", "signal_only", "lead")
+    rng = np.random.default_rng(0)
     seen = 0
     for _ in range(120):
         obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
@@ -151,6 +154,27 @@ def test_plain_corridors_are_shared_within_one_state_and_rebuilt_after_it():
         assert Corridors.plain(w, w.route()) is a
         fresh = Corridors(w, rs, np.full(w.fleet.n, -1))
         assert all(np.array_equal(getattr(a, k), getattr(fresh, k)) for k in names)
+        # the per-vehicle inputs are reused for an index with signals of the same state
+        sig = np.where(rng.random(w.fleet.n) < 0.3, rng.integers(0, 3, w.fleet.n), -1)
+        cached = Corridors(w, rs, sig)
+        assert w._corridor_inputs[0] is rs
+        del w._corridor_inputs
+        rebuilt = Corridors(w, rs, sig)
+        assert all(np.array_equal(getattr(cached, k), getattr(rebuilt, k)) for k in names)
+        # once the world moves on (here: headings turned, the route state
+        # invalidated), inputs kept for ``rs`` are not served for it
+        if w.fleet.n:
+            heading = w.fleet.heading
+            w.fleet.heading = heading + 0.5
+            w.invalidate()
+            moved = Corridors(w, rs, sig)
+            del w._corridor_inputs
+            moved_fresh = Corridors(w, rs, sig)
+            assert all(np.array_equal(getattr(moved, k), getattr(moved_fresh, k)) for k in names)
+            w.fleet.heading = heading
+            w.invalidate()
+            rs = w.route()
+            a = Corridors.plain(w, rs)
         w.invalidate()
         # the state it was built for is no longer the world's: rebuilt
         assert Corridors.plain(w, rs) is not a

@@ -35,10 +35,30 @@ class Corridors:
     BIG = 1.0e5
 
     def __init__(self, world, rs, signal_lane, diverge: float = 10.0) -> None:
+        (appr, lane, lat_leg, reach, w, leg, s, box, pid, early, plane0, dep, dep_corr, L) = self._inputs(world, rs,
+                                                                                                     diverge)
+        # the entries (listed in the order of the class docstring; of two
+        # entries of one vehicle in one corridor, only a signal can repeat a
+        # physical one, and the physical one is kept), sorted by key then
+        # row; ``lead``: the entry index of each entry's leader (-1 none)
+        self.rows, self.corr, self.coord, self.keys, self.signal_only, self.lead = corridor_index(
+            appr, lane, lat_leg, reach, w, leg, s, np.asarray(signal_lane, dtype=np.int64), box, pid, early, plane0,
+            dep, dep_corr, L, self.BIG)
+
+    @staticmethod
+    def _inputs(world, rs, diverge: float) -> tuple:
+        """The index's per-vehicle inputs but the signals, computed once per
+        route state (the experts and the env build two to four indices of
+        one state a step, with different signals): reused while ``rs`` is
+        the world's current route state and the fleet has the same vehicles,
+        the rule of :meth:`plain`."""
         f = world.fleet
+        n = f.n
+        c = getattr(world, "_corridor_inputs", None)
+        if c is not None and c[0] is rs and c[1] == n and c[2] == diverge and world.route_is(rs):
+            return c[3]
         lay = world.layout
         w = lay.lane_width
-        n = f.n
         appr = rs.phase == 0
         # half the footprint's lateral extent, heading included: a vehicle
         # stopped at an angle in the middle of a lane change reaches further
@@ -56,14 +76,11 @@ class Corridors:
             dep_corr = (12 + 3 * ex + lay.dlane[rs.pid]).astype(np.int64)
         else:
             dep_corr = np.zeros(n, dtype=np.int64)
-        # the entries (listed in the order of the class docstring; of two
-        # entries of one vehicle in one corridor, only a signal can repeat a
-        # physical one, and the physical one is kept), sorted by key then row;
-        # ``lead``: the entry index of each entry's leader (-1 none)
-        self.rows, self.corr, self.coord, self.keys, self.signal_only, self.lead = corridor_index(
-            appr, rs.lane.astype(np.int64, copy=False), rs.lat_leg, reach, float(w), f.leg.astype(np.int64, copy=False),
-            rs.s, np.asarray(signal_lane, dtype=np.int64), box, rs.pid.astype(np.int64, copy=False), early,
-            np.maximum(f.plane, 0).astype(np.int64, copy=False), dep, dep_corr, rs.L, self.BIG)
+        out = (appr, rs.lane.astype(np.int64, copy=False), rs.lat_leg, reach, float(w),
+               f.leg.astype(np.int64, copy=False), rs.s, box, rs.pid.astype(np.int64, copy=False), early,
+               np.maximum(f.plane, 0).astype(np.int64, copy=False), dep, dep_corr, rs.L)
+        world._corridor_inputs = (rs, n, diverge, out)
+        return out
 
     @classmethod
     def plain(cls, world, rs) -> "Corridors":
