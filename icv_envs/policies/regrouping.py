@@ -6,6 +6,8 @@ behaviour is documented in that module's docstring ("Adjusting zone").
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from icv_envs.formation.assignment import assign_targets
@@ -368,16 +370,31 @@ class Regrouping:
         if done:
             S["members"] = [int(v) for v in f.vid[rows[np.argsort(f.tidx[rows], kind="stable")]]]
 
+    def _sub_distances(self, f, rs) -> tuple[list, list, list, list]:
+        """``(ids, sub-formations, least, largest distance to the centre of
+        their members)``, in ``self.subs`` order: one row lookup for all
+        members, one reduction per bound (``min``/``max`` of each one's
+        ``rs.dist``, as a loop over them would give)."""
+        sids, subs = list(self.subs), list(self.subs.values())
+        if not subs:
+            return [], [], [], []
+        members = [S["members"] for S in subs]
+        sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(subs))
+        if not sizes.all():
+            raise ValueError(f"sub-formation {sids[int(np.argmin(sizes))]} has no members")
+        rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+        d = rs.dist[rows]
+        start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+        return sids, subs, np.minimum.reduceat(d, start).tolist(), np.maximum.reduceat(d, start).tolist()
+
     def _merging(self, world, rs) -> None:
         p = self.p
         f = world.fleet
         lay = world.layout
         if not self.subs:
             return
-        info = []
-        for sid, S in self.subs.items():
-            rows = f.rows(S["members"])
-            info.append((sid, S["leg"], S["mv"], float(rs.dist[rows].min()), float(rs.dist[rows].max()), S["state"]))
+        sids, subs, dmin, dmax = self._sub_distances(f, rs)
+        info = [(sid, S["leg"], S["mv"], a, b, S["state"]) for sid, S, a, b in zip(sids, subs, dmin, dmax)]
         info.sort(key=lambda t: (t[1], t[3]))
         merged = set()
         for i, (sa, leg, mv, xa0, xa1, st) in enumerate(info):

@@ -54,7 +54,12 @@ class VirtualPlatoon:
         lay = world.layout
         R1 = lay.R1
         single = self.method == "single-vp"
-        for sid, S in list(self.subs.items()):
+        if single:
+            todo = list(self.subs.items())
+        else:  # only sub-formations whose first vehicle is inside R1 act (nothing below changes another's distances)
+            sids, subs, dmin, _ = self._sub_distances(f, rs)
+            todo = [(sid, S) for sid, S, d in zip(sids, subs, dmin) if d <= R1]
+        for sid, S in todo:
             rows = f.rows(S["members"])
             if single:
                 # a member whose node already left (it cleared the box) is
