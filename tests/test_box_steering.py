@@ -1,9 +1,11 @@
 """The intersection expert's compiled steering
 (:func:`icv_envs.policies._kernels.box_steering`, behind
-``PlatoonControl._steering``) against the array code it replaced, frozen here
-as the oracle, on the states of real runs: every method, expert-driven and
-with random drivers (vehicles off their lane, at odd headings, standing), bit
-for bit."""
+``PlatoonControl._steering``) and the leader part of its safety envelope
+(:func:`icv_envs.policies._kernels.envelope_pairs`) against the array code
+they replaced, frozen here as the oracles, on the states of real runs: every
+method, expert-driven and with random drivers (vehicles off their lane, at
+odd headings, standing), bit for bit; the envelope's pass of signal-only
+leaders alongside, which the runs do not reach, on random corridor entries."""
 
 from __future__ import annotations
 
@@ -74,3 +76,135 @@ def test_box_steering_equals_the_array_code(method, throughput, seed, random_sha
         acts[rand] = rng.uniform(-1.0, 1.0, (int(rand.sum()), 2))
         obs, rew, term, trunc, infos = env.step(dict(zip(env.agents, acts.astype(np.float32))))
     assert checked > 5000 and arcs > 40 and departed > 200 and lane_changes > 300
+
+
+def _frozen_envelope_pairs(ex, world, rs, cor, in_box):
+    """The leader part of ``PlatoonControl._envelope`` as array code (before it was compiled):
+    ``(cap, cap_other, signal-only leaders passed)``."""
+    from icv_envs.sim.traffic import idm_acceleration
+
+    p = ex.p
+    f = world.fleet
+    n = f.n
+    cap = np.full(n, np.inf)
+    cap_other = np.full(n, np.inf)
+    passed = 0
+    e = np.flatnonzero(cor.lead >= 0)
+    le = cor.lead[e]
+    if len(e):
+        for _ in range(3):
+            gap0 = cor.coord[le] - cor.coord[e] - 0.5 * (f.length[cor.rows[e]] + f.length[cor.rows[le]])
+            skip = cor.signal_only[le] & (gap0 < 0.0)
+            if not skip.any():
+                break
+            nxt = cor.lead[le[skip]]
+            le = le.copy()
+            le[skip] = nxt
+            keep = le >= 0
+            e, le = e[keep], le[keep]
+            passed += int(skip.sum())
+    if len(e):
+        me = cor.rows[e]
+        ld = cor.rows[le]
+        gap = cor.coord[le] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
+        grp = ex._group(f)
+        member = (grp[me] == grp[ld]) & (grp[me] >= 0)
+        co = ex._coordinated(f) | (rs.phase == 2)
+        member |= co[me] & co[ld] & (rs.phase[ld] >= 1)
+        T = np.where(member, p.member_T, p.idm_T)
+        s0 = np.where(member, p.member_s0, p.idm_s0)
+        v = f.speed[me]
+        dv = v - f.speed[ld]
+        safe = idm_acceleration(v, p.v_max, gap, dv, p.a_max, p.idm_b, T, s0, free_term=False)
+        safe = np.minimum(safe, ex._gipps(v, f.speed[ld], gap - p.member_s0))
+        if not in_box:
+            safe = np.where(rs.phase[me] == 1, np.inf, safe)
+        np.minimum.at(cap, me, safe)
+        same = (grp[me] == grp[ld]) & (grp[me] >= 0)
+        np.minimum.at(cap_other, me[~same], safe[~same])
+    return cap, cap_other, passed
+
+
+@pytest.mark.parametrize("method,throughput,seed,random_share", [
+    ("multi-vp", 3000.0, 0, 0.0),
+    ("single-vp", 3000.0, 0, 0.2),
+    ("fcfs", 3500.0, 2, 0.3),
+])
+def test_envelope_pairs_equal_the_array_code(method, throughput, seed, random_share):
+    """``envelope_pairs`` (the envelope's leader part, compiled) against the
+    array code it replaced on every state of a run, the box's envelope on
+    and off, with the corridor index of the control (turn signals in)."""
+    from icv_envs.policies._kernels import envelope_pairs
+    from icv_envs.policies.platoon_common import Corridors
+
+    env = parallel_env(method=method, throughput=throughput, duration=150.0, missing_action="expert")
+    obs, infos = env.reset(seed=seed)
+    core = env.core
+    ex, w = core.expert, core.world
+    p = ex.p
+    rng = np.random.default_rng(seed)
+    pairs = passed_total = binding = 0
+    while not env.episode_over:
+        f = w.fleet
+        if f.n:
+            rs = w.route()
+            cor = Corridors(w, rs, ex._signals(f))
+            for in_box in (False, True):
+                want = _frozen_envelope_pairs(ex, w, rs, cor, in_box)
+                cap, cap_other = np.full(f.n, np.inf), np.full(f.n, np.inf)
+                b, tau = abs(p.a_min), p.cap_tau
+                got = envelope_pairs(cor.lead, cor.coord, cor.rows, cor.signal_only, f.length, f.speed,
+                                     np.asarray(ex._group(f), dtype=np.int64),
+                                     np.asarray(ex._coordinated(f) | (rs.phase == 2), dtype=bool), rs.phase,
+                                     float(p.member_T), float(p.idm_T), float(p.member_s0), float(p.idm_s0),
+                                     float(p.a_max), float(p.idm_b), float(2.0 * np.sqrt(p.a_max * p.idm_b)),
+                                     float(b), float(tau), float((b * tau) ** 2), in_box, cap, cap_other)
+                assert np.array_equal(cap, want[0]) and np.array_equal(cap_other, want[1]) and got == want[2]
+            pairs += int((cor.lead >= 0).sum())
+            passed_total += want[2]
+            binding += int((cap < 0).sum())
+        acts = core.expert_actions()
+        rand = rng.random(len(acts)) < random_share
+        acts[rand] = rng.uniform(-1.0, 1.0, (int(rand.sum()), 2))
+        obs, rew, term, trunc, infos = env.step(dict(zip(env.agents, acts.astype(np.float32))))
+    assert pairs > 5000 and binding > 100
+
+
+def test_envelope_pairs_pass_signal_only_leaders_alongside_as_the_array_code():
+    """The rule the runs above do not reach (a leader listed only by its turn
+    signal and already alongside is passed, up to three times): random
+    corridor entries over the vehicles of a real state, chains of
+    signal-only leaders with negative gaps among them."""
+    import types
+
+    from icv_envs.policies._kernels import envelope_pairs
+
+    env = parallel_env(method="multi-vp", throughput=3000.0, duration=60.0)
+    obs, infos = env.reset(seed=1)
+    for _ in range(200):
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    ex, w = env.core.expert, env.core.world
+    f, rs, p = w.fleet, w.route(), ex.p
+    rng = np.random.default_rng(0)
+    passed = 0
+    for _ in range(300):
+        m = int(rng.integers(1, 40))
+        coord = np.sort(rng.uniform(-20.0, 20.0, m))
+        lead = np.where(rng.random(m) < 0.8, np.arange(1, m + 1), -1)
+        lead[-1] = -1
+        cor = types.SimpleNamespace(lead=lead.astype(np.int64), coord=coord,
+                                    rows=rng.integers(0, f.n, m).astype(np.int64),
+                                    signal_only=rng.random(m) < 0.5)
+        for in_box in (False, True):
+            want = _frozen_envelope_pairs(ex, w, rs, cor, in_box)
+            cap, cap_other = np.full(f.n, np.inf), np.full(f.n, np.inf)
+            b, tau = abs(p.a_min), p.cap_tau
+            got = envelope_pairs(cor.lead, cor.coord, cor.rows, cor.signal_only, f.length, f.speed,
+                                 np.asarray(ex._group(f), dtype=np.int64),
+                                 np.asarray(ex._coordinated(f) | (rs.phase == 2), dtype=bool), rs.phase,
+                                 float(p.member_T), float(p.idm_T), float(p.member_s0), float(p.idm_s0),
+                                 float(p.a_max), float(p.idm_b), float(2.0 * np.sqrt(p.a_max * p.idm_b)),
+                                 float(b), float(tau), float((b * tau) ** 2), in_box, cap, cap_other)
+            assert np.array_equal(cap, want[0]) and np.array_equal(cap_other, want[1]) and got == want[2]
+            passed += got
+    assert passed > 100

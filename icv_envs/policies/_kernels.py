@@ -33,7 +33,7 @@ from icv_envs.sim._kernels.neighbours import _leader_entry, leader_rows
 from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wrap1
 from icv_envs.sim._kernels.physics import _available1, interval_end_at1, interval_ends_at, npy_mod
 
-__all__ = ["box_steering", "corridor_index", "exit_lanes", "lane_change_starts", "lane_end_escape", "normalised_actions",
+__all__ = ["box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "lane_change_starts", "lane_end_escape", "normalised_actions",
            "repair_order", "safety_cap"]
 
 
@@ -701,3 +701,64 @@ def box_steering(x, y, heading, speed, klane, mv, pid, phase, s, u, lc_lane, lc_
         a = np.arctan(wheelbase * curv)
         phi[i] = min(max(a, -steer_max), steer_max)
     return phi
+
+
+@nb.njit(cache=True)
+def envelope_pairs(lead, coord, rows, signal_only, length, speed, grp, co, phase, member_T, idm_T, member_s0,
+                   idm_s0, a_max, idm_b, sqrt_ab2, gipps_b, gipps_tau, gipps_bt2, in_box, cap, cap_other):
+    """The leader part of the intersection experts' safety envelope
+    (:meth:`icv_envs.policies.platoon_control.PlatoonControl._envelope`)
+    compiled, entry by entry of the corridor index (``lead``, ``coord``,
+    ``rows``, ``signal_only``): a leader listed only by its turn signal and
+    already alongside (bumper gap < 0) is passed for the next one, at most
+    three times; then IDM's interaction term (time gap and standstill
+    distance of a member of the leader's group or of two coordinated
+    vehicles past the stop line, else IDM's) and Gipps' safe speed (``b =
+    gipps_b``, reaction ``gipps_tau``, room ``gap - member_s0``), the
+    smaller; in the box ``inf`` unless ``in_box``. The caps are lowered in
+    place: ``cap`` towards every leader, ``cap_other`` towards leaders of
+    another group. ``sqrt_ab2 = 2 sqrt(a_max idm_b)``, ``gipps_bt2 =
+    (gipps_b gipps_tau)^2``, as the array code computes them. Returns the
+    number of signal-only leaders passed."""
+    passed = 0
+    for e in range(lead.shape[0]):
+        le = lead[e]
+        if le < 0:
+            continue
+        me = rows[e]
+        for _ in range(3):
+            gap0 = coord[le] - coord[e] - 0.5 * (length[me] + length[rows[le]])
+            if not (signal_only[le] and gap0 < 0.0):
+                break
+            passed += 1
+            le = lead[le]
+            if le < 0:
+                break
+        if le < 0:
+            continue
+        ld = rows[le]
+        gap = coord[le] - coord[e] - 0.5 * (length[me] + length[ld])
+        same = grp[me] == grp[ld] and grp[me] >= 0
+        member = same or (co[me] and co[ld] and phase[ld] >= 1)
+        T = member_T if member else idm_T
+        s0 = member_s0 if member else idm_s0
+        v = speed[me]
+        dv = v - speed[ld]
+        x = v * T + v * dv / sqrt_ab2
+        s_star = s0 + (x if x > 0.0 else 0.0)
+        g = gap if gap > 0.1 else 0.1
+        r = s_star / g
+        safe = a_max * (1.0 - r * r)
+        room = gap - member_s0
+        vl = speed[ld]
+        vs = -gipps_b * gipps_tau + np.sqrt(gipps_bt2 + vl * vl + 2.0 * gipps_b * (room if room > 0.0 else 0.0))
+        gp = (vs - v) / gipps_tau
+        if gp < safe:
+            safe = gp
+        if not in_box and phase[me] == 1:
+            safe = np.inf
+        if safe < cap[me]:
+            cap[me] = safe
+        if not same and safe < cap_other[me]:
+            cap_other[me] = safe
+    return passed

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from icv_envs.formation.control import _longitudinal_feedback
-from icv_envs.policies._kernels import box_steering
+from icv_envs.policies._kernels import box_steering, envelope_pairs
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE, Corridors
 from icv_envs.sim.traffic import idm_acceleration
 
@@ -88,53 +88,32 @@ class PlatoonControl:
         cor = Corridors(world, rs, self._signals(f))
         cap = np.full(n, np.inf)
         cap_other = np.full(n, np.inf)
-        e = np.flatnonzero(cor.lead >= 0)
-        le = cor.lead[e]
-        if len(e):
-            # a vehicle waiting to change into this lane holds back only the
-            # vehicles behind it: one already alongside (bumper gap < 0) goes
-            # on, or it would stand beside the waiting vehicle, whose lane
-            # change it blocks, for ever (single-vp, 3000 veh/h, seed 0:
-            # gridlock from t = 215 s); its leader is then the next one ahead
-            for _ in range(3):
-                gap0 = cor.coord[le] - cor.coord[e] - 0.5 * (f.length[cor.rows[e]] + f.length[cor.rows[le]])
-                skip = cor.signal_only[le] & (gap0 < 0.0)
-                if not skip.any():
-                    break
-                nxt = cor.lead[le[skip]]
-                le = le.copy()
-                le[skip] = nxt
-                keep = le >= 0
-                e, le = e[keep], le[keep]
-                self.stats["signal_alongside_passed"] += int(skip.sum())
-        if len(e):
-            me = cor.rows[e]
-            ld = cor.rows[le]
-            gap = cor.coord[le] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
-            grp = self._group(f)
-            member = (grp[me] == grp[ld]) & (grp[me] >= 0)
-            # a coordinated vehicle (tree / reservation, or one that has left
-            # the box) behind another one past the stop line is kept apart by
-            # the coordination: short time gap
-            co = self._coordinated(f) | (rs.phase == 2)
-            member |= co[me] & co[ld] & (rs.phase[ld] >= 1)
-            T = np.where(member, p.member_T, p.idm_T)
-            s0 = np.where(member, p.member_s0, p.idm_s0)
-            v = f.speed[me]
-            dv = v - f.speed[ld]
-            safe = idm_acceleration(v, p.v_max, gap, dv, p.a_max, p.idm_b, T, s0, free_term=False)
-            # Gipps (1981) safe speed: stop behind the leader even if it brakes
-            # at |a_min| from now on and this vehicle reacts one policy period
-            # (cap_tau) later; IDM's interaction term alone does not guarantee
-            # it when a member closes in fast on a leader that brakes hard
-            safe = np.minimum(safe, self._gipps(v, f.speed[ld], gap - p.member_s0))
-            if not p.envelope_in_box:
-                safe = np.where(rs.phase[me] == 1, np.inf, safe)
-            np.minimum.at(cap, me, safe)
-            # the same towards leaders of another group only (in the box, that is
-            # what the coordination must make unnecessary)
-            same = (grp[me] == grp[ld]) & (grp[me] >= 0)
-            np.minimum.at(cap_other, me[~same], safe[~same])
+        # towards the leader in every corridor (compiled: policies/_kernels.envelope_pairs;
+        # the array code it replaced is its reference in tests/test_box_steering.py):
+        # a vehicle waiting to change into this lane holds back only the
+        # vehicles behind it: one already alongside (bumper gap < 0) goes
+        # on, or it would stand beside the waiting vehicle, whose lane
+        # change it blocks, for ever (single-vp, 3000 veh/h, seed 0:
+        # gridlock from t = 215 s); its leader is then the next one ahead.
+        # A member of the leader's group, or a coordinated vehicle (tree /
+        # reservation, or one that has left the box) behind another one past
+        # the stop line, keeps a short time gap (the coordination keeps them
+        # apart). Gipps (1981) safe speed on top: stop behind the leader even
+        # if it brakes at |a_min| from now on and this vehicle reacts one
+        # policy period (cap_tau) later; IDM's interaction term alone does
+        # not guarantee it when a member closes in fast on a leader that
+        # brakes hard. ``cap_other``: the same towards leaders of another
+        # group only (in the box, that is what the coordination must make
+        # unnecessary)
+        co = self._coordinated(f) | (rs.phase == 2)
+        b = abs(p.a_min)
+        tau = p.cap_tau
+        self.stats["signal_alongside_passed"] += int(envelope_pairs(
+            cor.lead, cor.coord, cor.rows, cor.signal_only, f.length, f.speed,
+            np.asarray(self._group(f), dtype=np.int64), np.asarray(co, dtype=bool), rs.phase, float(p.member_T),
+            float(p.idm_T), float(p.member_s0), float(p.idm_s0), float(p.a_max), float(p.idm_b),
+            float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(b), float(tau), float((b * tau) ** 2),
+            bool(p.envelope_in_box), cap, cap_other))
         # a (nearly) stopped vehicle in the box on this vehicle's path, whatever its own path
         qi, oj, og, vo = self._path_obstacles(world, rs)
         if len(qi):
