@@ -15,8 +15,9 @@ or more between runs on a shared machine; the parts' ratios are steadier.
 from __future__ import annotations
 
 import argparse
-import functools
 import time
+
+from bench_ring_parts import wrap_parts  # the sibling script's part timer (scripts/ is on sys.path when run)
 
 PARTS = [
     ("icv_envs.envs.base", "IcvAgentsEnv", "_ma_advance"),
@@ -45,30 +46,12 @@ PARTS = [
 
 
 def main() -> None:
-    import importlib
-
     p = argparse.ArgumentParser()
     p.add_argument("--steps", type=int, default=1200, help="policy steps timed")
     p.add_argument("--throughput", type=float, default=2200.0, help="demand (veh/h)")
     a = p.parse_args()
     acc: dict[str, float] = {}
-
-    def wrap(cls, name):
-        f = getattr(cls, name)
-        key = f"{cls.__name__}.{name}"
-
-        @functools.wraps(f)
-        def g(*args, **kw):
-            t = time.perf_counter()
-            try:
-                return f(*args, **kw)
-            finally:
-                acc[key] = acc.get(key, 0.0) + time.perf_counter() - t
-
-        setattr(cls, name, g)
-
-    for module, cls, name in PARTS:
-        wrap(getattr(importlib.import_module(module), cls), name)
+    wrap_parts(PARTS, acc, qualified=True)
     from icv_envs.envs.intersection_v0 import parallel_env
 
     env = parallel_env(method="multi-vp", throughput=a.throughput, duration=300.0 + a.steps / 5.0 + 10.0)

@@ -30,30 +30,34 @@ PARTS = [
 ]
 
 
-def main() -> None:
+def wrap_parts(parts, acc: dict, qualified: bool = False) -> None:
+    """Wrap each ``(module, class, method)`` of ``parts`` so that its
+    ``time.perf_counter`` total accumulates in ``acc`` under the method's
+    name (``Class.method`` with ``qualified``)."""
     import importlib
 
+    for module, cls_name, name in parts:
+        cls = getattr(importlib.import_module(module), cls_name)
+        f = getattr(cls, name)
+        key = f"{cls.__name__}.{name}" if qualified else name
+
+        def g(*args, __f=f, __key=key, **kw):
+            t = time.perf_counter()
+            try:
+                return __f(*args, **kw)
+            finally:
+                acc[__key] = acc.get(__key, 0.0) + time.perf_counter() - t
+
+        setattr(cls, name, functools.wraps(f)(g))
+
+
+def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--warmup", type=float, default=300.0, help="simulated seconds before timing")
     p.add_argument("--steps", type=int, default=250, help="policy steps timed")
     a = p.parse_args()
     acc: dict[str, float] = {}
-
-    def wrap(cls, name):
-        f = getattr(cls, name)
-
-        @functools.wraps(f)
-        def g(*args, **kw):
-            t = time.perf_counter()
-            try:
-                return f(*args, **kw)
-            finally:
-                acc[name] = acc.get(name, 0.0) + time.perf_counter() - t
-
-        setattr(cls, name, g)
-
-    for module, cls, name in PARTS:
-        wrap(getattr(importlib.import_module(module), cls), name)
+    wrap_parts(PARTS, acc)
     from icv_envs.envs import highway_ramps_v0
 
     env = highway_ramps_v0.parallel_env(vgr=1 / 3, duration=a.warmup + a.steps / 5.0 + 10.0)

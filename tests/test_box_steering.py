@@ -134,14 +134,12 @@ def test_envelope_pairs_equal_the_array_code(method, throughput, seed, random_sh
     """``envelope_pairs`` (the envelope's leader part, compiled) against the
     array code it replaced on every state of a run, the box's envelope on
     and off, with the corridor index of the control (turn signals in)."""
-    from icv_envs.policies._kernels import envelope_pairs
     from icv_envs.policies.platoon_common import Corridors
 
     env = parallel_env(method=method, throughput=throughput, duration=150.0, missing_action="expert")
     obs, infos = env.reset(seed=seed)
     core = env.core
     ex, w = core.expert, core.world
-    p = ex.p
     rng = np.random.default_rng(seed)
     pairs = passed_total = binding = 0
     while not env.episode_over:
@@ -152,13 +150,7 @@ def test_envelope_pairs_equal_the_array_code(method, throughput, seed, random_sh
             for in_box in (False, True):
                 want = _frozen_envelope_pairs(ex, w, rs, cor, in_box)
                 cap, cap_other = np.full(f.n, np.inf), np.full(f.n, np.inf)
-                b, tau = abs(p.a_min), p.cap_tau
-                got = envelope_pairs(cor.lead, cor.coord, cor.rows, cor.signal_only, f.length, f.speed,
-                                     np.asarray(ex._group(f), dtype=np.int64),
-                                     np.asarray(ex._coordinated(f) | (rs.phase == 2), dtype=bool), rs.phase,
-                                     float(p.member_T), float(p.idm_T), float(p.member_s0), float(p.idm_s0),
-                                     float(p.a_max), float(p.idm_b), float(2.0 * np.sqrt(p.a_max * p.idm_b)),
-                                     float(b), float(tau), float((b * tau) ** 2), in_box, cap, cap_other)
+                got = ex._envelope_pairs(f, rs, cor, in_box, cap, cap_other)
                 assert np.array_equal(cap, want[0]) and np.array_equal(cap_other, want[1]) and got == want[2]
             pairs += int((cor.lead >= 0).sum())
             passed_total += want[2]
@@ -177,14 +169,12 @@ def test_envelope_pairs_pass_signal_only_leaders_alongside_as_the_array_code():
     signal-only leaders with negative gaps among them."""
     import types
 
-    from icv_envs.policies._kernels import envelope_pairs
-
     env = parallel_env(method="multi-vp", throughput=3000.0, duration=60.0)
     obs, infos = env.reset(seed=1)
     for _ in range(200):
         obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
     ex, w = env.core.expert, env.core.world
-    f, rs, p = w.fleet, w.route(), ex.p
+    f, rs = w.fleet, w.route()
     rng = np.random.default_rng(0)
     passed = 0
     for _ in range(300):
@@ -198,13 +188,7 @@ def test_envelope_pairs_pass_signal_only_leaders_alongside_as_the_array_code():
         for in_box in (False, True):
             want = _frozen_envelope_pairs(ex, w, rs, cor, in_box)
             cap, cap_other = np.full(f.n, np.inf), np.full(f.n, np.inf)
-            b, tau = abs(p.a_min), p.cap_tau
-            got = envelope_pairs(cor.lead, cor.coord, cor.rows, cor.signal_only, f.length, f.speed,
-                                 np.asarray(ex._group(f), dtype=np.int64),
-                                 np.asarray(ex._coordinated(f) | (rs.phase == 2), dtype=bool), rs.phase,
-                                 float(p.member_T), float(p.idm_T), float(p.member_s0), float(p.idm_s0),
-                                 float(p.a_max), float(p.idm_b), float(2.0 * np.sqrt(p.a_max * p.idm_b)),
-                                 float(b), float(tau), float((b * tau) ** 2), in_box, cap, cap_other)
+            got = ex._envelope_pairs(f, rs, cor, in_box, cap, cap_other)
             assert np.array_equal(cap, want[0]) and np.array_equal(cap_other, want[1]) and got == want[2]
             passed += got
     assert passed > 100

@@ -157,8 +157,8 @@ def test_plain_corridors_are_shared_within_one_state_and_rebuilt_after_it():
         # the per-vehicle inputs are reused for an index with signals of the same state
         sig = np.where(rng.random(w.fleet.n) < 0.3, rng.integers(0, 3, w.fleet.n), -1)
         cached = Corridors(w, rs, sig)
-        assert w._corridor_inputs[0] is rs
-        del w._corridor_inputs
+        assert w._corridor_cache[0] is rs and ("inputs", 10.0) in w._corridor_cache[2]
+        del w._corridor_cache
         rebuilt = Corridors(w, rs, sig)
         assert all(np.array_equal(getattr(cached, k), getattr(rebuilt, k)) for k in names)
         # once the world moves on (here: headings turned, the route state
@@ -168,7 +168,7 @@ def test_plain_corridors_are_shared_within_one_state_and_rebuilt_after_it():
             w.fleet.heading = heading + 0.5
             w.invalidate()
             moved = Corridors(w, rs, sig)
-            del w._corridor_inputs
+            del w._corridor_cache
             moved_fresh = Corridors(w, rs, sig)
             assert all(np.array_equal(getattr(moved, k), getattr(moved_fresh, k)) for k in names)
             w.fleet.heading = heading

@@ -49,14 +49,13 @@ class Corridors:
     def _inputs(world, rs, diverge: float) -> tuple:
         """The index's per-vehicle inputs but the signals, computed once per
         route state (the experts and the env build two to four indices of
-        one state a step, with different signals): reused while ``rs`` is
-        the world's current route state and the fleet has the same vehicles,
-        the rule of :meth:`plain`."""
+        one state a step, with different signals), kept as :meth:`plain` is
+        (:meth:`_state_cache`)."""
         f = world.fleet
         n = f.n
-        c = getattr(world, "_corridor_inputs", None)
-        if c is not None and c[0] is rs and c[1] == n and c[2] == diverge and world.route_is(rs):
-            return c[3]
+        cache = Corridors._state_cache(world, rs)
+        if ("inputs", diverge) in cache:
+            return cache["inputs", diverge]
         lay = world.layout
         w = lay.lane_width
         appr = rs.phase == 0
@@ -79,8 +78,24 @@ class Corridors:
         out = (appr, rs.lane.astype(np.int64, copy=False), rs.lat_leg, reach, float(w),
                f.leg.astype(np.int64, copy=False), rs.s, box, rs.pid.astype(np.int64, copy=False), early,
                np.maximum(f.plane, 0).astype(np.int64, copy=False), dep, dep_corr, rs.L)
-        world._corridor_inputs = (rs, n, diverge, out)
+        cache["inputs", diverge] = out
         return out
+
+    @staticmethod
+    def _state_cache(world, rs) -> dict:
+        """What :meth:`plain` and :meth:`_inputs` keep for route state ``rs``:
+        the world's cache while ``rs`` is its current route state and the
+        fleet has the same vehicles (everything an index reads changes only
+        with a new route state: the physics, a spawn, a removal or a
+        rerouted movement); a new one for the current state, and one kept
+        nowhere for a state that is no longer current."""
+        if not world.route_is(rs):
+            return {}
+        n = world.fleet.n
+        c = getattr(world, "_corridor_cache", None)
+        if c is None or c[0] is not rs or c[1] != n:
+            c = world._corridor_cache = (rs, n, {})
+        return c[2]
 
     @classmethod
     def plain(cls, world, rs) -> "Corridors":
@@ -88,16 +103,12 @@ class Corridors:
         waits to change into) of route state ``rs``, built once per state:
         the virtual platoon's order check and the env's leaders ask for the
         same one within a step. Reused while ``rs`` is the world's current
-        route state and the fleet has the same vehicles (everything the
-        index reads changes only with a new route state: the physics, a
-        spawn, a removal or a rerouted movement); callers only read it."""
-        n = world.fleet.n
-        c = getattr(world, "_plain_corridors", None)
-        if c is not None and c[0] is rs and c[1] == n and world.route_is(rs):
-            return c[2]
-        cor = cls(world, rs, np.full(n, -1))
-        world._plain_corridors = (rs, n, cor)
-        return cor
+        route state and the fleet has the same vehicles (:meth:`_state_cache`);
+        callers only read it."""
+        cache = cls._state_cache(world, rs)
+        if "plain" not in cache:
+            cache["plain"] = cls(world, rs, np.full(world.fleet.n, -1))
+        return cache["plain"]
 
     def neighbours(self, q_rows, q_corr, q_coord):
         """Nearest other vehicle ahead (coordinate >) and behind (<=) in corridor ``q_corr``.

@@ -43,7 +43,7 @@ class PlatoonControl:
     def _steering(self, world, rs) -> np.ndarray:
         """Pure-pursuit steering along the kept lane, the lane-change curve or
         the path through the box (compiled: :func:`icv_envs.policies._kernels.box_steering`;
-        the array code it replaced is its reference in ``tests/test_kernels.py``)."""
+        the array code it replaced is its reference in ``tests/test_box_steering.py``)."""
         p = self.p
         f = world.fleet
         lay = world.layout
@@ -105,15 +105,8 @@ class PlatoonControl:
         # brakes hard. ``cap_other``: the same towards leaders of another
         # group only (in the box, that is what the coordination must make
         # unnecessary)
-        co = self._coordinated(f) | (rs.phase == 2)
-        b = abs(p.a_min)
-        tau = p.cap_tau
-        self.stats["signal_alongside_passed"] += int(envelope_pairs(
-            cor.lead, cor.coord, cor.rows, cor.signal_only, f.length, f.speed,
-            np.asarray(self._group(f), dtype=np.int64), np.asarray(co, dtype=bool), rs.phase, float(p.member_T),
-            float(p.idm_T), float(p.member_s0), float(p.idm_s0), float(p.a_max), float(p.idm_b),
-            float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(b), float(tau), float((b * tau) ** 2),
-            bool(p.envelope_in_box), cap, cap_other))
+        self.stats["signal_alongside_passed"] += self._envelope_pairs(f, rs, cor, bool(p.envelope_in_box), cap,
+                                                                      cap_other)
         # a (nearly) stopped vehicle in the box on this vehicle's path, whatever its own path
         qi, oj, og, vo = self._path_obstacles(world, rs)
         if len(qi):
@@ -135,6 +128,22 @@ class PlatoonControl:
         self.stats["envelope_box_binding"] += int(other.sum())
         self.stats["envelope_box_binding_member"] += int((box & ~other).sum())
         return cap
+
+    def _envelope_pairs(self, f, rs, cor, in_box: bool, cap, cap_other) -> int:
+        """Lower ``cap`` and ``cap_other`` in place towards the leaders of the
+        corridor index ``cor`` (:func:`icv_envs.policies._kernels.envelope_pairs`;
+        the box included when ``in_box``); returns the number of signal-only
+        leaders alongside that were passed."""
+        p = self.p
+        b = abs(p.a_min)
+        tau = p.cap_tau
+        co = self._coordinated(f) | (rs.phase == 2)
+        return int(envelope_pairs(
+            cor.lead, cor.coord, cor.rows, cor.signal_only, f.length, f.speed,
+            np.asarray(self._group(f), dtype=np.int64), np.asarray(co, dtype=bool), rs.phase, float(p.member_T),
+            float(p.idm_T), float(p.member_s0), float(p.idm_s0), float(p.a_max), float(p.idm_b),
+            float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(b), float(tau), float((b * tau) ** 2), bool(in_box), cap,
+            cap_other))
 
     def _path_obstacles(self, world, rs, v_stopped: float = 1.0, look: float = 60.0):
         """Pairs ``(vehicle, obstacle, bumper gap, obstacle speed)``: a vehicle

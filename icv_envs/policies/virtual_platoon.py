@@ -55,13 +55,8 @@ class VirtualPlatoon:
         R1 = lay.R1
         single = self.method == "single-vp"
         if single:
-            todo = list(self.subs.items())
-        else:  # only sub-formations whose first vehicle is inside R1 act (nothing below changes another's distances)
-            sids, subs, dmin, _ = self._sub_distances(f, rs)
-            todo = [(sid, S) for sid, S, d in zip(sids, subs, dmin) if d <= R1]
-        for sid, S in todo:
-            rows = f.rows(S["members"])
-            if single:
+            for sid, S in list(self.subs.items()):
+                rows = f.rows(S["members"])
                 # a member whose node already left (it cleared the box) is
                 # done: it must not become a node again (a phantom node would
                 # be re-inserted into the order at every step and, through the
@@ -74,9 +69,11 @@ class VirtualPlatoon:
                     self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
                 if np.all((f.node[rows] >= 0) | done):
                     del self.subs[sid]
-                continue
-            first = rows[np.argmin(rs.dist[rows])]
-            if rs.dist[first] <= R1:
+        else:
+            # the sub-formations whose first vehicle is inside R1 (nothing below
+            # changes another one's members or the distances)
+            sids, subs, dmin, _ = self._sub_distances(f, rs)
+            for sid, S in [(sid, S) for sid, S, d in zip(sids, subs, dmin) if d <= R1]:
                 n_l = len(S["lanes"])
                 self._set_sub_targets(world, S)
                 rows = f.rows(S["members"])  # target order

@@ -247,14 +247,11 @@ class PetStats:
         # compiled (icv_envs.sim._kernels.pet_transitions): which slots were
         # left and entered, in increasing (id, slot) order, as the array code
         # over the candidate rows did; the PET events in Python
-        left, entered, self._busy = pet_transitions(
+        left, entered, busy = pet_transitions(
             vid, pid, np.asarray(s, dtype=np.float64), np.asarray(length, dtype=np.float64), self._lo, self._hi,
             self._occ, self._pid, self._busy)
-        ids, side = self._ids, self._side
-        for q, k in left.tolist():
-            self._leave(t, int(ids[q, k]), int(side[q, k]))
-        for q, k in entered.tolist():
-            self._enter(t, int(ids[q, k]), int(side[q, k]))
+        kind = np.concatenate([np.zeros(len(left), dtype=np.int64), np.ones(len(entered), dtype=np.int64)])
+        self.apply(t, busy, np.column_stack([kind, np.concatenate([left, entered])]))
 
     def tables(self, top: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(lo, hi, occ, path, busy)`` for the compiled frames

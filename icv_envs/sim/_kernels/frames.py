@@ -3,15 +3,13 @@ here follows: :mod:`icv_envs.sim._kernels`)."""
 
 from __future__ import annotations
 
-import math
-
 import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.formation import _wrap1
-from icv_envs.sim._kernels.intersection import box_collision_pairs, intersection_events
+from icv_envs.sim._kernels.intersection import arc_s1, box_collision_pairs, intersection_events
 from icv_envs.sim._kernels.neighbours import collision_pairs
-from icv_envs.sim._kernels.physics import kinematic_substep, npy_mod, road_check
+from icv_envs.sim._kernels.physics import kinematic_substep, road_check
 from icv_envs.sim._kernels.stats import motion_record, pet_transitions
 
 __all__ = ["quiet_substeps", "intersection_frames"]
@@ -150,7 +148,7 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     trans = np.empty((16, 4), dtype=np.int64)
     m = 0
     dummy = np.zeros(n)
-    two_pi = 2.0 * math.pi
+    jam_all = np.empty(n, dtype=np.int64)
     for fr in range(n_frames):
         v_before = speed
         x, y, heading, speed, acc, st, _, cx, cy = kinematic_substep(
@@ -175,10 +173,7 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
             pvid[q] = vid[r]
             plen[q] = length[r]
             if pet_arc[q]:
-                p = pet_pid[q]
-                ang = math.atan2(cy[r] - C[p, 1], cx[r] - C[p, 0]) - TH0[p]
-                ang = npy_mod(ang + math.pi, two_pi) - math.pi
-                pet_s[q] = R[p] * ang * SGN[p]
+                pet_s[q] = arc_s1(pet_pid[q], cx[r], cy[r], C, TH0, R, SGN)
         lft, ent, pet_busy = pet_transitions(pvid, pet_pid, pet_s, plen, pet_lo, pet_hi, pet_occ, pet_path, pet_busy)
         for q in range(lft.shape[0]):
             trans = _push(trans, m, fr, 0, lft[q, 0], lft[q, 1])
@@ -192,15 +187,11 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
             if speed[q] < stopped_speed:
                 jam_sf[k] = jam_sf[k] + dt
                 if jam_sf[k] > jam_seconds:
+                    jam_all[n_jam] = q
                     n_jam += 1
             else:
                 jam_sf[k] = 0.0
-        jam_rows = np.empty(n_jam, dtype=np.int64)
-        q2 = 0
-        for q in range(n):
-            if speed[q] < stopped_speed and jam_sf[vid[q]] > jam_seconds:
-                jam_rows[q2] = q
-                q2 += 1
+        jam_rows = jam_all[:n_jam].copy()
         i, j = box_collision_pairs(cx, cy, heading, length, width, box_half)
         event = n_jam > 0 or i.shape[0] > 0
         for q in range(n):

@@ -22,6 +22,16 @@ __all__ = ["intersection_events", "box_collision_pairs", "rows_of_ids", "route_r
 PET_REACH = 20.0  # metres before the stop line / past the box edge inside which a vehicle is a PET candidate
 
 
+@nb.njit(cache=True, inline="always")
+def arc_s1(p, cx, cy, C, TH0, R, SGN):
+    """Route coordinate of the point ``(cx, cy)`` on turn arc ``p``
+    (``IntersectionLayout.arc_project``: the angle around the arc's centre,
+    ``arctan2`` and ``mod`` as NumPy's, as arc length from the stop line)."""
+    ang = math.atan2(cy - C[p, 1], cx - C[p, 0]) - TH0[p]
+    ang = npy_mod(ang + math.pi, 2.0 * math.pi) - math.pi
+    return R[p] * ang * SGN[p]
+
+
 @nb.njit(cache=True)
 def intersection_events(cx, cy, speed, leg, mv, length, crashed, tlane, entered, departed, cleared, wrong_exit,
                         exit_leg, plane, enter_time, out, app_dir, app_right, dep_right, exit_of, box_half,
@@ -219,7 +229,6 @@ def route_rows(x, y, heading, half_wheelbase, leg, mv, plane, tlane, entered, de
     phase = np.empty(n, dtype=np.int64)
     Lr = np.empty(n)
     top = float(n_lanes - 1)
-    two_pi = 2.0 * math.pi
     for i in range(n):
         c = x[i] + half_wheelbase * np.cos(heading[i])
         d = y[i] + half_wheelbase * np.sin(heading[i])
@@ -243,12 +252,8 @@ def route_rows(x, y, heading, half_wheelbase, leg, mv, plane, tlane, entered, de
             si = L[p] + qx * D1[p, 0] + qy * D1[p, 1]
             li = qx * D1[p, 1] - qy * D1[p, 0]
         elif ph == 1 and arc[p]:
-            qx = c - C[p, 0]
-            qy = d - C[p, 1]
-            ang = math.atan2(qy, qx) - TH0[p]
-            ang = npy_mod(ang + math.pi, two_pi) - math.pi
-            si = R[p] * ang * SGN[p]
-            li = SGN[p] * (math.hypot(qx, qy) - R[p])
+            si = arc_s1(p, c, d, C, TH0, R, SGN)
+            li = SGN[p] * (math.hypot(c - C[p, 0], d - C[p, 1]) - R[p])
         else:
             px = c - P0[p, 0]
             py = d - P0[p, 1]
