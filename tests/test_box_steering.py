@@ -14,6 +14,7 @@ import pytest
 
 from icv_envs.envs.intersection_v0 import parallel_env
 from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steering
+from pinned_numpy import at_pinned_level
 
 
 def _frozen_steering(expert, world, rs) -> np.ndarray:
@@ -54,6 +55,7 @@ def _frozen_steering(expert, world, rs) -> np.ndarray:
     ("single-vp", 2500.0, 1, 0.3),
     ("fcfs", 3500.0, 2, 0.3),
 ])
+@at_pinned_level  # libm's sin, cos, arctan against NumPy's: exact at AVX2 (tests/pinned_numpy.py)
 def test_box_steering_equals_the_array_code(method, throughput, seed, random_share):
     env = parallel_env(method=method, throughput=throughput, duration=150.0, missing_action="expert")
     obs, infos = env.reset(seed=seed)

@@ -21,6 +21,7 @@ from icv_envs.sim._kernels.intersection import intersection_events
 from icv_envs.sim.intersection_metrics import collision_fault
 from icv_envs.sim.intersection_world import _OFFROAD_MARGIN, _OUT
 from icv_envs.sim.traffic import bicycle_step
+from pinned_numpy import at_pinned_level
 
 
 def _frozen_substep(self, accel, steer, events) -> None:
@@ -151,6 +152,7 @@ def _actions(env, rng, driver: str) -> dict:
     ("multi-vp", 3000.0, 0, "random"),
     ("fcfs", 2000.0, 1, "stand"),
 ])
+@at_pinned_level  # libm's trigonometry against NumPy's: exact at AVX2 (tests/pinned_numpy.py)
 def test_compiled_frames_equal_the_frozen_substep(method, throughput, seed, driver):
     envs = []
     for fused in (True, False):
@@ -228,6 +230,7 @@ def _frozen_route(w) -> dict:
 
 
 @pytest.mark.parametrize("method,seed", [("multi-vp", 5), ("fcfs", 6)])
+@at_pinned_level  # libm's arctan2 against NumPy's: exact at AVX2 (tests/pinned_numpy.py)
 def test_compiled_route_equals_the_array_code(method, seed):
     """``IntersectionWorld.route`` (compiled: ``route_rows``) against the array
     code it replaced, on every state of a run with a third of the drivers at
