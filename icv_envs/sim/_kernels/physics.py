@@ -138,11 +138,27 @@ def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_
     at_end = np.empty(n, dtype=np.bool_)
     n_off = 0
     n_end = 0
+    n_ob = ob_lane.shape[0]
+    n_ramps = ramp_iv.shape[0]
     for i in range(n):
         ln = lane_of1(cy[i], lane_width, total_lanes)
         lane[i] = ln
         x = cx[i]
-        ok = _available1(ln, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+        # _available1's rule, written out here: called per vehicle it cost
+        # about 75 ns a call (the ring, 442 vehicles: 35 us -> 3 us a substep)
+        ok = False
+        if ln >= 0 and ln < n_lanes:
+            ok = x >= 0.0 and x < lane_ends[ln]
+            if ok:
+                for o in range(n_ob):
+                    if ob_lane[o] == ln and x >= ob_lo[o] and x <= ob_hi[o]:
+                        ok = False
+                        break
+        elif ln == n_lanes:
+            for r in range(n_ramps):
+                if x >= ramp_iv[r, 0] and x <= ramp_iv[r, 1]:
+                    ok = True
+                    break
         o = (not ok) or abs(cy[i] - ln * lane_width) > 0.5 * lane_width + edge_margin
         e = x >= road_end
         at_end[i] = e
