@@ -1847,3 +1847,21 @@ def test_eligible_free_and_leaving_rows_on_random_dense_states(seed, scenario, p
                            float(road.length) if road.periodic else -1.0, float(fm.exit_lookahead),
                            float(fm.exit_lookahead_per_lane))
         np.testing.assert_array_equal(got, _numpy_leaving(fm, tr, road, cx))
+
+
+@settings(max_examples=300, deadline=None)
+@given(a=st.floats(allow_nan=True, allow_infinity=True, width=64),
+       b=st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64).filter(lambda v: v != 0.0),
+                   st.sampled_from([10_000.0, 1e-300, -3.5, np.inf])),
+       near=st.floats(-2.0, 2.0))
+def test_npy_mod_is_numpy_mod_bit_for_bit(a, b, near):
+    """``npy_mod`` (its ``0 < a < b`` shortcut and NumPy's ``npy_divmod``
+    otherwise) gives ``numpy.mod``'s bits, the sign of a zero and NaN
+    included, on arbitrary floats and near the period's multiples."""
+    from icv_envs.sim._kernels import npy_mod
+
+    for x in (a, near * b if np.isfinite(b) else near, -0.0, 0.0):
+        with np.errstate(all="ignore"):
+            want = np.mod(np.float64(x), np.float64(b))
+        got = npy_mod(float(x), float(b))
+        assert np.float64(got).tobytes() == want.tobytes() or (np.isnan(got) and np.isnan(want)), (x, b, got, want)

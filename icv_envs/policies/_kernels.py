@@ -31,7 +31,7 @@ import numpy as np
 
 from icv_envs.sim._kernels.neighbours import _leader_entry, leader_rows
 from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wrap1
-from icv_envs.sim._kernels.physics import _available1, interval_end_at1, interval_ends_at, npy_mod
+from icv_envs.sim._kernels.physics import interval_ends_at, lanes_available, npy_mod
 
 __all__ = ["box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "lane_change_starts", "lane_end_escape", "normalised_actions",
            "repair_order", "safety_cap"]
@@ -440,10 +440,11 @@ def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i
         own_lane[q] = lane[w_rows[q]]
     end_own = interval_ends_at(own_lane, xw, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     end_nxt = interval_ends_at(nxt, xw, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    avail = lanes_available(nxt, xq, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     possible = np.empty(m, dtype=np.bool_)
     for q in range(m):
         r = w_rows[q]
-        if not _available1(nxt[q], xq[q], n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
+        if not avail[q]:
             ok[q] = False
         k_after = abs(desired[r] - nxt[q])
         room_own = 2.0 * (end_own[q] - xw[q] - 0.5 * lw[q])
@@ -607,18 +608,39 @@ def lane_end_escape(desired, lane, member, exiting, cx, period, n_lanes, lane_en
     ``RoadLayout.interval_end``'s operations. Returns the new desired lanes."""
     n = cx.shape[0]
     out = desired.copy()
+    # the interval ends in one call each (the own lanes', then every main
+    # lane's for the vehicles whose own lane ends): the road's rule over
+    # arrays (sim/_kernels/physics.lanes_available's note)
+    rows = np.empty(n, dtype=np.int64)
+    m = 0
     for i in range(n):
+        if not (member[i] or exiting[i] or desired[i] != lane[i] or lane[i] >= n_lanes):
+            rows[m] = i
+            m += 1
+    rows = rows[:m]
+    ends = interval_ends_at(lane[rows], cx[rows], period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    fin = np.empty(m, dtype=np.int64)
+    nf = 0
+    for q in range(m):
+        if np.isfinite(ends[q]):
+            fin[nf] = q
+            nf += 1
+    all_lanes = np.empty(nf * n_lanes, dtype=np.int64)
+    all_x = np.empty(nf * n_lanes)
+    for f in range(nf):
+        for l in range(n_lanes):
+            all_lanes[f * n_lanes + l] = l
+            all_x[f * n_lanes + l] = cx[rows[fin[f]]]
+    ends_all = interval_ends_at(all_lanes, all_x, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    for f in range(nf):
+        i = rows[fin[f]]
         ln = lane[i]
-        if member[i] or exiting[i] or desired[i] != ln or ln >= n_lanes:
-            continue
-        end = interval_end_at1(ln, cx[i], period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
-        if not np.isfinite(end):
-            continue
+        end = ends[fin[f]]
         best = -1
         best_key = np.inf
         k = np.inf
         for l in range(n_lanes):
-            e = interval_end_at1(l, cx[i], period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+            e = ends_all[f * n_lanes + l]
             d = float(abs(l - ln)) if e > end + 50.0 else np.inf
             key = d + 1e-3 * l
             if best < 0 or key < best_key:  # numpy's argmin: the first smallest

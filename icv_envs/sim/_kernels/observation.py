@@ -39,6 +39,7 @@ def nearest_along_road(cx, rows, K, pd, periodic, length):
     present = np.empty((m, K), dtype=np.bool_)
     cand = np.empty(C, dtype=np.int64)
     dist = np.empty(C)
+    pick = np.empty(C, dtype=np.int64)
     half = 0.5 * length
     lim_lo = (n - 1) // 2
     lim_hi = (n - 1) // 2 + (n - 1) % 2
@@ -59,7 +60,16 @@ def nearest_along_road(cx, rows, K, pd, periodic, length):
                 d = npy_mod(d + half, length) - half
             d = abs(d)
             dist[c] = d if (valid and d < pd) else np.inf
-        pick = np.argsort(dist, kind="mergesort")
+        # a stable sort of the 2K distances by insertion: np.argsort's
+        # mergesort order, without its allocations per row (no NaN here:
+        # they became inf above)
+        for c in range(C):
+            d = dist[c]
+            j = c
+            while j > 0 and dist[pick[j - 1]] > d:
+                pick[j] = pick[j - 1]
+                j -= 1
+            pick[j] = c
         for q in range(K):
             sel[r, q] = cand[pick[q]]
             present[r, q] = np.isfinite(dist[pick[q]])

@@ -18,7 +18,11 @@ __all__ = ["npy_mod", "lane_of1", "kinematic_substep", "road_check", "interval_e
 def npy_mod(a, b):
     """``numpy.mod`` of two floats, NumPy's own algorithm (``npy_divmod``):
     ``fmod`` then a shift by ``b`` when the signs differ, ``+0`` with the
-    sign of ``b`` for an exact multiple."""
+    sign of ``b`` for an exact multiple. For ``0 < a < b`` that is ``a``
+    itself (``fmod`` is exact), returned without the ``fmod`` call (glibc's
+    costs tens of ns: the observations fold every neighbour's distance)."""
+    if a > 0.0 and a < b:
+        return a
     m = np.fmod(a, b)
     if m != 0.0:
         if (b < 0.0) != (m < 0.0):
@@ -90,26 +94,6 @@ def kinematic_substep(x, y, heading, speed, accel, steer, crashed, stopped_for, 
     return nx, ny, nh, nv, na, ns, nst, cx, cy
 
 
-@nb.njit(cache=True, inline="always")
-def _available1(ln, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
-    """Whether lane ``ln`` is drivable at ``x`` (folded onto a ring): a main
-    lane from 0 to its end, outside every obstacle's closed interval in it;
-    the ramp lane (``n_lanes``) inside a ramp interval (closed); any other
-    lane never. One vehicle of :func:`road_check` and :func:`lanes_available`."""
-    if ln >= 0 and ln < n_lanes:
-        if not (x >= 0.0 and x < lane_ends[ln]):
-            return False
-        for o in range(ob_lane.shape[0]):
-            if ob_lane[o] == ln and x >= ob_lo[o] and x <= ob_hi[o]:
-                return False
-        return True
-    if ln == n_lanes:
-        for r in range(ramp_iv.shape[0]):
-            if x >= ramp_iv[r, 0] and x <= ramp_iv[r, 1]:
-                return True
-    return False
-
-
 @nb.njit(cache=True)
 def lane_of1(y, lane_width, total_lanes):
     """``RoadLayout.lane_of`` of one lateral position: ``rint(y /
@@ -136,55 +120,21 @@ def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_
     lane = np.empty(n, dtype=np.int64)
     off = np.empty(n, dtype=np.bool_)
     at_end = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        lane[i] = lane_of1(cy[i], lane_width, total_lanes)
+    ok = lanes_available(lane, cx, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     n_off = 0
     n_end = 0
-    n_ob = ob_lane.shape[0]
-    n_ramps = ramp_iv.shape[0]
     for i in range(n):
-        ln = lane_of1(cy[i], lane_width, total_lanes)
-        lane[i] = ln
+        ln = lane[i]
         x = cx[i]
-        # _available1's rule, written out here: called per vehicle it cost
-        # about 75 ns a call (the ring, 442 vehicles: 35 us -> 3 us a substep)
-        ok = False
-        if ln >= 0 and ln < n_lanes:
-            ok = x >= 0.0 and x < lane_ends[ln]
-            if ok:
-                for o in range(n_ob):
-                    if ob_lane[o] == ln and x >= ob_lo[o] and x <= ob_hi[o]:
-                        ok = False
-                        break
-        elif ln == n_lanes:
-            for r in range(n_ramps):
-                if x >= ramp_iv[r, 0] and x <= ramp_iv[r, 1]:
-                    ok = True
-                    break
-        o = (not ok) or abs(cy[i] - ln * lane_width) > 0.5 * lane_width + edge_margin
+        o = (not ok[i]) or abs(cy[i] - ln * lane_width) > 0.5 * lane_width + edge_margin
         e = x >= road_end
         at_end[i] = e
         off[i] = o and not e
         n_off += off[i]
         n_end += e
     return lane, off, at_end, n_off, n_end
-
-
-@nb.njit(cache=True, inline="always")
-def interval_end1(ln, xi, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
-    """One element of :func:`interval_ends` (``xi`` on the road: folded onto a ring)."""
-    if ln >= 0 and ln < n_lanes:
-        cand = np.inf
-        for o in range(ob_lane.shape[0]):
-            if ob_lane[o] == ln and ob_hi[o] >= xi and ob_lo[o] < cand:
-                cand = ob_lo[o]
-        e = lane_ends[ln]
-        return e if e <= cand else cand
-    if ln == n_lanes and ramp_iv.shape[0]:
-        cand = np.inf
-        for r in range(ramp_iv.shape[0]):
-            if ramp_iv[r, 1] >= xi and ramp_iv[r, 1] < cand:
-                cand = ramp_iv[r, 1]
-        return cand
-    return -np.inf
 
 
 @nb.njit(cache=True)
@@ -198,19 +148,64 @@ def interval_ends(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
     without ramps); any other lane: ``-inf``."""
     n = lane.shape[0]
     out = np.empty(n)
+    n_ob = ob_lane.shape[0]
+    n_ramps = ramp_iv.shape[0]
     for i in range(n):
-        out[i] = interval_end1(lane[i], x[i], n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+        ln = lane[i]
+        xi = x[i]
+        end = -np.inf
+        if ln >= 0 and ln < n_lanes:
+            cand = np.inf
+            for o in range(n_ob):
+                if ob_lane[o] == ln and ob_hi[o] >= xi and ob_lo[o] < cand:
+                    cand = ob_lo[o]
+            e = lane_ends[ln]
+            end = e if e <= cand else cand
+        elif ln == n_lanes and n_ramps:
+            cand = np.inf
+            for r in range(n_ramps):
+                if ramp_iv[r, 1] >= xi and ramp_iv[r, 1] < cand:
+                    cand = ramp_iv[r, 1]
+            end = cand
+        out[i] = end
     return out
 
 
 @nb.njit(cache=True)
 def lanes_available(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
     """:meth:`icv_envs.sim.road.RoadLayout.available` compiled, over flat
-    arrays (``x`` already folded onto a ring); the rule: :func:`_available1`."""
+    arrays (``x`` already folded onto a ring): whether lane ``lane[i]`` is
+    drivable at ``x[i]``: a main lane from 0 to its end, outside every
+    obstacle's closed interval in it; the ramp lane (``n_lanes``) inside a
+    ramp interval (closed); any other lane never.
+
+    The rule is written once, here, over arrays, as is
+    :func:`interval_ends`'s: a helper taking the road's arrays, called once
+    per vehicle inside a compiled loop, cost about 75 ns a call (numba keeps
+    the arrays' reference counting around each call; the ring, 442
+    vehicles: :func:`road_check` 35 -> 3 us), so the kernels that need the
+    rule for many vehicles call these once."""
     n = lane.shape[0]
     out = np.empty(n, dtype=np.bool_)
+    n_ob = ob_lane.shape[0]
+    n_ramps = ramp_iv.shape[0]
     for i in range(n):
-        out[i] = _available1(lane[i], x[i], n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+        ln = lane[i]
+        xi = x[i]
+        ok = False
+        if ln >= 0 and ln < n_lanes:
+            ok = xi >= 0.0 and xi < lane_ends[ln]
+            if ok:
+                for o in range(n_ob):
+                    if ob_lane[o] == ln and xi >= ob_lo[o] and xi <= ob_hi[o]:
+                        ok = False
+                        break
+        elif ln == n_lanes:
+            for r in range(n_ramps):
+                if xi >= ramp_iv[r, 0] and xi <= ramp_iv[r, 1]:
+                    ok = True
+                    break
+        out[i] = ok
     return out
 
 
@@ -231,10 +226,3 @@ def interval_ends_at(lane, x, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi,
     return out
 
 
-@nb.njit(cache=True, inline="always")
-def interval_end_at1(ln, x, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
-    """One element of :func:`interval_ends_at`."""
-    if period < 0.0:
-        return interval_end1(ln, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
-    xm = npy_mod(x, period)
-    return interval_end1(ln, xm, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv) + (x - xm)
