@@ -29,7 +29,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from icv_envs.sim._kernels.neighbours import _leader_entry, leader_rows
+from icv_envs.sim._kernels.neighbours import leader_entries, leader_rows
 from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lanes_available, npy_mod
 
@@ -351,17 +351,23 @@ def _in_intervals(x, iv):
     return False
 
 
-@nb.njit(cache=True, inline="always")
-def _leader_gap(keys, i_rows, i_lanes, i_x, offset, lane, r, x, lr, length, v, v_none):
-    """Row ``r``'s leader in ``lane`` (:func:`_leader_entry`; none without
-    an index): the bumper gap ``x_lead - x - (length_lead + lr) / 2`` and
-    its speed, ``(inf, v_none)`` for none."""
-    if keys.shape[0]:
-        p = _leader_entry(keys, i_rows, i_lanes, offset, lane, r, x)
+@nb.njit(cache=True)
+def _leader_gaps(ent, i_rows, i_x, x, lr, length, v, v_none):
+    """Per query, from its leader entry ``ent`` (:func:`leader_entries`;
+    -1: none): the bumper gap ``x_lead - x - (length_lead + lr) / 2`` and
+    the leader's speed, ``(inf, v_none)`` for none."""
+    m = ent.shape[0]
+    gap = np.full(m, np.inf)
+    vl = np.empty(m)
+    for q in range(m):
+        p = ent[q]
         if p >= 0:
             ld = i_rows[p]
-            return i_x[p] - x - 0.5 * (length[ld] + lr), v[ld]
-    return np.inf, v_none
+            gap[q] = i_x[p] - x[q] - 0.5 * (length[ld] + lr[q])
+            vl[q] = v[ld]
+        else:
+            vl[q] = v_none[q]
+    return gap, vl
 
 
 @nb.njit(cache=True, inline="always")
@@ -441,6 +447,12 @@ def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i
     end_own = interval_ends_at(own_lane, xw, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     end_nxt = interval_ends_at(nxt, xw, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     avail = lanes_available(nxt, xq, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    wr = w_rows[:m]
+    # the leaders in the target lane and in the own lane, each in one call
+    gaps_f, vls = _leader_gaps(leader_entries(keys, i_rows, i_lanes, offset, nxt, wr, xw), i_rows, i_x, xw, lw,
+                               length, v, vw)
+    gaps_o, vos = _leader_gaps(leader_entries(keys, i_rows, i_lanes, offset, own_lane, wr, xw), i_rows, i_x, xw, lw,
+                               length, v, np.zeros(m))
     possible = np.empty(m, dtype=np.bool_)
     for q in range(m):
         r = w_rows[q]
@@ -461,7 +473,7 @@ def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i
         # gap acceptance in the target lane: the leader (traffic.leaders) and
         # the follower (traffic.followers: the last entry before the key, if
         # in the lane and not the vehicle itself)
-        gap_f, vl = _leader_gap(keys, i_rows, i_lanes, i_x, offset, nxt[q], r, xw[q], lw[q], length, v, vw[q])
+        gap_f, vl = gaps_f[q], vls[q]
         gap_r = np.inf
         vf = 0.0
         Tf = idm_T
@@ -480,7 +492,7 @@ def lane_change_starts(active, cx, cy, v, length, lane, desired, member, keys, i
         if not (gap_f > lc_min_gap and gap_r > min_r and own > -b_safe and fol > -b_safe):
             ok[q] = False
         # the old lane's leader half way along the curve
-        gap_o, v_o = _leader_gap(keys, i_rows, i_lanes, i_x, offset, own_lane[q], r, xw[q], lw[q], length, v, 0.0)
+        gap_o, v_o = gaps_o[q], vos[q]
         vm = _max_nan(vw[q], 1.0)
         t_half = 0.5 * clen[q] / vm
         gap_o = gap_o + v_o * t_half - vm * t_half
