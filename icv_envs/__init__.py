@@ -10,7 +10,13 @@ from __future__ import annotations
 
 import gymnasium as gym
 
+from icv_envs import _kernel_cache
+
 __version__ = "0.1.0"
+
+# numba's cache of the kernels rebuilt where a kernel module it depends on
+# changed since it was written (icv_envs/_kernel_cache.py)
+_kernel_cache.refresh()
 
 GYM_IDS = {
     "icv_envs/HighwayFormation-v0": "icv_envs.envs.highway_formation:HighwayFormationEnv",
