@@ -38,6 +38,19 @@ ulps from the array code's during lane changes. On the development machine
 results exactly and 2 differed in the 13th-16th significant digit of the
 motion figures (README, "Speed").
 
+A rule for writing them: a helper that takes arrays (the road's lane
+ends and ramp intervals, the lane index) and is called once per vehicle
+inside a compiled loop cost about 75 ns a call when it loops over those
+arrays (measured here; a one-line helper over an array was inlined away,
+the ones with loops and several exits were not, with or without
+``inline="always"``): such rules
+are written once over arrays and called once per kernel
+(:func:`lanes_available`, :func:`interval_ends`, :func:`leader_entries`);
+helpers over scalars (``npy_mod``, ``lane_of1``, ``_rect_overlap``) cost
+nothing and stay. A changed kernel module also invalidates the cached code
+of the kernels that call into it (``icv_envs/_kernel_cache.py``; numba
+itself checks only a kernel's own file).
+
 Why numba: the loops are short, data-dependent and branchy (early exits,
 variable-length outputs), which is what a JIT compiles well and what numpy
 vectorisation cannot do without materialising every candidate; ``cache=True``
@@ -52,7 +65,8 @@ from __future__ import annotations
 from icv_envs.sim._kernels.formation import (drivable_lane_bits, drivable_lane_bits1, eligible_free_rows,
                                              hold_targets, leaving_rows, reference_rows)
 from icv_envs.sim._kernels.frames import intersection_frames, quiet_substeps
-from icv_envs.sim._kernels.neighbours import sweep_candidates, collision_pairs, build_lane_index, leader_rows, own_lane_gap_rows
+from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs, build_lane_index, leader_entries,
+                                              leader_rows, own_lane_gap_rows)
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_reward_terms, kinematics_rows,
                                                nearest_along_road)
 from icv_envs.sim._kernels.physics import npy_mod, kinematic_substep, road_check, interval_ends, lanes_available
@@ -67,6 +81,7 @@ __all__ = [
     "sweep_candidates",
     "collision_pairs",
     "build_lane_index",
+    "leader_entries",
     "leader_rows",
     "own_lane_gap_rows",
     "nearest_along_road",
