@@ -193,15 +193,12 @@ def build_lane_index(cx, cy, width, length, heading, footprint, lane_width, n_la
                 rows[m] = i
                 lanes[m] = lane
                 m += 1
-    m_occ = m
     for i in range(reserved_lane.shape[0]):
         r = reserved_lane[i]
         if r >= 0 and r < n_lanes:
-            dup = False
-            for q in range(m_occ):
-                if rows[q] == i and lanes[q] == r:
-                    dup = True
-                    break
+            # already listed by the passes above: one of the lanes base-1..base+1
+            # that the body reaches (their test, not a search of the list)
+            dup = r - base[i] >= -1 and r - base[i] <= 1 and abs(cy[i] - r * lane_width) < reach[i]
             if not dup:
                 rows[m] = i
                 lanes[m] = r

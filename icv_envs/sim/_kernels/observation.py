@@ -51,7 +51,8 @@ def nearest_along_road(cx, rows, K, pd, periodic, length):
             cr = rank[row] + o
             if periodic:
                 valid = abs(o) <= (lim_hi if o > 0 else lim_lo)
-                cr = cr % n
+                if cr < 0 or cr >= n:  # (Python's modulo, only where it changes cr)
+                    cr = cr % n
             else:
                 valid = cr >= 0 and cr < n
             cand[c] = order[min(max(cr, 0), n - 1)]
@@ -94,6 +95,16 @@ def kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, norma
     K = sel.shape[1]
     out = np.zeros((m, V, J), dtype=np.float32)
     half = 0.5 * period
+    # per column, once: relative to the observer (x, y, vx, vy unless
+    # absolute), dx folded round the ring, the neighbours' scale
+    rel = np.zeros(J, dtype=np.bool_)
+    fold = np.zeros(J, dtype=np.bool_)
+    scale = np.empty(J)
+    for j in range(J):
+        f = idx[j]
+        rel[j] = (not absolute) and f >= 1 and f <= 4
+        fold[j] = rel[j] and f == 1 and period > 0.0
+        scale[j] = s_abs[f] if absolute else s_rel[f]
     for r in range(m):
         o = rows[r]
         for j in range(J):
@@ -110,13 +121,12 @@ def kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, norma
             for j in range(J):
                 f = idx[j]
                 val = F[c, f]
-                if not absolute:
-                    if f >= 1 and f <= 4:
-                        val = val - F[o, f]
-                    if f == 1 and period > 0.0:
+                if rel[j]:
+                    val = val - F[o, f]
+                    if fold[j]:
                         val = npy_mod(val + half, period) - half
                 if normalize:
-                    val = val / (s_abs[f] if absolute else s_rel[f])
+                    val = val / scale[j]
                     if clip:
                         val = min(max(val, -1.0), 1.0)
                 out[r, 1 + q, j] = val
