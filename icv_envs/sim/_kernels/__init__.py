@@ -38,16 +38,17 @@ ulps from the array code's during lane changes. On the development machine
 results exactly and 2 differed in the 13th-16th significant digit of the
 motion figures (README, "Speed").
 
-A rule for writing them: a helper that takes arrays (the road's lane
-ends and ramp intervals, the lane index) and is called once per vehicle
-inside a compiled loop cost about 75 ns a call when it loops over those
-arrays (measured here; a one-line helper over an array was inlined away,
-the ones with loops and several exits were not, with or without
-``inline="always"``): such rules
+A rule for writing them: a helper that takes the road's arrays (lane
+ends, obstacles, ramp intervals) and loops over them cost about 75 ns a
+call when called once per vehicle inside a compiled loop (measured here;
+a one-line helper over an array was inlined away, the ones with loops and
+several exits were not, with or without ``inline="always"``): such rules
 are written once over arrays and called once per kernel
-(:func:`lanes_available`, :func:`interval_ends`, :func:`leader_entries`);
-helpers over scalars (``npy_mod``, ``lane_of1``, ``_rect_overlap``) cost
-nothing and stay. A changed kernel module also invalidates the cached code
+(:func:`lanes_available`, :func:`interval_ends`; the leader rule,
+:func:`leader_entries`, likewise, for one copy rather than for speed).
+Helpers over scalars (``npy_mod``, ``lane_of1``, ``_rect_overlap``) cost
+nothing and stay, and so does ``policies/_kernels._in_intervals``, called
+only for the few lane changes into or out of the ramp lane. A changed kernel module also invalidates the cached code
 of the kernels that call into it (``icv_envs/_kernel_cache.py``; numba
 itself checks only a kernel's own file).
 
