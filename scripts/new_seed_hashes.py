@@ -1,9 +1,10 @@
 """Bit-identity on seeds and settings that ``scripts/compare_trees.py`` and
 the fingerprints do not use (issue 10): seven highway runs (the ring at VGR
-1/3 and 1/2, lane drop, off-ramp, on-ramp, 60 free vehicles, lane change),
-expert-driven or with a share of random actions (collisions), each hashed
-over every step's observations, rewards, terminations, expert labels and
-simulation state, and its run metrics. Run it in both trees and compare the
+1/3 and 1/2, lane drop, off-ramp, on-ramp, 60 free vehicles, lane change)
+and three intersection runs (multi-vp, single-vp, fcfs at other demands and
+seeds), expert-driven or with a share of random actions (collisions), each
+hashed over every step's observations, rewards, terminations, expert labels
+and (highway) simulation state, and its run metrics. Run it in both trees and compare the
 JSON lines:
 
     PYTHONPATH=<tree> python scripts/new_seed_hashes.py <tree>
@@ -22,6 +23,10 @@ CASES = [
     ("on-ramp-s15-rand", "highway_formation_v0", {"scenario": "on-ramp"}, 15, 150, 0.3),
     ("free-60-s16-rand", "highway_formation_v0", {"vehicles_count": 60, "initial_position": None}, 16, 120, 0.3),
     ("lane-change-s17", "highway_formation_v0", {"scenario": "lane-change"}, 17, 150, 0.0),
+    ("intersection-multi-vp-2800-s31", "intersection_v0", {"method": "multi-vp", "throughput": 2800.0}, 31, 600, 0.0),
+    ("intersection-single-vp-2400-s32-rand", "intersection_v0", {"method": "single-vp", "throughput": 2400.0}, 32, 600,
+     0.2),
+    ("intersection-fcfs-3200-s33-rand", "intersection_v0", {"method": "fcfs", "throughput": 3200.0}, 33, 600, 0.2),
 ]
 out = {}
 for name, module, cfg, seed, steps, share in CASES:
@@ -42,8 +47,9 @@ for name, module, cfg, seed, steps, share in CASES:
             h.update(np.float64(rew[a]).tobytes()); h.update(bytes([bool(term[a]), bool(trunc[a])]))
             if "expert_action" in infos.get(a, {}):
                 h.update(np.ascontiguousarray(infos[a]["expert_action"], dtype=np.float32).tobytes())
-        for k, v in _traffic_arrays(env.core):
-            h.update(k.encode()); h.update(np.ascontiguousarray(v).tobytes())
+        if hasattr(env.core.world, "traffic"):  # (the highway worlds' state arrays)
+            for k, v in _traffic_arrays(env.core):
+                h.update(k.encode()); h.update(np.ascontiguousarray(v).tobytes())
         crashes += sum(1 for a in term if term[a] and not infos.get(a, {}).get("exited", False))
     m = env.core.metrics() if hasattr(env.core, "metrics") else {}
     h.update(json.dumps(m, sort_keys=True, default=str).encode())

@@ -29,7 +29,7 @@ def sweep_candidates(xs, ys, hxs, hys, reach):
     ``k`` places apart was in reach) visited, in O(n + pairs in reach)
     instead of O(n k_max): one dense cluster anywhere on the road (a
     formation four lanes wide) made every ``k`` pass cover the whole road
-    (442 vehicles on the ring: 47 us -> about 3 us per substep). The pairs
+    (442 vehicles on the ring: 30-32 us -> 2.8 us per substep). The pairs
     are then put in the former order (a stable sort by ``k``)."""
     n = xs.shape[0]
     cap = 2 * n + 16

@@ -183,7 +183,7 @@ def lanes_available(lane, x, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     :func:`interval_ends`'s: a helper taking the road's arrays and looping
     over them, called once per vehicle inside a compiled loop, cost about
     75 ns a call (measured, with or without ``inline="always"``; the ring,
-    442 vehicles: :func:`road_check` 35 -> 3 us), so the kernels that need the
+    442 vehicles: :func:`road_check` 37 -> 3 us), so the kernels that need the
     rule for many vehicles call these once."""
     n = lane.shape[0]
     out = np.empty(n, dtype=np.bool_)
