@@ -4,7 +4,7 @@ the fingerprints do not use (issue 10): seven highway runs (the ring at VGR
 and three intersection runs (multi-vp, single-vp, fcfs at other demands and
 seeds), expert-driven or with a share of random actions (collisions), each
 hashed over every step's observations, rewards, terminations, expert labels
-and (highway) simulation state, and its run metrics. Run it in both trees and compare the
+and simulation state, and its run metrics. Run it in both trees and compare the
 JSON lines:
 
     PYTHONPATH=<tree> python scripts/new_seed_hashes.py <tree>
@@ -47,9 +47,8 @@ for name, module, cfg, seed, steps, share in CASES:
             h.update(np.float64(rew[a]).tobytes()); h.update(bytes([bool(term[a]), bool(trunc[a])]))
             if "expert_action" in infos.get(a, {}):
                 h.update(np.ascontiguousarray(infos[a]["expert_action"], dtype=np.float32).tobytes())
-        if hasattr(env.core.world, "traffic"):  # (the highway worlds' state arrays)
-            for k, v in _traffic_arrays(env.core):
-                h.update(k.encode()); h.update(np.ascontiguousarray(v).tobytes())
+        for k, v in _traffic_arrays(env.core):  # (the world's public state arrays, as the fingerprints hash them)
+            h.update(k.encode()); h.update(np.ascontiguousarray(v).tobytes())
         crashes += sum(1 for a in term if term[a] and not infos.get(a, {}).get("exited", False))
     m = env.core.metrics() if hasattr(env.core, "metrics") else {}
     h.update(json.dumps(m, sort_keys=True, default=str).encode())
