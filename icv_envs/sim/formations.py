@@ -57,13 +57,12 @@ from icv_envs.formation.control import (
     PROFILE_MIN_DURATION,
 )
 from icv_envs.formation.targets import formation_targets
-from icv_envs.sim._kernels import drivable_lane_bits, hold_targets
 from icv_envs.sim._kernels.formation import (
     drivable_lane_bits1,
     eligible_free_rows,
-    leaving_rows,
+    hold_pass,
+    membership_pass,
     reference_rows,
-    room_ahead,
 )
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.sim.join_plans import JoinPlans
@@ -151,7 +150,7 @@ class FormationManager:
         self._bits_memo: dict[tuple, int] = {}  # lane set -> bit set (_lane_bitset)
         self._lanes_memo: dict[int, tuple] = {}  # bit set -> lane set (_lane_set)
         self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
-        self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_lane_bits)
+        self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_allowed)
         # per vehicle id: the join plans and the slot each was made for (sim/join_plans.py)
         self._plans = JoinPlans(self.profile_limits, self.profile_speeds, self.speed)
 
@@ -170,16 +169,23 @@ class FormationManager:
         gid = self.next_gid
         self.next_gid += 1
         self._live = None
-        if self.next_gid + 1 > len(self._A):  # room for the id and the lookup table's extra entry (_anchor_lut)
-            pad = len(self._A)
-            self._A = np.concatenate([self._A, np.full(pad, np.nan)])
-            self._L, self._stall = (np.concatenate([x, np.zeros(pad)]) for x in (self._L, self._stall))
-            self._cnt, self._bits = (np.concatenate([x, np.zeros(pad, dtype=np.int64)]) for x in (self._cnt, self._bits))
+        self._reserve(self.next_gid + 1)  # room for the id and the lookup table's extra entry (_anchor_lut)
         self._A[gid] = anchor
         self._L[gid] = 0.0
         self._cnt[gid] = 0
         self._stall[gid] = 0.0
         return gid
+
+    def _reserve(self, size: int) -> None:
+        """Room in the formation arrays for ids below ``size`` (doubling, as
+        :meth:`_new_gid` grows them; new entries as it leaves them)."""
+        cap = len(self._A)
+        if size <= cap:
+            return
+        pad = max(size, 2 * cap) - cap
+        self._A = np.concatenate([self._A, np.full(pad, np.nan)])
+        self._L, self._stall = (np.concatenate([x, np.zeros(pad)]) for x in (self._L, self._stall))
+        self._cnt, self._bits = (np.concatenate([x, np.zeros(pad, dtype=np.int64)]) for x in (self._cnt, self._bits))
 
     def _view(self, arr: np.ndarray) -> dict:
         return dict(zip(self._gids().tolist(), arr[self._gids()].tolist()))
@@ -388,86 +394,30 @@ class FormationManager:
         detected; every formation that changed re-forms."""
         cx, cy = traffic.center()
         wrap = road.wrap
-        changed: set[int] = set()
         self._version += 1
         self.time += dt
-        g_arr = self._gids()
-        gids = g_arr.tolist()
-        if gids:  # one array operation for all front targets
-            self._A[g_arr] = road.mod(self._A[g_arr] + self.speed * dt)
-        if traffic.n and road.n_exits:
-            # members about to exit leave (the vehicle becomes free and heads for its ramp)
-            # (compiled: sim/_kernels/formation.leaving_rows)
-            leave = leaving_rows(traffic.group, traffic.exit, cx, cy, traffic.lc_lane, float(road.lane_width),
-                                 int(road.total_lanes), int(road.n_lanes), bool(road.has_ramp_lane), road._diverge_iv,
-                                 float(road.length) if road.periodic else -1.0, float(self.exit_lookahead),
-                                 float(self.exit_lookahead_per_lane))
-            if len(leave):
-                for gid in np.unique(traffic.group[leave]):
-                    changed.add(int(gid))
-                traffic.group[leave] = -1
-                traffic.tgt_lane[leave] = -1
-                self._plans.grow(int(traffic.vid[leave].max()) + 1)
-                self._plans.slot_gid[traffic.vid[leave]] = -1
-        counts = np.bincount(traffic.group[traffic.group >= 0], minlength=self.next_gid) if traffic.n else np.zeros(
-            self.next_gid, dtype=np.int64
-        )
-        # a member crashed, left the road or left
-        changed.update(g_arr[counts[g_arr] != self._cnt[g_arr]].tolist())
-        free = self._eligible_free(traffic, road, cx) if traffic.n else np.zeros(0, dtype=np.int64)
-        # joins
-        if len(free) and gids:
-            # which free vehicle is within reach of which formation, all pairs
-            # at once (the same element-wise arithmetic as one formation at a
-            # time); then the formations in order take the vehicles still free
-            sizes = counts[g_arr]  # (every id is below next_gid, the bincount's minimum length)
-            open_ = (sizes > 0) & (sizes < self.max_size)
-            if open_.any():
-                ko = np.flatnonzero(open_)
-                A = self._A[g_arr[ko]]
-                Lf = self._L[g_arr[ko]]
-                rel = wrap(cx[free][None, :] - A[:, None])
-                reach = (rel >= -Lf[:, None] - self.join_distance) & (rel <= self.join_distance)
-                still = np.ones(len(free), dtype=bool)
-                for q in np.flatnonzero(reach.any(axis=1)).tolist():
-                    gid = gids[int(ko[q])]
-                    take = np.flatnonzero(reach[q] & still)[: self.max_size - int(sizes[ko[q]])]
-                    if len(take):
-                        traffic.group[free[take]] = gid
-                        changed.add(gid)
-                        still[take] = False  # (the rows in ``free`` are distinct)
-                        if not still.any():
-                            break
-                free = free[still]
-        # new formations (front-most candidates first)
-        if self.create_new and len(free):
-            on_main = free[road.lane_of(cy[free]) < road.n_lanes]
-            for r in on_main[np.argsort(-cx[on_main], kind="stable")]:
-                if traffic.group[r] >= 0:
-                    continue
-                # clear of every formation (those founded in this loop included)
-                clear = True
-                live = self._gids()
-                if len(live):
-                    rel = wrap(cx[r] - self._A[live])
-                    Lf = self._L[live]
-                    clear = not bool(np.any((-Lf - self.new_formation_gap < rel) & (rel < self.new_formation_gap)))
-                if clear:
-                    gid = self._new_gid(float(cx[r]))
-                    traffic.group[r] = gid
-                    changed.add(gid)
-        g_arr = self._gids()
-        # front targets: behind the formation ahead, and not running away.
-        # room[i]: distance from formation i's front target to the rear of
-        # the nearest formation ahead, minus formation_gap (nan: none ahead)
-        room = np.full(len(g_arr), np.nan)
-        if len(g_arr) > 1:
-            # (compiled: the pairwise differences row by row, sim/_kernels/formation.py)
-            nearest = room_ahead(self._A[g_arr], self._L[g_arr], float(road.length) if road.periodic else -1.0)
-            fin = np.isfinite(nearest)
-            room[fin] = nearest[fin] - self.formation_gap
-        self._hold_targets(traffic, road, g_arr, changed, room, cx, dt)
-        for gid in sorted(changed):
+        n = traffic.n
+        length = float(road.length) if road.periodic else -1.0
+        if n:
+            self._plans.grow(int(traffic.vid.max()) + 1)
+        self._reserve(self.next_gid + n + 1)  # room for one new formation per vehicle (step 5 below)
+        # front targets, leaving members, member counts, joins, new
+        # formations and the room ahead of each formation, compiled in one
+        # pass (sim/_kernels/formation.membership_pass: the array code it
+        # replaced is frozen in tests/test_formation_update.py)
+        chg, next_gid, g_arr, room = membership_pass(
+            traffic.group, traffic.tgt_lane, traffic.vid, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
+            self._plans.slot_gid, self._A, self._L, self._cnt, self._stall, self._gids(), self.next_gid,
+            self.speed * dt, length, int(road.n_exits), float(road.lane_width), int(road.total_lanes),
+            int(road.n_lanes), bool(road.has_ramp_lane), road._diverge_iv, float(self.exit_lookahead),
+            float(self.exit_lookahead_per_lane), self.max_size, float(self.join_distance), self.create_new,
+            float(self.new_formation_gap), float(self.formation_gap))
+        if next_gid != self.next_gid:
+            self.next_gid = next_gid
+            self._live = None
+        self._hold_targets(traffic, road, g_arr, chg, room, cx, dt)
+        changed = np.flatnonzero(chg[:self.next_gid]).tolist()
+        for gid in changed:  # ascending
             self._reform(traffic, road, gid, cx)
         # members that fell off their reference (held back by traffic) re-plan
         # from where they are
@@ -483,9 +433,10 @@ class FormationManager:
             self._lanes.pop(gid, None)
             self._live = None
         self._version += 1
-        return sorted(changed)
+        return changed
 
-    def _hold_targets(self, traffic, road, g_arr: np.ndarray, changed: set, room: np.ndarray, cx, dt: float) -> None:
+    def _hold_targets(self, traffic, road, g_arr: np.ndarray, chg: np.ndarray, room: np.ndarray, cx,
+                      dt: float) -> None:
         """Per formation (all at once, as arrays): the front target slows
         down (by at most ``anchor_brake`` m/s, so members see a smooth
         reference) when it leads its best-placed member by more than
@@ -493,24 +444,17 @@ class FormationManager:
         formation ahead; a change of the drivable lane set over the
         formation's window, or a member far from its target for
         ``stall_time`` (e.g. it joined ahead of the formation and its target
-        lies beyond a member in its lane), marks it for re-forming. The
-        per-formation pass (lead, brake, stall test) and the lane windows run
-        in :mod:`icv_envs.sim._kernels`; the arithmetic is the scalar code's,
-        element by element."""
+        lies beyond a member in its lane), marks it for re-forming in
+        ``chg`` (a mask over formation ids). The join profiles come from
+        :class:`JoinPlans` (numpy's powers); the rest runs in one compiled
+        call (:func:`icv_envs.sim._kernels.formation.hold_pass`), the
+        arithmetic of the array code it replaced, element by element."""
         if not traffic.n or not len(g_arr):
             return
         grp = traffic.group
         m = np.flatnonzero(grp >= 0)
         if not len(m):
             return
-        G = len(g_arr)
-        A = self._A[g_arr]
-        chg = np.zeros(self.next_gid, dtype=bool)
-        if changed:
-            chg[list(changed)] = True
-        chg = chg[g_arr]
-        slot_of_gid = np.full(int(g_arr[-1]) + 1, -1, dtype=np.int64)
-        slot_of_gid[g_arr] = np.arange(G)
         # the lead of the front target over its members is measured against
         # each member's REFERENCE (slot + join profile), not its slot: a member
         # on its join plan is meant to be behind its slot, and holding the
@@ -520,46 +464,15 @@ class FormationManager:
         # (the profiles of all members in row order, the order every other
         # caller in this step asks for: one evaluation, then the cache)
         d_ref = self._profile(traffic, m)[0]
-        # the lead, the brake and the stall test per formation, compiled
-        # (icv_envs.sim._kernels.hold_targets: the arithmetic of the array
-        # code it replaced, element by element)
-        has, brake, late = hold_targets(grp, slot_of_gid, A, chg, room, traffic.tgt_behind, cx, d_ref, traffic.vid,
-                                        self._plans.deadline, float(self.time), float(self.max_anchor_lead),
-                                        -self.anchor_brake * dt, float(self.stall_error),
-                                        float(road.length) if road.periodic else -1.0)
-        if not has.any():
-            return
-        if brake.any():
-            self._A[g_arr[brake]] = A[brake]
-        check = np.flatnonzero(has & ~chg)
-        if len(check):
-            g = g_arr[check]
-            bits = self._lane_bits(road, A[check], self._L[g])
-            changed.update(g[bits != self._bits[g]].tolist())
         # a member far from its target AFTER its plan should have brought it
         # there (the join profile's deadline) counts as stalled (``late``)
         # for ``stall_time`` in a row: the formation re-forms (and the count
         # restarts); a formation that re-forms anyway restarts it too
-        g = g_arr[has]
-        inch = np.zeros(self.next_gid, dtype=bool)
-        inch[list(changed)] = True
-        lt = late[has] & ~inch[g]
-        stall = np.where(lt, self._stall[g] + dt, 0.0)
-        due = lt & (stall >= self.stall_time)
-        if due.any():
-            changed.update(g[due].tolist())
-            stall[due] = 0.0
-        self._stall[g] = stall
-
-    def _lane_bits(self, road, anchors: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-        """:meth:`_lane_set` for many formations at once, as bit sets."""
-        x0 = anchors - lengths - 10.0
-        x1 = anchors + self.lookahead
-        L = float(road.length)
-        span = np.minimum(np.maximum(x1 - x0, 0.0), L)
-        a = np.mod(x0, L)
-        allowed = self._allowed(road.n_lanes)
-        return drivable_lane_bits(a, span, x0, x1, bool(road.periodic), L, road.lane_ends, *_obstacles(road), allowed)
+        hold_pass(grp, g_arr, self._A, self._L, self._bits, self._stall, chg, room, traffic.tgt_behind, cx, d_ref,
+                  traffic.vid, self._plans.deadline, float(self.time), float(self.max_anchor_lead),
+                  -self.anchor_brake * dt, float(self.stall_error), float(road.length) if road.periodic else -1.0,
+                  float(dt), float(self.stall_time), float(self.lookahead), bool(road.periodic), float(road.length),
+                  road.lane_ends, *_obstacles(road), self._allowed(road.n_lanes))
 
     def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-vehicle ``(x_ref, lane_ref, v_ref, member)``: body-centre

@@ -18,7 +18,9 @@ rows and reward terms (:func:`formation_feature_rows`,
 :func:`formation_reward_terms`), and the formation layer's per-vehicle
 rules (one lane window, :func:`drivable_lane_bits1`; the free vehicles that
 may join, :func:`eligible_free_rows`; the members leaving for their exit,
-:func:`leaving_rows`). They take and return plain
+:func:`leaving_rows`) and its step outside re-forming (membership, front
+targets, room ahead: :func:`membership_pass`; the front-target hold, lane
+windows and stall clocks: :func:`hold_pass`). They take and return plain
 arrays (no Python objects inside), and they perform the same IEEE-754
 operations, in the same order, as the numpy code they replace (reductions
 included: :func:`pairwise_sum` is NumPy's own summation order), so
@@ -64,7 +66,8 @@ functions, so :func:`pairwise_sum` runs its halving on an explicit stack.
 from __future__ import annotations
 
 from icv_envs.sim._kernels.formation import (drivable_lane_bits, drivable_lane_bits1, eligible_free_rows,
-                                             hold_targets, leaving_rows, reference_rows)
+                                             hold_pass, hold_targets, leaving_rows, membership_pass,
+                                             reference_rows)
 from icv_envs.sim._kernels.frames import intersection_frames, quiet_substeps
 from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs, build_lane_index, leader_entries,
                                               leader_rows, own_lane_gap_rows)
@@ -98,6 +101,8 @@ __all__ = [
     "eligible_free_rows",
     "leaving_rows",
     "hold_targets",
+    "hold_pass",
+    "membership_pass",
     "reference_rows",
     "quiet_substeps",
     "intersection_frames",
