@@ -326,3 +326,40 @@ def test_update_equals_the_replaced_code_on_boundary_states(case):
         assert events["create"] > 0, events
     else:
         assert events["lanes"] > 0, events
+
+
+def _old_eval(jp, vid, time):
+    """``JoinPlans._eval`` as array code (icv_envs/sim/join_plans.py at ca6947d), frozen."""
+    from icv_envs.formation._kernels import quintic_rows
+
+    t = time - jp.t0[vid]
+    T = jp.T[vid]
+    run = np.flatnonzero(t < T)
+    d, v, a = jp.fd[vid], jp.fv[vid], jp.fa[vid]
+    if len(run):
+        tc = np.minimum(np.maximum(t[run], 0.0), T[run])
+        quintic_rows(tc, tc ** 3, tc ** 4, tc ** 5, vid[run], jp.d0, jp.v0, jp.a0, jp.c3, jp.c4, jp.c5, run, d, v, a)
+    return d, v, a
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_profile_evaluation_equals_the_replaced_array_code(seed):
+    """Plans made at several times, evaluated before, at and after their
+    ends (``t == T`` and ``t0 == time`` included), in any id order."""
+    from icv_envs.sim.join_plans import JoinPlans
+
+    rng = np.random.default_rng(seed)
+    jp = JoinPlans(dict(accel=1.5, decel=2.0, jerk=1.0, t_min=2.0), (15.0, 29.0), 25.0)
+    vid_all = rng.permutation(200)[:120]
+    for t0 in (0.0, 0.2, 1.4, 3.0):
+        vid = rng.choice(vid_all, size=30, replace=False)
+        jp.plan(vid, rng.uniform(-80, 80, 30), rng.uniform(-5, 5, 30), rng.uniform(-1, 1, 30), t0)
+    checked = 0
+    for time in [0.0, 0.2, 1.4, 3.0, 5.0] + list(np.asarray(jp.t0[vid_all] + jp.T[vid_all])[:10]) + [1e3]:
+        vid = rng.permutation(vid_all)
+        got = jp._eval(vid, float(time))
+        want = _old_eval(jp, vid, float(time))
+        for x, y in zip(got, want):
+            assert _same(x, y)
+        checked += 1
+    assert checked == 16

@@ -31,7 +31,7 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["join_search", "join_search_banded", "plan_rows", "quintic_rows"]
+__all__ = ["join_search", "join_search_banded", "plan_rows", "profile_gather", "quintic_rows"]
 
 
 @nb.njit(cache=True)
@@ -184,3 +184,34 @@ def plan_rows(vid, time, T, T3, T4, T5, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_ta
         fv_tab[k] = v + a * Ti + 3.0 * p3 * t2 + 4.0 * p4 * t3 + 5.0 * p5 * t4
         fa_tab[k] = a + 6.0 * p3 * Ti + 12.0 * p4 * t2 + 20.0 * p5 * t3
         stamp_tab[k] = stamp
+
+
+@nb.njit(cache=True)
+def profile_gather(vid, time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab):
+    """The table part of ``JoinPlans._eval`` in one pass: per vehicle ``vid[i]``
+    the profile's end values ``(d, v, a)`` (kept where its plan has ended,
+    ``time - t0 >= T``), the positions ``run`` of the plans still running
+    and their times ``time - t0`` clamped to ``[0, T]`` (whose powers the
+    caller takes from numpy for :func:`quintic_rows`). Returns ``(d, v, a,
+    run, tc)``; ``max(min(...))`` as numpy's ``minimum(maximum(...))``
+    (the times are finite)."""
+    n = vid.shape[0]
+    d = np.empty(n)
+    v = np.empty(n)
+    a = np.empty(n)
+    run = np.empty(n, dtype=np.int64)
+    tc = np.empty(n)
+    m = 0
+    for i in range(n):
+        k = vid[i]
+        d[i] = fd_tab[k]
+        v[i] = fv_tab[k]
+        a[i] = fa_tab[k]
+        t = time - t0_tab[k]
+        T = T_tab[k]
+        if t < T:
+            run[m] = i
+            x = t if t > 0.0 else 0.0
+            tc[m] = x if x < T else T
+            m += 1
+    return d, v, a, run[:m], tc[:m]

@@ -62,6 +62,7 @@ from icv_envs.sim._kernels.formation import (
     eligible_free_rows,
     hold_pass,
     membership_pass,
+    off_reference_rows,
     reference_rows,
 )
 from icv_envs.sim._ufuncs import clip as uclip
@@ -393,7 +394,6 @@ class FormationManager:
         ``max_anchor_lead`` of its members; lane-set changes and stalls are
         detected; every formation that changed re-forms."""
         cx, cy = traffic.center()
-        wrap = road.wrap
         self._version += 1
         self.time += dt
         n = traffic.n
@@ -421,12 +421,14 @@ class FormationManager:
             self._reform(traffic, road, gid, cx)
         # members that fell off their reference (held back by traffic) re-plan
         # from where they are
-        m = np.flatnonzero(traffic.group >= 0) if traffic.n else np.zeros(0, dtype=np.int64)
+        # (compiled: sim/_kernels/formation.off_reference_rows)
+        m = np.flatnonzero(traffic.group >= 0) if n else np.zeros(0, dtype=np.int64)
         if len(m):
             d, _, _ = self._profile(traffic, m)
-            off = np.abs(wrap(cx[m] - (self._slot_x(traffic, m) + d))) > self.replan_error
-            if off.any():
-                self._plan(traffic, road, m[off], cx)
+            off = off_reference_rows(traffic.group, m, cx, self._anchor_lut(), traffic.tgt_behind, d, length,
+                                     float(self.replan_error))
+            if len(off):
+                self._plan(traffic, road, off, cx)
         g_arr = self._gids()
         for gid in g_arr[self._cnt[g_arr] == 0].tolist():  # formations without members dissolve
             self._A[gid] = np.nan

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.formation._kernels import join_search_banded, plan_rows, quintic_rows
+from icv_envs.formation._kernels import join_search_banded, plan_rows, profile_gather, quintic_rows
 from icv_envs.formation.control import (
     _PROFILE_SAMPLES,
     JOIN_GROW,
@@ -152,14 +152,12 @@ class JoinPlans:
         plans still running, the stored end values for those that have ended
         (``t >= T``: the quintic is evaluated at ``T`` then, so the values
         are the same numbers; :meth:`plan` stores them)."""
-        t = time - self.t0[vid]
-        T = self.T[vid]
-        run = np.flatnonzero(t < T)
-        d, v, a = self.fd[vid], self.fv[vid], self.fa[vid]
+        # the end values, which plans still run and their clamped times in
+        # one compiled pass (formation._kernels.profile_gather)
+        d, v, a, run, tc = profile_gather(vid, float(time), self.t0, self.T, self.fd, self.fv, self.fa)
         if len(run):
             # join_profile's quintic (compiled, from the plans' stored
             # coefficients; the powers from numpy, as join_profile takes them)
-            tc = np.minimum(np.maximum(t[run], 0.0), T[run])
             quintic_rows(tc, tc ** 3, tc ** 4, tc ** 5, vid[run], self.d0, self.v0, self.a0, self.c3, self.c4,
                          self.c5, run, d, v, a)
         return d, v, a

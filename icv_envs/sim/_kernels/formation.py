@@ -10,7 +10,7 @@ import numpy as np
 from icv_envs.sim._kernels.physics import lane_of1, npy_mod
 
 __all__ = ["drivable_lane_bits", "drivable_lane_bits1", "eligible_free_rows", "hold_pass", "hold_targets",
-           "leaving_rows", "membership_pass", "room_ahead"]
+           "leaving_rows", "membership_pass", "off_reference_rows", "room_ahead"]
 
 
 @nb.njit(cache=True)
@@ -500,3 +500,21 @@ def hold_pass(grp, g_arr, A_all, L_all, bits_all, stall_all, chg_all, room, tb, 
             chg_all[g] = True
             s = 0.0
         stall_all[g] = s
+
+
+@nb.njit(cache=True)
+def off_reference_rows(group, m, cx, anchor_of, tb, d, length, replan_error):
+    """Members ``m`` (with join-profile offsets ``d``) farther than
+    ``replan_error`` from their reference: ``|wrap(cx - ((anchor_of[group] -
+    tb) + d))| > replan_error`` (``FormationManager.update``'s re-plan test,
+    its arithmetic element by element; ``length < 0``: a straight road).
+    Returns their rows, in the order of ``m``."""
+    n = m.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    k = 0
+    for q in range(n):
+        r = m[q]
+        if abs(_wrap1(cx[r] - ((anchor_of[group[r]] - tb[r]) + d[q]), length)) > replan_error:
+            out[k] = r
+            k += 1
+    return out[:k]
