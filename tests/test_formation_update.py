@@ -1,6 +1,8 @@
 """``FormationManager.update`` (membership, front targets, lane windows and
 stalls compiled in ``sim/_kernels/formation.membership_pass`` and
-``hold_pass``) against the array code it replaced, frozen below: on every
+``hold_pass``; the re-forming's frame, costs and slots in ``reform_costs``
+and ``reform_slots``; the re-plan test in ``off_reference_rows``) against
+the array code it replaced, frozen below: on every
 policy step of runs that exercise each rule (members leaving for their exit,
 joins, new formations, braked front targets, lane-set changes at a lane drop,
 stalls), both are applied to copies of the same state and every piece of the
@@ -13,6 +15,7 @@ import copy
 import numpy as np
 import pytest
 
+from icv_envs.formation.assignment import _solve
 from icv_envs.sim._kernels import drivable_lane_bits, hold_targets
 from icv_envs.sim._kernels.formation import eligible_free_rows, leaving_rows, room_ahead
 from icv_envs.sim.formations import FormationManager, _obstacles
@@ -92,7 +95,7 @@ def _old_update(self, traffic, road, dt, events):
         room[fin] = nearest[fin] - self.formation_gap
     _old_hold_targets(self, traffic, road, g_arr, changed, room, cx, dt, events)
     for gid in sorted(changed):
-        self._reform(traffic, road, gid, cx)
+        _old_reform(self, traffic, road, gid, cx)
     m = np.flatnonzero(traffic.group >= 0) if traffic.n else np.zeros(0, dtype=np.int64)
     if len(m):
         d, _, _ = self._profile(traffic, m)
@@ -106,6 +109,61 @@ def _old_update(self, traffic, road, dt, events):
         self._live = None
     self._version += 1
     return sorted(changed)
+
+
+def _old_reform(self, traffic, road, gid, cx):
+    rows = np.flatnonzero(traffic.group == gid)
+    n = len(rows)
+    self._cnt[gid] = n
+    if n == 0:
+        return
+    anchor = float(self._A[gid])
+    old_length = float(self._L[gid])
+    lanes = self._lane_set(road, anchor, old_length)
+    if not lanes:
+        lanes = (0,)
+    for _ in range(2):
+        tx, tl = self._targets(n, len(lanes))
+        length = float(tx.max()) if n else 0.0
+        new = self._lane_set(road, anchor, max(length, old_length)) or lanes
+        if new == lanes:
+            break
+        lanes = new
+    tx, tl = self._targets(n, len(lanes))
+    self._lanes[gid] = lanes
+    self._bits[gid] = self._lane_bitset(lanes)
+    self._L[gid] = float(tx.max())
+    lanes_arr = np.asarray(lanes, dtype=np.float64)
+    ids = np.arange(1, len(lanes) + 1, dtype=np.float64)
+    _, cy = traffic.center()
+    lane_pos = cy[rows] / road.lane_width
+    if len(lanes) > 1:
+        y_v = np.interp(lane_pos, lanes_arr, ids)
+        y_v = np.where(lane_pos < lanes_arr[0], 1.0 - (lanes_arr[0] - lane_pos), y_v)
+        y_v = np.where(lane_pos > lanes_arr[-1], len(lanes) + (lane_pos - lanes_arr[-1]), y_v)
+    else:
+        y_v = 1.0 + (lane_pos - lanes_arr[0])
+    x_v = road.wrap(anchor - cx[rows])
+    slot = _old_assign_targets(x_v, y_v, tx, tl.astype(np.float64), self.w1, self.w2)
+    traffic.tgt_behind[rows] = tx[slot]
+    traffic.tgt_lane[rows] = np.asarray(lanes, dtype=np.int64)[tl[slot] - 1]
+    self.reforms += 1
+    vid = traffic.vid[rows]
+    jp = self._plans
+    jp.grow(int(vid.max()) + 1)
+    new = (jp.slot_gid[vid] != gid) | (jp.slot_behind[vid] != traffic.tgt_behind[rows])
+    if new.any():
+        r = rows[new]
+        T = self._plan(traffic, road, r, cx)
+        jp.slot_gid[traffic.vid[r]] = gid
+        jp.slot_behind[traffic.vid[r]] = traffic.tgt_behind[r]
+        jp.deadline[traffic.vid[r]] = self.time + T
+
+
+def _old_assign_targets(vx, vy, gx, gy, w1, w2):
+    dx = gx[None, :] - vx[:, None]
+    dy = gy[None, :] - vy[:, None]
+    return _solve(w1 * dx * dx + w2 * dy * dy)
 
 
 def _old_eligible_free(self, traffic, road, cx):
@@ -363,3 +421,49 @@ def test_profile_evaluation_equals_the_replaced_array_code(seed):
             assert _same(x, y)
         checked += 1
     assert checked == 16
+
+
+def _old_frame_costs(rows, cx, cy, anchor, lane_width, lanes, tx, tl, w1, w2, period):
+    """The frame and cost part of the replaced ``_reform`` (array code), frozen."""
+    lanes_arr = np.asarray(lanes, dtype=np.float64)
+    ids = np.arange(1, len(lanes) + 1, dtype=np.float64)
+    lane_pos = cy[rows] / lane_width
+    if len(lanes) > 1:
+        y_v = np.interp(lane_pos, lanes_arr, ids)
+        y_v = np.where(lane_pos < lanes_arr[0], 1.0 - (lanes_arr[0] - lane_pos), y_v)
+        y_v = np.where(lane_pos > lanes_arr[-1], len(lanes) + (lane_pos - lanes_arr[-1]), y_v)
+    else:
+        y_v = 1.0 + (lane_pos - lanes_arr[0])
+    d = anchor - cx[rows]
+    if period > 0:
+        d = np.mod(d + 0.5 * period, period) - 0.5 * period
+    gy = tl.astype(np.float64)
+    dx = tx[None, :] - d[:, None]
+    dy = gy[None, :] - y_v[:, None]
+    return w1 * dx * dx + w2 * dy * dy
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_reform_costs_equal_the_replaced_array_code(seed):
+    """Lane sets with gaps, single lanes, positions exactly on lane centres,
+    between them and outside the set, on a ring and a straight road."""
+    from icv_envs.formation.targets import formation_targets
+    from icv_envs.sim._kernels.formation import reform_costs
+
+    rng = np.random.default_rng(seed)
+    n_all = int(rng.integers(1, 60))
+    lw = float(rng.choice([3.5, 4.0, 3.75]))
+    sets = [(0,), (2,), (0, 1, 2, 3), (0, 3), (1, 2, 5), (0, 2, 3), (0, 1, 4), (2, 5)]  # gaps of 3 and 5 lanes:
+    # slopes 1/3 and 1/5, which a reordered interpolation would round differently
+    lanes = sets[seed] if seed < len(sets) else tuple(sorted(rng.choice(6, size=int(rng.integers(1, 5)),
+                                                                        replace=False).tolist()))
+    cy = np.where(rng.random(n_all) < 0.4, rng.integers(-1, 7, n_all) * lw, rng.uniform(-lw, 7 * lw, n_all))
+    period = float(rng.choice([-1.0, 10000.0, 3217.5]))
+    cx = rng.uniform(0.0, period if period > 0 else 2000.0, n_all)
+    rows = np.sort(rng.choice(n_all, size=int(rng.integers((n_all + 1) // 2, n_all + 1)), replace=False))
+    tx, tl = formation_targets(len(rows), len(lanes), 20.0, "interlaced")
+    anchor = float(rng.choice(cx))
+    w1, w2 = float(rng.choice([1.0, 0.3])), float(rng.choice([10.0, 2.5]))
+    got = reform_costs(rows, cx, cy, anchor, lw, np.asarray(lanes, dtype=np.float64), tx, tl, w1, w2, period)
+    want = _old_frame_costs(rows, cx, cy, anchor, lw, lanes, tx, tl, w1, w2, period)
+    assert _same(got, want)

@@ -127,15 +127,6 @@ def assign_targets(
     return _solve(cost)
 
 
-def _assign_targets(vx: np.ndarray, vy: np.ndarray, gx: np.ndarray, gy: np.ndarray, w1: float, w2: float) -> np.ndarray:
-    """:func:`assign_targets` without its checks, for a caller that made them
-    once (the formation layer: float64 1-D arrays of equal length, weights
-    checked when it was built); the same cost matrix and solution."""
-    dx = gx[None, :] - vx[:, None]
-    dy = gy[None, :] - vy[:, None]
-    return _solve(w1 * dx * dx + w2 * dy * dy)
-
-
 def _solve(cost: np.ndarray) -> np.ndarray:
     n = cost.shape[0]
     if n == 0:

@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.formation.assignment import _assign_targets, _check_weight
+from icv_envs.formation.assignment import _check_weight, _solve
 from icv_envs.formation.control import (
     FEEDBACK_ERROR,
     PROFILE_ACCEL,
@@ -64,6 +64,8 @@ from icv_envs.sim._kernels.formation import (
     membership_pass,
     off_reference_rows,
     reference_rows,
+    reform_costs,
+    reform_slots,
 )
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.sim.join_plans import JoinPlans
@@ -152,6 +154,7 @@ class FormationManager:
         self._lanes_memo: dict[int, tuple] = {}  # bit set -> lane set (_lane_set)
         self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
         self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_allowed)
+        self._lane_arrays: dict[tuple, tuple] = {}  # lane set -> (float64, int64) arrays (_lanes_f, _lanes_i)
         # per vehicle id: the join plans and the slot each was made for (sim/join_plans.py)
         self._plans = JoinPlans(self.profile_limits, self.profile_speeds, self.speed)
 
@@ -260,6 +263,22 @@ class FormationManager:
             b = self._bits_memo[lanes] = sum(1 << lane for lane in lanes)
         return b
 
+    def _lane_array_pair(self, lanes: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """A lane set as read-only float64 and int64 arrays, memoised."""
+        out = self._lane_arrays.get(lanes)
+        if out is None:
+            out = (np.asarray(lanes, dtype=np.float64), np.asarray(lanes, dtype=np.int64))
+            for arr in out:
+                arr.flags.writeable = False
+            self._lane_arrays[lanes] = out
+        return out
+
+    def _lanes_f(self, lanes: tuple) -> np.ndarray:
+        return self._lane_array_pair(lanes)[0]
+
+    def _lanes_i(self, lanes: tuple) -> np.ndarray:
+        return self._lane_array_pair(lanes)[1]
+
     def _targets(self, n: int, n_lanes: int) -> tuple[np.ndarray, np.ndarray]:
         """:func:`~icv_envs.formation.targets.formation_targets` of this
         manager's spacing and geometry, memoised (a pure function of the
@@ -336,30 +355,22 @@ class FormationManager:
         self._lanes[gid] = lanes
         self._bits[gid] = self._lane_bitset(lanes)
         self._L[gid] = float(tx.max())
-        # vehicles in the formation frame: metres behind the front target and
-        # a (fractional) formation lane id interpolated over the lane set
-        lanes_arr = np.asarray(lanes, dtype=np.float64)
-        ids = np.arange(1, len(lanes) + 1, dtype=np.float64)
+        # vehicles in the formation frame (metres behind the front target and
+        # a fractional formation lane id interpolated over the lane set) and
+        # their costs, compiled (sim/_kernels/formation.reform_costs); the
+        # assignment by SciPy; the slots written and the members whose slot
+        # changed found in one more pass (reform_slots)
         _, cy = traffic.center()
-        lane_pos = cy[rows] / road.lane_width
-        if len(lanes) > 1:
-            y_v = np.interp(lane_pos, lanes_arr, ids)
-            y_v = np.where(lane_pos < lanes_arr[0], 1.0 - (lanes_arr[0] - lane_pos), y_v)
-            y_v = np.where(lane_pos > lanes_arr[-1], len(lanes) + (lane_pos - lanes_arr[-1]), y_v)
-        else:
-            y_v = 1.0 + (lane_pos - lanes_arr[0])
-        x_v = road.wrap(anchor - cx[rows])
-        slot = _assign_targets(x_v, y_v, tx, tl.astype(np.float64), self.w1, self.w2)
-        traffic.tgt_behind[rows] = tx[slot]
-        traffic.tgt_lane[rows] = np.asarray(lanes, dtype=np.int64)[tl[slot] - 1]
+        cost = reform_costs(rows, cx, cy, anchor, float(road.lane_width), self._lanes_f(lanes), tx, tl,
+                            float(self.w1), float(self.w2), float(road.length) if road.periodic else -1.0)
+        slot = _solve(cost)
+        jp = self._plans
+        jp.grow(int(traffic.vid[rows].max()) + 1)
+        r = reform_slots(rows, slot, tx, tl, self._lanes_i(lanes), gid, traffic.vid, traffic.tgt_behind,
+                         traffic.tgt_lane, jp.slot_gid, jp.slot_behind)
         self.reforms += 1
         # members with a new slot get a reference from where they are
-        vid = traffic.vid[rows]
-        jp = self._plans
-        jp.grow(int(vid.max()) + 1)
-        new = (jp.slot_gid[vid] != gid) | (jp.slot_behind[vid] != traffic.tgt_behind[rows])
-        if new.any():
-            r = rows[new]
+        if len(r):
             T = self._plan(traffic, road, r, cx)
             jp.slot_gid[traffic.vid[r]] = gid
             jp.slot_behind[traffic.vid[r]] = traffic.tgt_behind[r]

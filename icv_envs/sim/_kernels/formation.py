@@ -10,7 +10,7 @@ import numpy as np
 from icv_envs.sim._kernels.physics import lane_of1, npy_mod
 
 __all__ = ["drivable_lane_bits", "drivable_lane_bits1", "eligible_free_rows", "hold_pass", "hold_targets",
-           "leaving_rows", "membership_pass", "off_reference_rows", "room_ahead"]
+           "leaving_rows", "membership_pass", "off_reference_rows", "reform_costs", "reform_slots", "room_ahead"]
 
 
 @nb.njit(cache=True)
@@ -515,6 +515,83 @@ def off_reference_rows(group, m, cx, anchor_of, tb, d, length, replan_error):
     for q in range(n):
         r = m[q]
         if abs(_wrap1(cx[r] - ((anchor_of[group[r]] - tb[r]) + d[q]), length)) > replan_error:
+            out[k] = r
+            k += 1
+    return out[:k]
+
+
+@nb.njit(cache=True)
+def _interp_lane(x, xp, fp):
+    """``numpy.interp(x, xp, fp)`` of one value for ascending distinct
+    ``xp`` (at least two) with ``xp[0] <= x <= xp[-1]``: NumPy's rule (the
+    end value at ``x == xp[-1]``, ``fp[j]`` at ``x == xp[j]``, else
+    ``slope * (x - xp[j]) + fp[j]`` with ``slope = (fp[j+1] - fp[j]) /
+    (xp[j+1] - xp[j])`` over the interval holding ``x``)."""
+    m = xp.shape[0]
+    if x == xp[m - 1]:
+        return fp[m - 1]
+    j = 0
+    while j + 1 < m and xp[j + 1] <= x:
+        j += 1
+    if xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
+
+
+@nb.njit(cache=True)
+def reform_costs(rows, cx, cy, anchor, lane_width, lanes, tx, tl, w1, w2, length):
+    """The members ``rows`` of a formation in its frame and their assignment
+    costs (``FormationManager._reform``, paper Sec. 3.3, eq. (lp) with cost
+    ``F_w``): metres behind the front target ``x_v =
+    wrap(anchor - cx)`` and fractional formation lane ``y_v`` (``lanes``:
+    the lane set as floats, ascending; ``numpy.interp`` over it inside, a
+    straight extension by lane widths outside), and ``cost[i, j] = w1 *
+    dx * dx + w2 * dy * dy`` with ``dx = tx[j] - x_v[i]``, ``dy = tl[j] -
+    y_v[i]`` (the targets ``tx``, lane ids ``tl`` from 1). The arithmetic of
+    the array code it replaced, element by element. Returns ``cost``."""
+    n = rows.shape[0]
+    nl = lanes.shape[0]
+    ids = np.empty(nl)
+    for k in range(nl):
+        ids[k] = k + 1.0
+    cost = np.empty((n, n))
+    for i in range(n):
+        r = rows[i]
+        p = cy[r] / lane_width
+        if nl > 1:
+            if p < lanes[0]:
+                yv = 1.0 - (lanes[0] - p)
+            elif p > lanes[nl - 1]:
+                yv = nl + (p - lanes[nl - 1])
+            else:
+                yv = _interp_lane(p, lanes, ids)
+        else:
+            yv = 1.0 + (p - lanes[0])
+        xv = _wrap1(anchor - cx[r], length)
+        for j in range(n):
+            dx = tx[j] - xv
+            dy = tl[j] - yv
+            cost[i, j] = w1 * dx * dx + w2 * dy * dy
+    return cost
+
+
+@nb.njit(cache=True)
+def reform_slots(rows, slot, tx, tl, lanes, gid, vid, tgt_behind, tgt_lane, slot_gid, slot_behind):
+    """Write the assignment ``slot`` (member ``i`` -> target ``slot[i]``) of
+    the members ``rows``: ``tgt_behind = tx[slot]``, ``tgt_lane =
+    lanes[tl[slot] - 1]``; returns the rows whose slot differs from the one
+    their join plan was made for (``slot_gid``, ``slot_behind`` by vehicle
+    id), in order: they need a new plan."""
+    n = rows.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    k = 0
+    for i in range(n):
+        r = rows[i]
+        tgt_behind[r] = tx[slot[i]]
+        tgt_lane[r] = lanes[tl[slot[i]] - 1]
+        v = vid[r]
+        if slot_gid[v] != gid or slot_behind[v] != tgt_behind[r]:
             out[k] = r
             k += 1
     return out[:k]
