@@ -233,6 +233,7 @@ class BatchedWorlds:
         ids = [int(a[4:]) for a in self.possible_agents]
         self._slot_of_vid = np.full(max(ids) + 1 if ids else 0, -1, dtype=np.int64)
         self._slot_of_vid[ids] = np.arange(K)
+        self._lut_dense = bool((self._slot_of_vid >= 0).all())  # (possible agents icv_0 .. icv_<K-1>: always)
         # continuous actions take the array path (ParallelEnv.step_rows: no per-agent dicts)
         self._rows = isinstance(self.envs[0].core._act_type, ContinuousAction)
         self.single_observation_space = self.envs[0].observation_space(self.possible_agents[0])
@@ -261,14 +262,18 @@ class BatchedWorlds:
         so = self.slot_of
         return np.fromiter((so[a] for a in agents), dtype=np.int64, count=len(agents))
 
-    def _slots_of_vid(self, vid: np.ndarray) -> np.ndarray:
-        """Slots of vehicle ids ``vid``; an error names the ids that have none
-        (beyond the slot table or not a possible agent)."""
+    def _slots_of_vid(self, vid: np.ndarray, ascending: bool = False) -> np.ndarray:
+        """Slots of vehicle ids ``vid`` (``ascending``: sorted, as a world's
+        rows are); an error names the ids that have none (beyond the slot
+        table or not a possible agent)."""
         lut = self._slot_of_vid
         if not len(vid):
             return np.zeros(0, dtype=np.int64)
-        if int(vid.max()) < len(lut) and int(vid.min()) >= 0:
+        lo, hi = (int(vid[0]), int(vid[-1])) if ascending else (int(vid.min()), int(vid.max()))
+        if hi < len(lut) and lo >= 0:
             k = lut[vid]
+            if self._lut_dense:  # every id in the table has a slot
+                return k
         else:
             inside = (vid >= 0) & (vid < len(lut))
             k = np.full(len(vid), -1, dtype=np.int64)
@@ -301,7 +306,7 @@ class BatchedWorlds:
         self.expert_actions[b] = 0.0
         if env.agents:
             ex = env.core.expert_actions()
-            self.expert_actions[b, self._slots_of_vid(env.core._vehicles().vid)] = ex
+            self.expert_actions[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)] = ex
 
     def _out(self, a):
         return a.copy() if self.copy else a
@@ -330,7 +335,7 @@ class BatchedWorlds:
         reset = np.zeros(self.num_worlds, dtype=bool)
         for b, env in enumerate(self.envs):
             if self._rows:  # arrays through (the same agents and values as the dicts)
-                out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid)])
+                out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
                 self.obs[b] = 0.0
                 self.mask[b] = False
                 if len(out.vid):

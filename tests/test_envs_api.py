@@ -117,3 +117,17 @@ def test_episode_truncates_at_duration():
         _, _, _, trunc, _ = env.step(env.expert_actions())
         steps += 1
     assert steps == 10 and all(trunc.values())
+
+
+def test_agent_names_come_from_possible_agents_and_beyond():
+    """``_names`` looks the names up in ``possible_agents`` and formats the
+    ids beyond it: the same strings either way."""
+    from icv_envs.envs import highway_formation_v0
+
+    env = highway_formation_v0.parallel_env(vehicles_count=6)
+    env.reset(seed=0)
+    core = env.core
+    n = len(core.possible_agents)
+    for vids in ([], [0, 3, 5], [5, 0, 2], [0, n - 1], [1, n, n + 7]):
+        assert core._names(vids) == [f"icv_{v}" for v in vids]
+    assert core._names([2])[0] is core.possible_agents[2]

@@ -89,7 +89,7 @@ class CoreParallelEnv(ParallelEnv):
         if self._cycles_up:
             out = out._replace(truncated=~out.terminated)
         alive = ~(out.terminated | out.truncated)
-        self.agents = [f"icv_{v}" for v in out.vid[alive].tolist()]
+        self.agents = self.core._names(out.vid[alive].tolist())
         return out
 
     @property
