@@ -77,3 +77,51 @@ def test_refresh_leaves_a_read_only_tree_alone(tmp_path, monkeypatch):
     monkeypatch.setattr(Path, "mkdir", refuse)
     assert _kernel_cache.refresh() == []
     assert not (root / "formation" / "__pycache__").exists()
+
+
+def test_refresh_also_drops_stale_indices_under_numba_cache_dir(tmp_path, monkeypatch):
+    """With ``NUMBA_CACHE_DIR`` set numba keeps the cache there, in a
+    directory per source directory; the guard looks there too (and creates
+    no such directory where numba made none)."""
+    from numba.core import config
+
+    root = tmp_path / "icv_envs"
+    (root / "sim" / "_kernels").mkdir(parents=True)
+    (root / "policies").mkdir()
+    a = root / "sim" / "_kernels" / "frames.py"
+    b = root / "policies" / "_kernels.py"
+    for f in (a, b):
+        f.write_text(f"# {f.name}\n")
+    monkeypatch.setattr(_kernel_cache, "_ROOT", root)
+    ext = tmp_path / "numba_cache"
+    monkeypatch.setattr(config, "CACHE_DIR", str(ext))
+    outside = ext / _kernel_cache._cache_subpath(a.parent)
+    outside.mkdir(parents=True)
+    idx = outside / "frames.kernel-10.py311.nbi"
+    idx.write_bytes(b"x")
+    assert (outside, False) in _kernel_cache.cache_dirs(a.parent)
+    gone = _kernel_cache.refresh()
+    assert idx in gone and not idx.exists()
+    assert (outside / _kernel_cache.STAMP).exists()
+    assert not (ext / _kernel_cache._cache_subpath(b.parent)).exists()  # numba made none: none made here
+    idx.write_bytes(b"x")
+    assert _kernel_cache.refresh() == []  # same sources: kept
+    a.write_text("# frames.py, changed\n")
+    assert idx in _kernel_cache.refresh()
+
+
+def test_numba_names_its_cache_dir_as_the_guard_expects(tmp_path):
+    """A kernel compiled with ``NUMBA_CACHE_DIR`` set writes its index into
+    the directory :func:`cache_dirs` names (a fresh process: numba reads the
+    variable at import)."""
+    import os
+    import subprocess
+    import sys
+
+    from icv_envs.sim._kernels import physics
+
+    code = "from icv_envs.sim._kernels import npy_mod; assert npy_mod(3.0, 2.0) == 1.0"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    subprocess.run([sys.executable, "-c", code], check=True, env=env, timeout=600)
+    where = Path(physics.__file__).resolve().parent
+    assert list((tmp_path / _kernel_cache._cache_subpath(where)).glob("physics.npy_mod-*.nbi"))
