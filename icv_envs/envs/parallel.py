@@ -122,7 +122,7 @@ class CoreParallelEnv(ParallelEnv):
     def expert_actions(self) -> dict:
         """The expert's (the env method's controller's) action for every live agent."""
         ex = self.core.expert_actions()
-        return dict(zip([f"icv_{v}" for v in self.core.world.traffic.vid.tolist()], ex))
+        return dict(zip(self.core._names(self.core.world.traffic.vid.tolist()), ex))
 
     def metrics(self, **kwargs) -> dict:
         return self.core.metrics(**kwargs)
