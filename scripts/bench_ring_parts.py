@@ -6,6 +6,12 @@ per step, and ``time.perf_counter`` totals of the main parts (wrapped
 methods; a part nested in another is counted in both).
 
     PYTHONPATH=<tree> python scripts/bench_ring_parts.py [--warmup 300] [--steps 250]
+    PYTHONPATH=<tree> python scripts/bench_ring_parts.py --case batched [--steps 300]
+
+``--case batched``: :class:`icv_envs.vector.BatchedWorlds`, 16
+HighwayFormation worlds of 20 agents, zero actions, no expert (the
+``batched`` case of ``scripts/bench_trees.py``), 50 steps of warm-up; the
+parts per world-step in microseconds.
 
 Run it for both trees, alternately, more than once: the total moves by 10%
 or more between runs on a shared machine; the parts' ratios are steadier.
@@ -26,6 +32,22 @@ PARTS = [
     ("icv_envs.envs.highway_formation", "HighwayFormationEnv", "_features"),
     ("icv_envs.sim.world", "World", "record_min_gap"),
     ("icv_envs.sim.formations", "FormationManager", "_references"),
+    ("icv_envs.envs.highway_formation", "HighwayFormationEnv", "_rewards_rows"),
+]
+
+# the batched worlds' parts (--case batched); ``FormationManager._reform``
+# is left out: the trees before stop 35 call it from the same place
+BATCHED_PARTS = [
+    ("icv_envs.vector", "BatchedWorlds", "step"),
+    ("icv_envs.envs.base", "IcvAgentsEnv", "_ma_advance"),
+    ("icv_envs.envs.base", "IcvAgentsEnv", "_advance"),
+    ("icv_envs.sim.world", "World", "substeps"),
+    ("icv_envs.sim.world", "World", "record_min_gap"),
+    ("icv_envs.sim.formations", "FormationManager", "update"),
+    ("icv_envs.sim.formations", "FormationManager", "_hold_targets"),
+    ("icv_envs.sim.join_plans", "JoinPlans", "profile"),
+    ("icv_envs.envs.highway_formation", "HighwayFormationEnv", "_features"),
+    ("icv_envs.envs.base", "IcvAgentsEnv", "_observe_rows"),
     ("icv_envs.envs.highway_formation", "HighwayFormationEnv", "_rewards_rows"),
 ]
 
@@ -55,8 +77,11 @@ def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--warmup", type=float, default=300.0, help="simulated seconds before timing")
     p.add_argument("--steps", type=int, default=250, help="policy steps timed")
+    p.add_argument("--case", choices=("ring", "batched"), default="ring")
     a = p.parse_args()
     acc: dict[str, float] = {}
+    if a.case == "batched":
+        return batched(a.steps, acc)
     wrap_parts(PARTS, acc)
     from icv_envs.envs import highway_ramps_v0
 
@@ -74,6 +99,30 @@ def main() -> None:
     print(f"step {total * 1e3 / a.steps:.2f} ms CPU ({len(env.agents)} vehicles at the end)")
     for k, v in sorted(acc.items(), key=lambda kv: -kv[1]):
         print(f"  {k:16s} {v * 1e3 / a.steps:7.3f} ms")
+
+
+def batched(steps: int, acc: dict) -> None:
+    """``--case batched`` (module docstring)."""
+    import numpy as np
+
+    wrap_parts(BATCHED_PARTS, acc, qualified=True)
+    from icv_envs.vector import BatchedWorlds
+
+    B = 16
+    bw = BatchedWorlds(B, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=False)
+    bw.reset()
+    acts = np.zeros((B, bw.K, 2))
+    for _ in range(50):
+        bw.step(acts)
+    acc.clear()
+    t0 = time.process_time()
+    for _ in range(steps):
+        bw.step(acts)
+    total = time.process_time() - t0
+    per = 1e6 / (steps * B)
+    print(f"world-step {total * per:.1f} us CPU ({B * bw.K * steps / total:,.0f} agent-steps per CPU s)")
+    for k, v in sorted(acc.items(), key=lambda kv: -kv[1]):
+        print(f"  {k:34s} {v * per:7.1f} us")
 
 
 if __name__ == "__main__":

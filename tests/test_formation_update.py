@@ -1,5 +1,5 @@
 """``FormationManager.update`` (membership, front targets, lane windows and
-stalls compiled in ``sim/_kernels/formation.membership_pass`` and
+stalls compiled in ``sim/_kernels/formation_step.membership_pass`` and
 ``hold_pass``; the re-forming's frame, costs and slots in ``reform_costs``
 and ``reform_slots``; the re-plan test in ``off_reference_rows``) against
 the array code it replaced, frozen below: on every
@@ -448,7 +448,7 @@ def test_reform_costs_equal_the_replaced_array_code(seed):
     """Lane sets with gaps, single lanes, positions exactly on lane centres,
     between them and outside the set, on a ring and a straight road."""
     from icv_envs.formation.targets import formation_targets
-    from icv_envs.sim._kernels.formation import reform_costs
+    from icv_envs.sim._kernels.formation_step import reform_costs
 
     rng = np.random.default_rng(seed)
     n_all = int(rng.integers(1, 60))

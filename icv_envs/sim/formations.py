@@ -57,13 +57,11 @@ from icv_envs.formation.control import (
     PROFILE_MIN_DURATION,
 )
 from icv_envs.formation.targets import formation_targets
-from icv_envs.sim._kernels.formation import (
-    drivable_lane_bits1,
-    eligible_free_rows,
+from icv_envs.sim._kernels.formation import drivable_lane_bits1, eligible_free_rows, reference_rows
+from icv_envs.sim._kernels.formation_step import (
     hold_pass,
     membership_pass,
     off_reference_rows,
-    reference_rows,
     reform_costs,
     reform_slots,
 )
@@ -357,7 +355,7 @@ class FormationManager:
         self._L[gid] = float(tx.max())
         # vehicles in the formation frame (metres behind the front target and
         # a fractional formation lane id interpolated over the lane set) and
-        # their costs, compiled (sim/_kernels/formation.reform_costs); the
+        # their costs, compiled (sim/_kernels/formation_step.reform_costs); the
         # assignment by SciPy; the slots written and the members whose slot
         # changed found in one more pass (reform_slots)
         _, cy = traffic.center()
@@ -414,7 +412,7 @@ class FormationManager:
         self._reserve(self.next_gid + n + 1)  # room for one new formation per vehicle (step 5 below)
         # front targets, leaving members, member counts, joins, new
         # formations and the room ahead of each formation, compiled in one
-        # pass (sim/_kernels/formation.membership_pass: the array code it
+        # pass (sim/_kernels/formation_step.membership_pass: the array code it
         # replaced is frozen in tests/test_formation_update.py)
         chg, next_gid, g_arr, room = membership_pass(
             traffic.group, traffic.tgt_lane, traffic.vid, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
@@ -432,7 +430,7 @@ class FormationManager:
             self._reform(traffic, road, gid, cx)
         # members that fell off their reference (held back by traffic) re-plan
         # from where they are
-        # (compiled: sim/_kernels/formation.off_reference_rows)
+        # (compiled: sim/_kernels/formation_step.off_reference_rows)
         m = np.flatnonzero(traffic.group >= 0) if n else np.zeros(0, dtype=np.int64)
         if len(m):
             d, _, _ = self._profile(traffic, m)
@@ -460,7 +458,7 @@ class FormationManager:
         lies beyond a member in its lane), marks it for re-forming in
         ``chg`` (a mask over formation ids). The join profiles come from
         :class:`JoinPlans` (numpy's powers); the rest runs in one compiled
-        call (:func:`icv_envs.sim._kernels.formation.hold_pass`), the
+        call (:func:`icv_envs.sim._kernels.formation_step.hold_pass`), the
         arithmetic of the array code it replaced, element by element."""
         if not traffic.n or not len(g_arr):
             return

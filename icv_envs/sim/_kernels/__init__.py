@@ -20,7 +20,8 @@ rules (one lane window, :func:`drivable_lane_bits1`; the free vehicles that
 may join, :func:`eligible_free_rows`; the members leaving for their exit,
 :func:`leaving_rows`) and its step outside re-forming (membership, front
 targets, room ahead: :func:`membership_pass`; the front-target hold, lane
-windows and stall clocks: :func:`hold_pass`). They take and return plain
+windows and stall clocks: :func:`hold_pass`; the re-plan test and the
+re-forming's frame, costs and slots, all in ``formation_step.py``). They take and return plain
 arrays (no Python objects inside), and they perform the same IEEE-754
 operations, in the same order, as the numpy code they replace (reductions
 included: :func:`pairwise_sum` is NumPy's own summation order), so
@@ -66,8 +67,9 @@ functions, so :func:`pairwise_sum` runs its halving on an explicit stack.
 from __future__ import annotations
 
 from icv_envs.sim._kernels.formation import (drivable_lane_bits, drivable_lane_bits1, eligible_free_rows,
-                                             hold_pass, hold_targets, leaving_rows, membership_pass,
-                                             reference_rows)
+                                             hold_targets, leaving_rows, reference_rows)
+from icv_envs.sim._kernels.formation_step import (hold_pass, membership_pass, off_reference_rows, reform_costs,
+                                                  reform_slots)
 from icv_envs.sim._kernels.frames import intersection_frames, quiet_substeps
 from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs, build_lane_index, leader_entries,
                                               leader_rows, own_lane_gap_rows)
@@ -103,6 +105,9 @@ __all__ = [
     "hold_targets",
     "hold_pass",
     "membership_pass",
+    "off_reference_rows",
+    "reform_costs",
+    "reform_slots",
     "reference_rows",
     "quiet_substeps",
     "intersection_frames",
