@@ -394,10 +394,13 @@ class IntersectionEnv(IcvAgentsEnv):
         dist[np.arange(len(rows)), rows] = np.inf
         dist[dist > pd] = np.inf
         pick = np.argpartition(dist, K - 1, axis=1)[:, :K] if K < n else np.argsort(dist, axis=1)[:, :K]
-        pd_sel = np.take_along_axis(dist, pick, axis=1)
+        # (row-wise gathers by fancy indexing: the values np.take_along_axis
+        # gives, without its index construction)
+        r = np.arange(len(rows))[:, None]
+        pd_sel = dist[r, pick]
         o = np.argsort(pd_sel, axis=1, kind="stable")
-        pick = np.take_along_axis(pick, o, axis=1)
-        present = np.isfinite(np.take_along_axis(pd_sel, o, axis=1))
+        pick = pick[r, o]
+        present = np.isfinite(pd_sel[r, o])
         return pick, present
 
     def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
