@@ -210,9 +210,12 @@ class World:
             road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi,
             road._ramp_iv, EDGE_MARGIN, np.inf if road.periodic else road.length, exit_id, ex_x, de,
             road.ramp_lane, cx0)
-        for f in range(k):  # the clock and the run statistics, substep by substep as substep() adds them
-            self.time += self.dt
-            self.motion.add(nv, sums[f, 0], sums[f, 1], sums[f, 2], int(stopped[f]), self.dt)
+        # the clock and the run statistics, substep by substep as substep()
+        # adds them (the sums as Python floats: the same doubles)
+        motion, dt = self.motion, self.dt
+        for (sv, sdv, sa), ns in zip(sums[:k].tolist(), stopped[:k].tolist()):
+            self.time += dt
+            motion.add(nv, sv, sdv, sa, ns, dt)
         self.stats["missed_exits"] += int(missed)
         self._index = None
         cx, cy = tr.set_center(cx, cy)
@@ -320,8 +323,13 @@ class World:
         :meth:`lane_index` (:meth:`_reservations`)."""
         vids = np.asarray(vids)
         em = np.asarray(expert_mask, dtype=bool)
-        self._expert_vids = set(vids[em].tolist())
         pm = em if plan_mask is None else em | np.asarray(plan_mask, dtype=bool)
+        if len(vids) and not pm.any():  # nobody carries the expert's plan (learned actions): no sets to build
+            self._expert_vids = set()
+            self._plan_vids = set()
+            self._index = None
+            return
+        self._expert_vids = set(vids[em].tolist())
         if pm.all() and len(vids) == self.traffic.n:
             self._plan_vids = None
         else:
