@@ -323,13 +323,8 @@ class World:
         :meth:`lane_index` (:meth:`_reservations`)."""
         vids = np.asarray(vids)
         em = np.asarray(expert_mask, dtype=bool)
-        pm = em if plan_mask is None else em | np.asarray(plan_mask, dtype=bool)
-        if len(vids) and not pm.any():  # nobody carries the expert's plan (learned actions): no sets to build
-            self._expert_vids = set()
-            self._plan_vids = set()
-            self._index = None
-            return
         self._expert_vids = set(vids[em].tolist())
+        pm = em if plan_mask is None else em | np.asarray(plan_mask, dtype=bool)
         if pm.all() and len(vids) == self.traffic.n:
             self._plan_vids = None
         else:
