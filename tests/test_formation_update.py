@@ -133,18 +133,11 @@ def _old_reform(self, traffic, road, gid, cx):
     self._lanes[gid] = lanes
     self._bits[gid] = self._lane_bitset(lanes)
     self._L[gid] = float(tx.max())
-    lanes_arr = np.asarray(lanes, dtype=np.float64)
-    ids = np.arange(1, len(lanes) + 1, dtype=np.float64)
     _, cy = traffic.center()
-    lane_pos = cy[rows] / road.lane_width
-    if len(lanes) > 1:
-        y_v = np.interp(lane_pos, lanes_arr, ids)
-        y_v = np.where(lane_pos < lanes_arr[0], 1.0 - (lanes_arr[0] - lane_pos), y_v)
-        y_v = np.where(lane_pos > lanes_arr[-1], len(lanes) + (lane_pos - lanes_arr[-1]), y_v)
-    else:
-        y_v = 1.0 + (lane_pos - lanes_arr[0])
-    x_v = road.wrap(anchor - cx[rows])
-    slot = _old_assign_targets(x_v, y_v, tx, tl.astype(np.float64), self.w1, self.w2)
+    # the frame and the cost matrix (below), then SciPy's assignment
+    cost = _old_frame_costs(rows, cx, cy, anchor, road.lane_width, lanes, tx, tl, self.w1, self.w2,
+                            float(road.length) if road.periodic else -1.0)
+    slot = _solve(cost)
     traffic.tgt_behind[rows] = tx[slot]
     traffic.tgt_lane[rows] = np.asarray(lanes, dtype=np.int64)[tl[slot] - 1]
     self.reforms += 1
@@ -158,12 +151,6 @@ def _old_reform(self, traffic, road, gid, cx):
         jp.slot_gid[traffic.vid[r]] = gid
         jp.slot_behind[traffic.vid[r]] = traffic.tgt_behind[r]
         jp.deadline[traffic.vid[r]] = self.time + T
-
-
-def _old_assign_targets(vx, vy, gx, gy, w1, w2):
-    dx = gx[None, :] - vx[:, None]
-    dy = gy[None, :] - vy[:, None]
-    return _solve(w1 * dx * dx + w2 * dy * dy)
 
 
 def _old_eligible_free(self, traffic, road, cx):
@@ -424,7 +411,8 @@ def test_profile_evaluation_equals_the_replaced_array_code(seed):
 
 
 def _old_frame_costs(rows, cx, cy, anchor, lane_width, lanes, tx, tl, w1, w2, period):
-    """The frame and cost part of the replaced ``_reform`` (array code), frozen."""
+    """The frame and cost part of the replaced ``_reform`` (array code, with
+    ``formation.assignment._assign_targets``' cost matrix), frozen."""
     lanes_arr = np.asarray(lanes, dtype=np.float64)
     ids = np.arange(1, len(lanes) + 1, dtype=np.float64)
     lane_pos = cy[rows] / lane_width
