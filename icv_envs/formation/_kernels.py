@@ -193,8 +193,8 @@ def profile_gather(vid, time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab):
     ``time - t0 >= T``), the positions ``run`` of the plans still running
     and their times ``time - t0`` clamped to ``[0, T]`` (whose powers the
     caller takes from numpy for :func:`quintic_rows`). Returns ``(d, v, a,
-    run, tc)``; ``max(min(...))`` as numpy's ``minimum(maximum(...))``
-    (the times are finite)."""
+    run, tc)``; the clamp ``min(max(t, 0), T)`` as numpy's
+    ``minimum(maximum(t, 0), T)`` (the times are finite)."""
     n = vid.shape[0]
     d = np.empty(n)
     v = np.empty(n)

@@ -152,7 +152,7 @@ class FormationManager:
         self._lanes_memo: dict[int, tuple] = {}  # bit set -> lane set (_lane_set)
         self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
         self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_allowed)
-        self._lane_arrays: dict[tuple, tuple] = {}  # lane set -> (float64, int64) arrays (_lanes_f, _lanes_i)
+        self._lane_arrays: dict[tuple, tuple] = {}  # lane set -> (float64, int64) arrays (_lane_arrays_of)
         # per vehicle id: the join plans and the slot each was made for (sim/join_plans.py)
         self._plans = JoinPlans(self.profile_limits, self.profile_speeds, self.speed)
 
@@ -261,7 +261,7 @@ class FormationManager:
             b = self._bits_memo[lanes] = sum(1 << lane for lane in lanes)
         return b
 
-    def _lane_array_pair(self, lanes: tuple) -> tuple[np.ndarray, np.ndarray]:
+    def _lane_arrays_of(self, lanes: tuple) -> tuple[np.ndarray, np.ndarray]:
         """A lane set as read-only float64 and int64 arrays, memoised."""
         out = self._lane_arrays.get(lanes)
         if out is None:
@@ -270,12 +270,6 @@ class FormationManager:
                 arr.flags.writeable = False
             self._lane_arrays[lanes] = out
         return out
-
-    def _lanes_f(self, lanes: tuple) -> np.ndarray:
-        return self._lane_array_pair(lanes)[0]
-
-    def _lanes_i(self, lanes: tuple) -> np.ndarray:
-        return self._lane_array_pair(lanes)[1]
 
     def _targets(self, n: int, n_lanes: int) -> tuple[np.ndarray, np.ndarray]:
         """:func:`~icv_envs.formation.targets.formation_targets` of this
@@ -359,13 +353,14 @@ class FormationManager:
         # assignment by SciPy; the slots written and the members whose slot
         # changed found in one more pass (reform_slots)
         _, cy = traffic.center()
-        cost = reform_costs(rows, cx, cy, anchor, float(road.lane_width), self._lanes_f(lanes), tx, tl,
-                            float(self.w1), float(self.w2), float(road.length) if road.periodic else -1.0)
+        lanes_f, lanes_i = self._lane_arrays_of(lanes)
+        cost = reform_costs(rows, cx, cy, anchor, float(road.lane_width), lanes_f, tx, tl, float(self.w1),
+                            float(self.w2), float(road.length) if road.periodic else -1.0)
         slot = _solve(cost)
         jp = self._plans
         jp.grow(int(traffic.vid[rows].max()) + 1)
-        r = reform_slots(rows, slot, tx, tl, self._lanes_i(lanes), gid, traffic.vid, traffic.tgt_behind,
-                         traffic.tgt_lane, jp.slot_gid, jp.slot_behind)
+        r = reform_slots(rows, slot, tx, tl, lanes_i, gid, traffic.vid, traffic.tgt_behind, traffic.tgt_lane,
+                         jp.slot_gid, jp.slot_behind)
         self.reforms += 1
         # members with a new slot get a reference from where they are
         if len(r):
@@ -482,8 +477,8 @@ class FormationManager:
         hold_pass(grp, g_arr, self._A, self._L, self._bits, self._stall, chg, room, traffic.tgt_behind, cx, d_ref,
                   traffic.vid, self._plans.deadline, float(self.time), float(self.max_anchor_lead),
                   -self.anchor_brake * dt, float(self.stall_error), float(road.length) if road.periodic else -1.0,
-                  float(dt), float(self.stall_time), float(self.lookahead), bool(road.periodic), float(road.length),
-                  road.lane_ends, *_obstacles(road), self._allowed(road.n_lanes))
+                  float(dt), float(self.stall_time), float(self.lookahead), float(road.length), road.lane_ends,
+                  *_obstacles(road), self._allowed(road.n_lanes))
 
     def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-vehicle ``(x_ref, lane_ref, v_ref, member)``: body-centre

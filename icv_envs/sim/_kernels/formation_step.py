@@ -164,8 +164,8 @@ def membership_pass(group, tgt_lane, vid, crashed, cx, cy, lc_lane, exit_id, slo
 
 @nb.njit(cache=True)
 def hold_pass(grp, g_arr, A_all, L_all, bits_all, stall_all, chg_all, room, tb, cx, d_members, vid, deadline, time,
-              max_lead, brake_step, stall_error, length, dt, stall_time, lookahead, periodic, road_length, lane_ends,
-              ob_lane, ob_lo, ob_hi, allowed):
+              max_lead, brake_step, stall_error, length, dt, stall_time, lookahead, road_length, lane_ends, ob_lane,
+              ob_lo, ob_hi, allowed):
     """``FormationManager._hold_targets`` after the join profiles, in one
     call: :func:`hold_targets` over the live formations ``g_arr`` (front
     targets braked in ``A_all``); a formation with members and not marked
@@ -175,7 +175,10 @@ def hold_pass(grp, g_arr, A_all, L_all, bits_all, stall_all, chg_all, room, tb, 
     stall clocks: a formation with a late member and not marked runs its
     clock by ``dt`` and is marked (clock back to 0) once it reaches
     ``stall_time``; any other formation with members restarts it. The
-    arithmetic of the array code it replaced, element by element."""
+    arithmetic of the array code it replaced, element by element.
+    ``length``: the ring's length, or -1 on a straight road;
+    ``road_length``: the road's length either way (it caps a window's span)."""
+    periodic = length >= 0.0
     G = g_arr.shape[0]
     slot_of_gid = np.full(g_arr[G - 1] + 1, -1, dtype=np.int64)
     A = np.empty(G)
