@@ -118,21 +118,7 @@ def _old_reform(self, traffic, road, gid, cx):
     if n == 0:
         return
     anchor = float(self._A[gid])
-    old_length = float(self._L[gid])
-    lanes = self._lane_set(road, anchor, old_length)
-    if not lanes:
-        lanes = (0,)
-    for _ in range(2):
-        tx, tl = self._targets(n, len(lanes))
-        length = float(tx.max()) if n else 0.0
-        new = self._lane_set(road, anchor, max(length, old_length)) or lanes
-        if new == lanes:
-            break
-        lanes = new
-    tx, tl = self._targets(n, len(lanes))
-    self._lanes[gid] = lanes
-    self._bits[gid] = self._lane_bitset(lanes)
-    self._L[gid] = float(tx.max())
+    lanes, tx, tl = self._reform_lanes(road, gid, n)  # (not replaced: the lane set and targets)
     _, cy = traffic.center()
     # the frame and the cost matrix (below), then SciPy's assignment
     cost = _old_frame_costs(rows, cx, cy, anchor, road.lane_width, lanes, tx, tl, self.w1, self.w2,
@@ -154,6 +140,7 @@ def _old_reform(self, traffic, road, gid, cx):
 
 
 def _old_eligible_free(self, traffic, road, cx):
+    """``FormationManager._eligible_free`` (removed: ``membership_pass`` calls its kernel)."""
     _, cy = traffic.center()
     return eligible_free_rows(traffic.group, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
                               float(road.lane_width), int(road.total_lanes), int(road.n_lanes),

@@ -1781,8 +1781,9 @@ def test_expert_desired_lanes_equal_the_array_code(module, config, random_share,
 
 
 def _numpy_eligible_free(fm, traffic, road, cx):
-    """FormationManager._eligible_free as array code (what
-    sim/_kernels/formation.eligible_free_rows replaced), frozen."""
+    """The free vehicles that may join (FormationManager._eligible_free before
+    it was compiled) as array code (what sim/_kernels/formation.eligible_free_rows
+    replaced), frozen."""
     free = np.flatnonzero((traffic.group < 0) & ~traffic.crashed)
     _, cy = traffic.center()
     if len(free) and road.has_ramp_lane:
@@ -1826,7 +1827,7 @@ def test_eligible_free_and_leaving_rows_on_random_dense_states(seed, scenario, p
     """The formation layer's free-vehicle and exit-leaving rules, compiled,
     against the array code on random dense states with random exits,
     memberships and crashes, on straight roads and the ring."""
-    from icv_envs.sim._kernels.formation import leaving_rows
+    from icv_envs.sim._kernels.formation import eligible_free_rows, leaving_rows
 
     rng, world, _, _, _ = _random_dense_state(seed, scenario)
     tr, road = world.traffic, world.road
@@ -1838,7 +1839,10 @@ def test_eligible_free_and_leaving_rows_on_random_dense_states(seed, scenario, p
     if road.n_exits:  # some vehicles past their exit (straight road: never rejoin)
         tr.x = tr.x + np.where(rng.random(n) < 0.2, rng.uniform(-800.0, 800.0, n), 0.0)
     cx, cy = tr.center()
-    got = fm._eligible_free(tr, road, cx)
+    got = eligible_free_rows(tr.group, tr.crashed, cx, cy, tr.lc_lane, tr.exit, float(road.lane_width),
+                             int(road.total_lanes), int(road.n_lanes), bool(road.has_ramp_lane), int(road.n_exits),
+                             road._diverge_iv, float(road.length) if road.periodic else -1.0,
+                             float(fm.exit_lookahead), float(fm.exit_lookahead_per_lane))
     np.testing.assert_array_equal(got, _numpy_eligible_free(fm, tr, road, cx))
     assert got.dtype == np.int64
     if road.n_exits:

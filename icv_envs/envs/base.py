@@ -443,7 +443,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
             rows2 = np.searchsorted(self._vehicles().vid, late)
             late_obs = self._observe_rows(rows2)
             if not arrays:
-                a2 = [f"icv_{v}" for v in late]
+                a2 = self._names(list(late))
                 inf2 = self._ma_infos(a2, rows2, {})
                 for i, a in enumerate(a2):
                     observations[a] = late_obs[i]

@@ -57,7 +57,7 @@ from icv_envs.formation.control import (
     PROFILE_MIN_DURATION,
 )
 from icv_envs.formation.targets import formation_targets
-from icv_envs.sim._kernels.formation import drivable_lane_bits1, eligible_free_rows, reference_rows
+from icv_envs.sim._kernels.formation import drivable_lane_bits1, reference_rows
 from icv_envs.sim._kernels.formation_step import (
     hold_pass,
     membership_pass,
@@ -331,22 +331,7 @@ class FormationManager:
         if n == 0:
             return
         anchor = float(self._A[gid])
-        old_length = float(self._L[gid])
-        # lanes over the window the *new* formation will span
-        lanes = self._lane_set(road, anchor, old_length)
-        if not lanes:
-            lanes = (0,)
-        for _ in range(2):  # the length depends on the lane count and vice versa
-            tx, tl = self._targets(n, len(lanes))
-            length = float(tx.max()) if n else 0.0
-            new = self._lane_set(road, anchor, max(length, old_length)) or lanes
-            if new == lanes:
-                break
-            lanes = new
-        tx, tl = self._targets(n, len(lanes))
-        self._lanes[gid] = lanes
-        self._bits[gid] = self._lane_bitset(lanes)
-        self._L[gid] = float(tx.max())
+        lanes, tx, tl = self._reform_lanes(road, gid, n)
         # vehicles in the formation frame (metres behind the front target and
         # a fractional formation lane id interpolated over the lane set) and
         # their costs, compiled (sim/_kernels/formation_step.reform_costs); the
@@ -369,23 +354,31 @@ class FormationManager:
             jp.slot_behind[traffic.vid[r]] = traffic.tgt_behind[r]
             jp.deadline[traffic.vid[r]] = self.time + T
 
-    # ----------------------------------------------------------------- update
-    def _eligible_free(self, traffic, road, cx) -> np.ndarray:
-        """Rows of free vehicles that may join or found a formation: not
-        crashed, not heading for an exit within ``exit_lookahead + 100 m``.
-        Vehicles still on a ramp merge first, as free vehicles, and join
-        from the main road (a formation cannot help them merge), and so do
-        vehicles changing lanes into the ramp lane (an exit taken late: the
-        centre crosses after the diverge segment ends)."""
-        # compiled: sim/_kernels/formation.eligible_free_rows (the array code it
-        # replaced is its reference in tests/test_kernels.py)
-        _, cy = traffic.center()
-        return eligible_free_rows(traffic.group, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
-                                  float(road.lane_width), int(road.total_lanes), int(road.n_lanes),
-                                  bool(road.has_ramp_lane), int(road.n_exits), road._diverge_iv,
-                                  float(road.length) if road.periodic else -1.0, float(self.exit_lookahead),
-                                  float(self.exit_lookahead_per_lane))
+    def _reform_lanes(self, road, gid: int, n: int) -> tuple[tuple, np.ndarray, np.ndarray]:
+        """Paper Sec. 3.2: the lane set and targets of formation ``gid``
+        re-formed with ``n`` members (the main lanes drivable over the window
+        the *new* formation will span: its length depends on the lane count
+        and vice versa, so twice at most), recorded as its lanes, lane bits
+        and length. Returns ``(lanes, tx, tl)``."""
+        anchor = float(self._A[gid])
+        old_length = float(self._L[gid])
+        lanes = self._lane_set(road, anchor, old_length)
+        if not lanes:
+            lanes = (0,)
+        for _ in range(2):
+            tx, tl = self._targets(n, len(lanes))
+            length = float(tx.max()) if n else 0.0
+            new = self._lane_set(road, anchor, max(length, old_length)) or lanes
+            if new == lanes:
+                break
+            lanes = new
+        tx, tl = self._targets(n, len(lanes))
+        self._lanes[gid] = lanes
+        self._bits[gid] = self._lane_bitset(lanes)
+        self._L[gid] = float(tx.max())
+        return lanes, tx, tl
 
+    # ----------------------------------------------------------------- update
     def update(self, traffic, road, dt: float) -> list[int]:
         """Advance the front targets by ``dt`` and process membership and
         lane-set events; returns the ids of formations that re-formed.

@@ -244,12 +244,17 @@ def _exit_lookahead1(lane, ramp_lane, base, per_lane):
 @nb.njit(cache=True)
 def eligible_free_rows(group, crashed, cx, cy, lc_lane, exit_id, lane_width, total_lanes, n_lanes, has_ramp, n_exits,
                        diverge_iv, period, exit_lookahead, per_lane):
-    """``FormationManager._eligible_free`` in one pass: rows (ascending) of
-    free vehicles (``group < 0``) not crashed; with a ramp lane, on a main
-    lane and not changing lanes into the ramp lane; with exits, not within
-    their exit lookahead ``+ 100 m`` of the diverge start unless past the
-    diverge end (on a straight road: never once past it). The operations of
-    ``RoadLayout.lane_of``/``exit_ahead``/``exit_lookahead``, in order."""
+    """The free vehicles that may join or found a formation
+    (``FormationManager.update``, through :func:`membership_pass`), in one
+    pass: rows (ascending) of free vehicles (``group < 0``) not crashed;
+    with a ramp lane, on a main lane and not changing lanes into the ramp
+    lane (vehicles still on a ramp merge first, as free vehicles, and join
+    from the main road: a formation cannot help them merge; so do vehicles
+    changing into the ramp lane, an exit taken late); with exits, not
+    within their exit lookahead ``+ 100 m`` of the diverge start unless
+    past the diverge end (on a straight road: never once past it). The
+    operations of ``RoadLayout.lane_of``/``exit_ahead``/``exit_lookahead``,
+    in order."""
     n = cx.shape[0]
     out = np.empty(n, dtype=np.int64)
     m = 0
