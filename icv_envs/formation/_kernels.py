@@ -31,7 +31,8 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["join_search", "join_search_banded", "plan_rows", "profile_gather", "quintic_rows"]
+__all__ = ["join_search", "join_search_banded", "lateral_post", "lateral_pre", "plan_rows", "profile_gather", "pursuit_post",
+           "pursuit_pre", "quintic_rows"]
 
 
 @nb.njit(cache=True)
@@ -215,3 +216,94 @@ def profile_gather(vid, time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab):
             tc[m] = x if x < T else T
             m += 1
     return d, v, a, run[:m], tc[:m]
+
+
+# ------------------------------------------------- lane change and steering
+# The arithmetic of bezier._lane_change_lateral and _pure_pursuit_steering on
+# vehicle rows, around numpy's transcendental calls: the experts evaluate
+# them on a few to a few hundred rows per step, where the two dozen numpy
+# calls of the array code cost more than the arithmetic. The transcendental
+# steps (arcsinh, sinh, hypot, cos, sin, arctan) stay numpy's, whose SIMD
+# implementations round as their own (on AVX-512 not as libm, which numba
+# calls); everything here is exactly rounded, in the array code's order, so
+# the results are the array code's bit for bit on every SIMD level
+# (tests/test_expert_kernels.py). numpy's clip is ``v < lo ? lo : v`` then
+# ``v > hi ? hi : v`` on finite values (a -0.0 above a 0.0 bound stays -0.0).
+
+
+@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
+def lateral_pre(rows, x, x0, d):
+    """``s = clip((x - x0) / d, 0, 1)`` and ``4 s - 2`` (the argument of
+    ``arcsinh``) of the Bezier curve's parameter, for entries ``rows`` of the
+    full arrays."""
+    n = rows.shape[0]
+    s = np.empty(n)
+    w = np.empty(n)
+    for k in range(n):
+        i = rows[k]
+        v = (x[i] - x0[i]) / d[i]
+        if v < 0.0:
+            v = 0.0
+        if v > 1.0:
+            v = 1.0
+        s[k] = v
+        w[k] = 4.0 * v - 2.0
+    return s, w
+
+
+@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
+def lateral_post(rows, s, sh, x, x0, y0, y1, d):
+    """The rest of ``_lane_change_lateral`` given ``sh = sinh(arcsinh(4 s -
+    2) / 3)``: the Newton step on ``t``, its clip to ``[0, 1]``, the lateral
+    position and slope, and the straight lanes before and after the curve.
+    Returns ``(y, slope)`` aligned with ``rows``."""
+    n = rows.shape[0]
+    y = np.empty(n)
+    slope = np.empty(n)
+    for k in range(n):
+        i = rows[k]
+        t = 0.5 + sh[k]
+        t = t - (((t - 1.5) * t + 1.5) * t - s[k]) / ((3.0 * t - 3.0) * t + 1.5)
+        if t < 0.0:
+            t = 0.0
+        if t > 1.0:
+            t = 1.0
+        dy = y1[i] - y0[i]
+        if x[i] <= x0[i]:
+            y[k] = y0[i]
+            slope[k] = 0.0
+        elif x[i] >= x0[i] + d[i]:
+            y[k] = y1[i]
+            slope[k] = 0.0
+        else:
+            y[k] = y0[i] + dy * (t * t * (3.0 - 2.0 * t))
+            slope[k] = dy * (6.0 * t * (1.0 - t)) / (d[i] * ((3.0 * t - 3.0) * t + 1.5))
+    return y, slope
+
+
+@nb.njit(cache=True)
+def pursuit_pre(rx, ry, tx, ty):
+    """The preview point relative to the rear axle, ``(tx - rx, ty - ry)``."""
+    n = rx.shape[0]
+    dx = np.empty(n)
+    dy = np.empty(n)
+    for i in range(n):
+        dx[i] = tx[i] - rx[i]
+        dy[i] = ty[i] - ry[i]
+    return dx, dy
+
+
+@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
+def pursuit_post(dx, dy, ld, c, sn, wb):
+    """``wb`` times the pursuit circle's curvature ``2 (c dy - sn dx) /
+    ld^2`` (0 where ``ld == 0``), the argument of ``arctan``; ``ld`` the
+    preview distance, ``c, sn`` the cosine and sine of the heading."""
+    n = dx.shape[0]
+    q = np.empty(n)
+    for i in range(n):
+        lateral = c[i] * dy[i] - sn[i] * dx[i]
+        if ld[i] > 0.0:
+            q[i] = wb * (2.0 * lateral / (ld[i] * ld[i]))
+        else:
+            q[i] = wb * 0.0
+    return q

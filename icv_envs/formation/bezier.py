@@ -18,13 +18,22 @@ manoeuvre starts and ends with zero curvature demand on the heading).  Then::
 ``s = (x - x0) / D`` (trigonometric/hyperbolic solution of the depressed cubic
 ``u^3 + 3/4 u + 1/2 - s = 0``, ``u = t - 1/2``).
 
-All functions are pure numpy and broadcast over vehicles.
+The public functions are numpy and broadcast over vehicles;
+:func:`_lane_change_lateral_rows` and :func:`_pure_pursuit_rows` are the
+experts' per-step forms on vehicle rows (compiled arithmetic around numpy's
+transcendental calls, the same numbers bit for bit).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+try:  # numpy's clip ufunc without numpy.clip's Python wrapper (as icv_envs.sim._ufuncs; no upward import)
+    from numpy._core.umath import clip as uclip
+except ImportError:  # numpy < 2
+    from numpy.core.umath import clip as uclip  # type: ignore[no-redef]
+
+from icv_envs.formation._kernels import lateral_post, lateral_pre, pursuit_post, pursuit_pre
 from icv_envs.formation._validate import finite
 
 __all__ = [
@@ -181,6 +190,32 @@ def _lane_change_lateral(xa, x0a, y0a, y1a, d) -> tuple[np.ndarray, np.ndarray]:
     y = np.where(before, y0a, np.where(after, y1a, y))
     slope = np.where(before | after, 0.0, slope)
     return y, slope
+
+
+def _lane_change_lateral_rows(rows, x, x0, y0, y1, d) -> tuple[np.ndarray, np.ndarray]:
+    """``_lane_change_lateral(x[rows], x0[rows], y0[rows], y1[rows],
+    d[rows])`` for 1-D float64 arrays ``x, x0, y0, y1, d`` (finite, ``d >
+    0`` at ``rows``) and int64 ``rows``: the same numbers bit for bit, with
+    the arithmetic compiled (:func:`icv_envs.formation._kernels.lateral_pre`,
+    :func:`~icv_envs.formation._kernels.lateral_post`) and ``arcsinh``,
+    ``sinh`` from numpy as the array code takes them."""
+    if x.flags.writeable:  # one specialisation of the kernels: x is a read-only state array at most call sites
+        x = x.view()
+        x.flags.writeable = False
+    s, w = lateral_pre(rows, x, x0, d)
+    sh = np.sinh(np.arcsinh(w) / 3.0)
+    return lateral_post(rows, s, sh, x, x0, y0, y1, d)
+
+
+def _pure_pursuit_rows(rx, ry, th, tx, ty, wb: float, ms: float) -> np.ndarray:
+    """:func:`_pure_pursuit_steering` for 1-D float64 arrays of one length
+    (finite; ``wb > 0``, ``0 < ms < pi/2``): the same numbers bit for bit,
+    with the arithmetic compiled (:func:`icv_envs.formation._kernels.pursuit_pre`,
+    :func:`~icv_envs.formation._kernels.pursuit_post`) and ``hypot``,
+    ``cos``, ``sin``, ``arctan`` from numpy as the array code takes them."""
+    dx, dy = pursuit_pre(rx, ry, tx, ty)
+    q = pursuit_post(dx, dy, np.hypot(dx, dy), np.cos(th), np.sin(th), wb)
+    return uclip(np.arctan(q), -ms, ms)
 
 
 def pure_pursuit_steering(

@@ -26,6 +26,8 @@ reference fingerprints are pinned at (the rule and its AVX-512 caveat:
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
@@ -33,8 +35,9 @@ from icv_envs.sim._kernels.neighbours import leader_entries, leader_rows
 from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lanes_available, npy_mod
 
-__all__ = ["box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "lane_change_starts", "lane_end_escape", "normalised_actions",
-           "repair_order", "safety_cap"]
+__all__ = ["box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_lane_speeds",
+           "free_speed_ratio", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
+           "preview_points", "repair_order", "safety_cap"]
 
 
 @nb.njit(cache=True)
@@ -796,3 +799,106 @@ def envelope_pairs(lead, coord, rows, signal_only, length, speed, grp, co, phase
         if not same and safe < cap_other[me]:
             cap_other[me] = safe
     return passed
+
+
+# ----------------------------------------- the highway expert's array code
+# (FormationExpert.compute's lane-change state, preview points and
+# longitudinal law, each the arithmetic of the array code it replaced, in
+# its order, around the numpy calls that stay: the Bezier curve's arcsinh
+# and sinh, the IDM's power; numpy's maximum(a, b) and minimum(a, b) return
+# b on a tie (a -0.0 against a 0.0), its clip keeps the value on a tie;
+# the replaced code is frozen in tests/test_expert_kernels.py)
+
+
+@nb.njit(cache=True)
+def lane_changes_ended(rows, y_plan, x, y, cy, v, lc_x0, lc_len, lc_y1, lc_lane, tol):
+    """Clear the lane changes (``lc_lane = -1``, in place) of vehicles
+    ``rows`` that strayed more than ``tol`` from their curve (``y_plan``,
+    aligned with ``rows``) or ended: past the curve and within 0.3 m of the
+    new lane's centre (rear axle), or slower than 0.5 m/s with the body
+    centre ``cy`` within 0.3 m of it."""
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        stray = abs(y_plan[k] - y[i]) > tol
+        done = x[i] >= lc_x0[i] + lc_len[i] and abs(y[i] - lc_y1[i]) < 0.3
+        done = done or (v[i] < 0.5 and abs(cy[i] - lc_y1[i]) < 0.3)
+        if stray or done:
+            lc_lane[i] = -1
+
+
+@nb.njit(cache=True)
+def preview_points(x, v, lane, lane_width, preview_min, preview_time):
+    """The steering's preview points: ``x + max(preview_min, v
+    preview_time)`` ahead on the lane centre ``lane * lane_width``."""
+    n = x.shape[0]
+    px = np.empty(n)
+    py = np.empty(n)
+    for i in range(n):
+        vt = v[i] * preview_time
+        ld = preview_min if preview_min > vt else vt
+        px[i] = x[i] + ld
+        py[i] = lane[i] * lane_width
+    return px, py
+
+
+@nb.njit(cache=True)
+def expert_lane_speeds(lane_speed, lane, exiting, blocked, member, n_lanes, exit_speed, slowdown, v_min):
+    """The speed a vehicle heads for: its lane's (``lane_speed``), the exit
+    speed on the main road when exiting, ``slowdown`` less (not below
+    ``v_min``) for a free vehicle refused a lane change, ``v_min`` at most
+    for one refused on its way to its exit."""
+    n = lane_speed.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        s = lane_speed[i]
+        if exiting[i] and lane[i] < n_lanes:
+            s = exit_speed
+        if blocked[i] and not member[i]:
+            u = s - slowdown
+            s = u if u > v_min else v_min
+            if exiting[i]:
+                s = s if s < v_min else v_min
+        out[i] = s
+    return out
+
+
+@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
+def free_speed_ratio(rows, v, v0):
+    """``v / max(v0, 0.1)`` of ``rows``: the base of the IDM's free-road term."""
+    n = rows.shape[0]
+    r = np.empty(n)
+    for k in range(n):
+        i = rows[k]
+        r[k] = v[i] / (v0[i] if v0[i] > 0.1 else 0.1)
+    return r
+
+
+@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
+def expert_accelerations(n, free_rows, free_pow, v, a_max, b, T, s0, m_rows, cx, x_ref, v_ref, a_ref, length, kp, kv,
+                         lo, hi, v_min):
+    """The longitudinal law before the safety envelope: free vehicles the
+    IDM without a leader (``free_pow`` the free term's power, aligned with
+    ``free_rows``; the interaction term with an infinite gap, as
+    ``traffic.idm_acceleration`` takes it), members the feedback law on
+    their reference (``x_ref`` folded to the nearest image on a ring of
+    ``length``; ``length < 0`` a straight road) clipped to ``[lo, hi]`` and
+    floored at ``v_min - v``."""
+    acc = np.empty(n)
+    root = 2.0 * math.sqrt(a_max * b)
+    for k in range(free_rows.shape[0]):
+        i = free_rows[k]
+        u = v[i] * T + v[i] * 0.0 / root
+        s_star = s0 + (0.0 if 0.0 > u else u)
+        q = s_star / np.inf
+        acc[i] = a_max * (1.0 - free_pow[k] - q * q)
+    for k in range(m_rows.shape[0]):
+        i = m_rows[k]
+        xe = cx[i] + _wrap1(x_ref[i] - cx[i], length)
+        u = a_ref[i] + kp * (cx[i] - xe) + kv * (v[i] - v_ref[i])
+        if u < lo:
+            u = lo
+        if u > hi:
+            u = hi
+        floor = 1.0 * (v_min - v[i])
+        acc[i] = u if u > floor else floor
+    return acc

@@ -45,18 +45,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from icv_envs.formation.bezier import _lane_change_lateral, _pure_pursuit_steering, lane_change_lateral
-from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback
+from icv_envs.formation.bezier import _lane_change_lateral_rows, _pure_pursuit_rows, lane_change_lateral
+from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV
 from icv_envs.sim._ufuncs import clip as uclip
 from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies._kernels import (
     exit_lanes,
+    expert_accelerations,
+    expert_lane_speeds,
+    free_speed_ratio,
     lane_change_starts,
+    lane_changes_ended,
     lane_end_escape,
     normalised_actions,
+    preview_points,
     safety_cap,
 )
-from icv_envs.sim.traffic import LAT_ACCEL_MAX, idm_acceleration
+from icv_envs.sim.traffic import LAT_ACCEL_MAX
 
 
 def _bezier_peak() -> float:
@@ -258,23 +263,20 @@ class FormationExpert:
         desired = self._lane_end_escape(world, desired, lane, member, exiting)
 
         # --------------------------------------------- lane-change plan state
+        # a lane change ends once past the curve AND settled on the new lane
+        # centre (until then the vehicle keeps steering for it), or stopped
+        # there (a vehicle held by a lane end before the end of its curve is
+        # on the new lane and may plan its next change); one that strayed
+        # from its curve re-plans (compiled: formation/_kernels.lateral_pre,
+        # lateral_post around numpy's arcsinh and sinh, and
+        # policies/_kernels.lane_changes_ended; every argument is a finite
+        # float64 state array, every length > 0)
         active = tr.lc_lane >= 0
         if active.any():
             a_rows = np.flatnonzero(active)
-            # (the unchecked forms of the paper's functions: every argument
-            # here is a finite float64 state array, every length > 0)
-            y_plan, _ = _lane_change_lateral(
-                tr.x[a_rows], tr.lc_x0[a_rows], tr.lc_y0[a_rows], tr.lc_y1[a_rows], tr.lc_len[a_rows]
-            )
-            stray = np.abs(y_plan - tr.y[a_rows]) > p.replan_tolerance
-            # a lane change ends once past the curve AND settled on the new
-            # lane centre (until then the vehicle keeps steering for it)
-            # (or stopped there: a vehicle held by a lane end before the end of
-            # its curve is on the new lane and may plan its next change)
-            done = (tr.x[a_rows] >= tr.lc_x0[a_rows] + tr.lc_len[a_rows]) & (
-                np.abs(tr.y[a_rows] - tr.lc_y1[a_rows]) < 0.3)
-            done |= (v[a_rows] < 0.5) & (np.abs(cy[a_rows] - tr.lc_y1[a_rows]) < 0.3)
-            tr.lc_lane[a_rows[stray | done]] = -1
+            y_plan, _ = _lane_change_lateral_rows(a_rows, tr.x, tr.lc_x0, tr.lc_y0, tr.lc_y1, tr.lc_len)
+            lane_changes_ended(a_rows, y_plan, tr.x, tr.y, cy, v, tr.lc_x0, tr.lc_len, tr.lc_y1, tr.lc_lane,
+                               float(p.replan_tolerance))
             active = tr.lc_lane >= 0
 
         # ------------------------------------------------ start lane changes
@@ -290,48 +292,44 @@ class FormationExpert:
             active = tr.lc_lane >= 0
 
         # ---------------------------------------------------------- steering
-        ld = np.maximum(p.preview_min, v * p.preview_time)
-        px = tr.x + ld
-        py = lane * W
+        # (preview points, the curve at them and pure pursuit: compiled
+        # arithmetic around numpy's transcendental calls, the same numbers as
+        # the array code bit for bit; tests/test_expert_kernels.py)
+        px, py = preview_points(tr.x, v, lane, float(W), float(p.preview_min), float(p.preview_time))
         if active.any():
             a_rows = np.flatnonzero(active)
-            yp, _ = _lane_change_lateral(
-                px[a_rows], tr.lc_x0[a_rows], tr.lc_y0[a_rows], tr.lc_y1[a_rows], tr.lc_len[a_rows]
-            )
-            py = py.astype(np.float64)
-            py[a_rows] = yp
-        phi = _pure_pursuit_steering(tr.x, tr.y, tr.heading, px, np.asarray(py, dtype=np.float64),
-                                     float(p.wheelbase), float(p.steer_max))
+            py[a_rows] = _lane_change_lateral_rows(a_rows, px, tr.lc_x0, tr.lc_y0, tr.lc_y1, tr.lc_len)[0]
+        phi = _pure_pursuit_rows(tr.x, tr.y, tr.heading, px, py, float(p.wheelbase), float(p.steer_max))
 
         # ------------------------------------------------------ longitudinal
-        lane_speed = self._lane_speeds(road, lane)
-        lane_speed = np.where(exiting & (lane < road.n_lanes), p.exit_speed, lane_speed)
-        lane_speed = np.where(blocked & ~member, np.maximum(lane_speed - p.blocked_slowdown, p.v_min), lane_speed)
-        # a vehicle refused on its way to its exit drops to the minimum speed:
-        # alongside traffic at the lane speed then passes it within seconds and
-        # opens the gap (at lane speed - blocked_slowdown the vehicles heading
-        # for the same exit stay side by side for hundreds of metres and one
-        # misses the exit)
-        lane_speed = np.where(blocked & ~member & exiting, np.minimum(lane_speed, p.v_min), lane_speed)
-        acc = np.empty(n)
-        free = ~member
-        if free.any():
-            acc[free] = idm_acceleration(
-                v[free], lane_speed[free], np.inf, 0.0, p.a_max, p.idm_b, p.idm_T, p.idm_s0, free_term=True
-            )
-        if member.any():
-            m = np.flatnonzero(member)
-            # the reference starts where the member joined and moves to its
-            # slot smoothly (the formation layer re-plans it when the member
-            # falls more than 5 m off), so the error seen here stays small
-            a_ref = world.manager.reference_accel(tr)[m]
-            x_eff = cx[m] + road.wrap(x_ref[m] - cx[m])
-            acc[m] = _longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], float(p.kp), float(p.kv),
-                                            float(max(p.a_min, p.comfort_accel[0])),
-                                            float(min(p.a_max, p.comfort_accel[1])), a_ref)
-            # control floor: do not command speeds below the configured minimum
-            # (braking is faded out as v approaches v_min; the safety cap below still wins)
-            acc[m] = np.maximum(acc[m], 1.0 * (p.v_min - v[m]))
+        # the lane's speed; the exit speed on the main road for exiting
+        # vehicles; a free vehicle refused a lane change slows by
+        # blocked_slowdown, and one refused on its way to its exit drops to
+        # the minimum speed: alongside traffic at the lane speed then passes
+        # it within seconds and opens the gap (at lane speed -
+        # blocked_slowdown the vehicles heading for the same exit stay side
+        # by side for hundreds of metres and one misses the exit)
+        lane_speed = expert_lane_speeds(np.asarray(self._lane_speeds(road, lane), dtype=np.float64), lane,
+                                        np.asarray(exiting, dtype=bool), np.asarray(blocked, dtype=bool),
+                                        np.asarray(member, dtype=bool), int(road.n_lanes), float(p.exit_speed),
+                                        float(p.blocked_slowdown), float(p.v_min))
+        # free vehicles: the IDM without a leader (its power from numpy, as
+        # traffic.idm_acceleration takes it); members: the feedback law on the
+        # reference, which starts where the member joined and moves to its
+        # slot smoothly (the formation layer re-plans it when the member falls
+        # more than 5 m off), so the error seen here stays small; braking is
+        # faded out as v approaches v_min (the control floor; the safety cap
+        # below still wins). Compiled: policies/_kernels.expert_accelerations.
+        free_rows = np.flatnonzero(~member)
+        m = np.flatnonzero(member)
+        free_pow = free_speed_ratio(free_rows, v, lane_speed) ** 4.0
+        a_ref = world.manager.reference_accel(tr)  # (cached with references() above)
+        acc = expert_accelerations(n, free_rows, free_pow, v, float(p.a_max), float(p.idm_b), float(p.idm_T),
+                                   float(p.idm_s0), m, cx, np.asarray(x_ref, dtype=np.float64),
+                                   np.asarray(v_ref, dtype=np.float64), np.asarray(a_ref, dtype=np.float64),
+                                   float(road.length) if road.periodic else -1.0, float(p.kp), float(p.kv),
+                                   float(max(p.a_min, p.comfort_accel[0])), float(min(p.a_max, p.comfort_accel[1])),
+                                   float(p.v_min))
         # safety envelope: leaders in the lanes the vehicle occupies or enters
         acc = self._safety_cap(world, index, acc, lane, desired, member, exiting)
         return self._normalise(acc, phi)

@@ -11,7 +11,7 @@ import itertools
 import numpy as np
 
 from icv_envs.formation.assignment import assign_targets
-from icv_envs.formation.bezier import _lane_change_lateral
+from icv_envs.formation.bezier import _lane_change_lateral_rows
 from icv_envs.formation.targets import interlaced_targets
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors
 from icv_envs.sim.traffic import idm_acceleration
@@ -31,7 +31,8 @@ class Regrouping:
         entered = rs.phase[act] > 0
         u = rs.u[act]
         # (unchecked: lengths > 0 by PlatoonExpert._check_params, positions finite)
-        lat_plan, _ = _lane_change_lateral(u, f.lc_u0[act], f.lc_lat0[act], f.lc_lat1[act], f.lc_len[act])
+        # (the curve's arithmetic compiled around numpy's arcsinh and sinh: the same numbers as the array code)
+        lat_plan, _ = _lane_change_lateral_rows(act, rs.u, f.lc_u0, f.lc_lat0, f.lc_lat1, f.lc_len)
         stray = np.abs(lat_plan - rs.lat_leg[act]) > self.p.replan_tolerance
         done = (u >= f.lc_u0[act] + f.lc_len[act]) & (np.abs(rs.lat_leg[act] - f.lc_lat1[act]) < 0.4)
         fin = act[done | entered]

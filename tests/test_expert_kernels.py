@@ -1,0 +1,280 @@
+"""The highway expert's per-vehicle arithmetic, compiled around numpy's
+transcendental calls (``formation/_kernels.lateral_pre``, ``lateral_post``,
+``pursuit_pre``, ``pursuit_post``; ``policies/_kernels.lane_changes_ended``,
+``preview_points``, ``expert_lane_speeds``, ``free_speed_ratio``,
+``expert_accelerations``), against the array code it replaced, frozen
+below: block by block on random arrays pushed onto the rules' boundaries
+(hypothesis), and the whole of ``FormationExpert.compute`` on every policy
+step of runs on the ring with ramps, a lane drop and an off-ramp. Every
+output must be the same bit for bit (the intersection's lane-change
+progress uses the same curve: ``test_trajectory_hash``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from icv_envs.formation.bezier import (
+    _lane_change_lateral,
+    _lane_change_lateral_rows,
+    _pure_pursuit_rows,
+    _pure_pursuit_steering,
+)
+from icv_envs.formation.control import _longitudinal_feedback
+from icv_envs.policies._kernels import (
+    expert_accelerations,
+    expert_lane_speeds,
+    free_speed_ratio,
+    lane_changes_ended,
+    preview_points,
+)
+from icv_envs.policies.formation_expert import FormationExpert
+from icv_envs.sim.traffic import idm_acceleration
+
+
+def _same(a, b) -> bool:
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+# ----------------------------------------------------------------------------
+# the replaced code (icv_envs/policies/formation_expert.py at 4d79153), frozen
+def _old_ended(a_rows, x, y, cy, v, lc_x0, lc_y0, lc_y1, lc_len, lc_lane, tol):
+    y_plan, _ = _lane_change_lateral(x[a_rows], lc_x0[a_rows], lc_y0[a_rows], lc_y1[a_rows], lc_len[a_rows])
+    stray = np.abs(y_plan - y[a_rows]) > tol
+    done = (x[a_rows] >= lc_x0[a_rows] + lc_len[a_rows]) & (np.abs(y[a_rows] - lc_y1[a_rows]) < 0.3)
+    done |= (v[a_rows] < 0.5) & (np.abs(cy[a_rows] - lc_y1[a_rows]) < 0.3)
+    lc_lane[a_rows[stray | done]] = -1
+
+
+def _old_steering(x, y, heading, v, lane, W, active, lc_x0, lc_y0, lc_y1, lc_len, pmin, ptime, wb, ms):
+    ld = np.maximum(pmin, v * ptime)
+    px = x + ld
+    py = lane * W
+    if active.any():
+        a_rows = np.flatnonzero(active)
+        yp, _ = _lane_change_lateral(px[a_rows], lc_x0[a_rows], lc_y0[a_rows], lc_y1[a_rows], lc_len[a_rows])
+        py = py.astype(np.float64)
+        py[a_rows] = yp
+    return _pure_pursuit_steering(x, y, heading, px, np.asarray(py, dtype=np.float64), wb, ms)
+
+
+def _old_wrap(d, length):
+    if length < 0:
+        return d
+    half = 0.5 * length
+    return np.mod(d + half, length) - half
+
+
+def _old_longitudinal(p, lane_speed, lane, n_lanes, exiting, blocked, member, v, cx, x_ref, v_ref, a_ref_all, length):
+    n = len(v)
+    lane_speed = np.where(exiting & (lane < n_lanes), p["exit_speed"], lane_speed)
+    lane_speed = np.where(blocked & ~member, np.maximum(lane_speed - p["blocked_slowdown"], p["v_min"]), lane_speed)
+    lane_speed = np.where(blocked & ~member & exiting, np.minimum(lane_speed, p["v_min"]), lane_speed)
+    acc = np.empty(n)
+    free = ~member
+    if free.any():
+        acc[free] = idm_acceleration(v[free], lane_speed[free], np.inf, 0.0, p["a_max"], p["idm_b"], p["idm_T"],
+                                     p["idm_s0"], free_term=True)
+    if member.any():
+        m = np.flatnonzero(member)
+        a_ref = a_ref_all[m]
+        x_eff = cx[m] + _old_wrap(x_ref[m] - cx[m], length)
+        acc[m] = _longitudinal_feedback(cx[m], x_eff, v[m], v_ref[m], p["kp"], p["kv"], p["lo"], p["hi"], a_ref)
+        acc[m] = np.maximum(acc[m], 1.0 * (p["v_min"] - v[m]))
+    return lane_speed, acc
+
+
+def _new_longitudinal(p, lane_speed, lane, n_lanes, exiting, blocked, member, v, cx, x_ref, v_ref, a_ref_all, length):
+    ls = expert_lane_speeds(lane_speed, lane, exiting, blocked, member, n_lanes, p["exit_speed"],
+                            p["blocked_slowdown"], p["v_min"])
+    free_rows, m = np.flatnonzero(~member), np.flatnonzero(member)
+    free_pow = free_speed_ratio(free_rows, v, ls) ** 4.0
+    acc = expert_accelerations(len(v), free_rows, free_pow, v, p["a_max"], p["idm_b"], p["idm_T"], p["idm_s0"], m,
+                               cx, x_ref, v_ref, a_ref_all, length, p["kp"], p["kv"], p["lo"], p["hi"], p["v_min"])
+    return ls, acc
+
+
+# ----------------------------------------------------------------------------
+# block by block, on values pushed onto the rules' boundaries
+def _pick(draw, n, values, rng_floats):
+    """``n`` floats, each either one of ``values`` (boundaries, signed zeros) or a drawn float."""
+    return np.array([draw(st.sampled_from(values)) if draw(st.booleans()) else draw(rng_floats) for _ in range(n)],
+                    dtype=np.float64)
+
+
+@st.composite
+def _lane_change_states(draw):
+    n = draw(st.integers(1, 24))
+    lc_x0 = _pick(draw, n, [0.0, -0.0, 100.0], st.floats(-500, 500))
+    lc_len = _pick(draw, n, [1e-3, 30.0, 60.0], st.floats(1e-3, 200))
+    frac = _pick(draw, n, [0.0, -0.0, 0.5, 1.0, -0.1, 1.1], st.floats(-0.5, 1.5))
+    x = lc_x0 + frac * lc_len
+    x = np.where(frac == 1.0, lc_x0 + lc_len, x)  # exactly the curve's end
+    lc_y0 = _pick(draw, n, [0.0, -0.0, 4.0], st.floats(-12, 12))
+    lc_y1 = lc_y0 + _pick(draw, n, [4.0, -4.0, 0.0], st.floats(-8, 8))
+    off = _pick(draw, n, [0.3, -0.3, 0.0, -0.0, 0.2999999999999999, 0.30000000000000004], st.floats(-2, 2))
+    y = lc_y1 + off
+    cy = lc_y1 + _pick(draw, n, [0.3, -0.3, 0.0], st.floats(-2, 2))
+    v = _pick(draw, n, [0.5, 0.0, 0.4999999999999999, 30.0], st.floats(0, 40))
+    rows = np.flatnonzero(np.array([draw(st.booleans()) for _ in range(n)]) | (np.arange(n) == 0)).astype(np.int64)
+    return rows, x, y, cy, v, lc_x0, lc_y0, lc_y1, lc_len
+
+
+@settings(max_examples=300, deadline=None)
+@given(_lane_change_states(), st.sampled_from([0.0, 0.3, 1.0]))
+def test_lane_change_end_equals_the_replaced_array_code(state, tol):
+    rows, x, y, cy, v, lc_x0, lc_y0, lc_y1, lc_len = state
+    lane_a = np.arange(len(x), dtype=np.int64)
+    lane_b = lane_a.copy()
+    _old_ended(rows, x, y, cy, v, lc_x0, lc_y0, lc_y1, lc_len, lane_a, tol)
+    y_plan, slope = _lane_change_lateral_rows(rows, x, lc_x0, lc_y0, lc_y1, lc_len)
+    lane_changes_ended(rows, y_plan, x, y, cy, v, lc_x0, lc_len, lc_y1, lane_b, tol)
+    assert _same(lane_a, lane_b)
+    want = _lane_change_lateral(x[rows], lc_x0[rows], lc_y0[rows], lc_y1[rows], lc_len[rows])
+    assert _same(y_plan, want[0]) and _same(slope, want[1])
+
+
+@settings(max_examples=300, deadline=None)
+@given(_lane_change_states(), st.data())
+def test_steering_equals_the_replaced_array_code(state, data):
+    rows, x, y, cy, v, lc_x0, lc_y0, lc_y1, lc_len = state
+    n = len(x)
+    heading = np.array(data.draw(st.lists(st.floats(-4, 4), min_size=n, max_size=n)), dtype=np.float64)
+    lane = np.array(data.draw(st.lists(st.integers(0, 4), min_size=n, max_size=n)), dtype=np.int64)
+    active = np.zeros(n, dtype=bool)
+    active[rows] = True
+    # preview_min equal to some v * preview_time (the maximum's tie), and a
+    # zero preview (the pursuit's l_d == 0 at the rear axle's own point)
+    pmin, ptime = data.draw(st.sampled_from([(5.0, 1.0), (0.0, 0.0), (12.0, 0.4)]))
+    if data.draw(st.booleans()):
+        v = np.where(np.arange(n) % 2 == 0, pmin / ptime if ptime else 0.0, v)
+    W, wb, ms = 4.0, 2.8, 0.6
+    want = _old_steering(x, y, heading, v, lane, W, active, lc_x0, lc_y0, lc_y1, lc_len, pmin, ptime, wb, ms)
+    px, py = preview_points(x, v, lane, W, pmin, ptime)
+    if active.any():
+        a_rows = np.flatnonzero(active)
+        py[a_rows] = _lane_change_lateral_rows(a_rows, px, lc_x0, lc_y0, lc_y1, lc_len)[0]
+    got = _pure_pursuit_rows(x, y, heading, px, py, wb, ms)
+    assert _same(got, want)
+
+
+@st.composite
+def _longitudinal_states(draw):
+    n = draw(st.integers(1, 24))
+    p = {"exit_speed": 20.0, "blocked_slowdown": 3.0, "v_min": 15.0, "a_max": 3.0, "idm_b": 2.0, "idm_T": 1.2,
+         "idm_s0": 2.0, "kp": draw(st.sampled_from([-0.3, -1.0])), "kv": -0.8, "lo": -3.0, "hi": 2.0}
+    # lane speeds on the ties (v_min + slowdown, v_min, 0.1 for the IDM's floor), ints from a lane table
+    lane_speed = _pick(draw, n, [18.0, 15.0, 0.1, 0.05, 30.0], st.floats(0, 40))
+    lane = np.array([draw(st.integers(0, 4)) for _ in range(n)], dtype=np.int64)
+    flags = [np.array([draw(st.booleans()) for _ in range(n)]) for _ in range(3)]
+    v = _pick(draw, n, [15.0, 0.0, 30.0, 0.1], st.floats(0, 40))
+    cx = _pick(draw, n, [0.0, 5000.0, 9999.0], st.floats(0, 10000))
+    x_ref = _pick(draw, n, [0.0, 5000.0, 5000.0000000001, 10000.0], st.floats(-100, 10100))
+    v_ref = _pick(draw, n, [15.0, 30.0], st.floats(0, 40))
+    a_ref = _pick(draw, n, [0.0, -0.0, 2.0, -3.0], st.floats(-4, 4))
+    length = draw(st.sampled_from([-1.0, 10000.0]))
+    return p, lane_speed, lane, 4, flags[0], flags[1], flags[2], v, cx, x_ref, v_ref, a_ref, length
+
+
+@settings(max_examples=300, deadline=None)
+@given(_longitudinal_states())
+def test_longitudinal_law_equals_the_replaced_array_code(state):
+    want = _old_longitudinal(*state)
+    got = _new_longitudinal(*state)
+    assert _same(got[0], want[0]) and _same(got[1], want[1])
+
+
+# ----------------------------------------------------------------------------
+# the whole of compute() on every policy step of real runs
+def _old_compute(self, world):
+    """FormationExpert.compute at 4d79153, with the frozen blocks above."""
+    p = self.p
+    tr, road = world.traffic, world.road
+    n = tr.n
+    if n == 0:
+        return np.zeros((0, 2))
+    cx, cy = tr.center()
+    v = tr.speed
+    W = road.lane_width
+    lane = road.lane_of(cy)
+    index = world.lane_index()
+    x_ref, lane_ref, v_ref, member = world.manager.references(tr)
+    desired, exiting = self._exit_lanes(world, lane, lane_ref, member)
+    desired = self._desired_lanes(world, desired, lane, member, exiting, cx, v, index)
+    desired = self._lane_end_escape(world, desired, lane, member, exiting)
+    active = tr.lc_lane >= 0
+    if active.any():
+        _old_ended(np.flatnonzero(active), tr.x, tr.y, cy, v, tr.lc_x0, tr.lc_y0, tr.lc_y1, tr.lc_len, tr.lc_lane,
+                   p.replan_tolerance)
+        active = tr.lc_lane >= 0
+    start, s_lane, s_len, blocked = self._lane_change_starts(world, index, active, lane, desired, member)
+    if len(start):
+        tr.lc_lane[start] = s_lane
+        tr.lc_x0[start] = tr.x[start]
+        tr.lc_y0[start] = tr.y[start]
+        tr.lc_y1[start] = s_lane * W
+        tr.lc_len[start] = s_len
+        active = tr.lc_lane >= 0
+    phi = _old_steering(tr.x, tr.y, tr.heading, v, lane, W, active, tr.lc_x0, tr.lc_y0, tr.lc_y1, tr.lc_len,
+                        p.preview_min, p.preview_time, float(p.wheelbase), float(p.steer_max))
+    prm = {"exit_speed": p.exit_speed, "blocked_slowdown": p.blocked_slowdown, "v_min": p.v_min, "a_max": p.a_max,
+           "idm_b": p.idm_b, "idm_T": p.idm_T, "idm_s0": p.idm_s0, "kp": float(p.kp), "kv": float(p.kv),
+           "lo": float(max(p.a_min, p.comfort_accel[0])), "hi": float(min(p.a_max, p.comfort_accel[1]))}
+    _, acc = _old_longitudinal(prm, self._lane_speeds(road, lane), lane, road.n_lanes, exiting, blocked, member, v,
+                               cx, x_ref, v_ref, world.manager.reference_accel(tr),
+                               float(road.length) if road.periodic else -1.0)
+    acc = self._safety_cap(world, index, acc, lane, desired, member, exiting)
+    return self._normalise(acc, phi)
+
+
+_LC = ("lc_lane", "lc_x0", "lc_y0", "lc_y1", "lc_len")
+
+
+@pytest.mark.parametrize("case", ["ramps", "lane-drop", "off-ramp"])
+def test_compute_equals_the_replaced_array_code_on_runs(monkeypatch, case):
+    real = FormationExpert.compute
+    seen = {"calls": 0, "active": 0, "ended": 0, "members": 0, "free": 0}
+
+    def checked(self, world):
+        tr = world.traffic
+        before = {k: getattr(tr, k).copy() for k in _LC}
+        want = _old_compute(self, world)
+        after_old = {k: getattr(tr, k).copy() for k in _LC}
+        for k in _LC:  # the state again, for the new code
+            getattr(tr, k)[:] = before[k]
+        got = real(self, world)
+        assert _same(got, want)
+        for k in _LC:
+            assert _same(getattr(tr, k), after_old[k]), k
+        seen["calls"] += 1
+        seen["active"] += int((before["lc_lane"] >= 0).sum())
+        seen["ended"] += int(((before["lc_lane"] >= 0) & (after_old["lc_lane"] < 0)).sum())
+        member = world.manager.references(tr)[3]
+        seen["members"] += int(member.sum())
+        seen["free"] += int((~member).sum())
+        return got
+
+    monkeypatch.setattr(FormationExpert, "compute", checked)
+    if case == "ramps":
+        from icv_envs.envs import highway_ramps_v0
+
+        env = highway_ramps_v0.parallel_env(vgr=1 / 3, duration=120.0)
+        steps = 600
+    else:
+        from icv_envs.envs import highway_formation_v0
+
+        env = highway_formation_v0.parallel_env(scenario=case, vehicles_count=12, duration=60.0)
+        steps = 300
+    env.reset(seed=5)
+    for _ in range(steps):
+        if not env.agents:
+            break
+        env.step(env.unwrapped.expert_actions())
+    # the rules ran (lane changes under way and ending, members; free
+    # vehicles on the ring with ramps: its on-ramp vehicles before they join)
+    assert seen["calls"] >= 100 and seen["active"] > 0 and seen["ended"] > 0 and seen["members"] > 0, seen
+    if case == "ramps":
+        assert seen["free"] > 0, seen
