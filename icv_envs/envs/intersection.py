@@ -50,6 +50,7 @@ from icv_envs.platoon.geometry import LEGS, movement_name
 from icv_envs.policies.fcfs import FcfsExpert
 from icv_envs.policies.platoon_expert import Corridors, PlatoonExpert, PlatoonParams
 from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents, validate_radii
+from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "OBS_EXTRA_FEATURES", "MAX_THROUGHPUT"]
 
@@ -350,7 +351,7 @@ class IntersectionEnv(IcvAgentsEnv):
         F[:, 8] = np.where(has, d, 0.0)
         F[:, 9] = np.where(has, dv, 0.0)
         appr = rs.phase == 0
-        F[:, 10] = np.where(appr, rs.lat_leg - (np.clip(f.klane, 0, 2) + 0.5) * lay.lane_width, rs.lat)
+        F[:, 10] = np.where(appr, rs.lat_leg - (uclip(f.klane, 0, 2) + 0.5) * lay.lane_width, rs.lat)
         F[:, 11] = (f.mv % 3) - 1.0
         zone = np.where(rs.dist > lay.R2, 0.0, np.where(rs.dist > lay.R1, 1.0 / 3.0, 2.0 / 3.0))
         F[:, 12] = np.where(appr, zone, 1.0)
@@ -415,9 +416,9 @@ class IntersectionEnv(IcvAgentsEnv):
         f = w.fleet
         wts = c["reward"]
         lo, hi = c["reward_speed_range"] or (0.0, c["speed_range"][1])
-        progress = np.clip((f.speed[rows] - float(lo)) / (float(hi) - float(lo)), 0.0, 1.0)
+        progress = uclip((f.speed[rows] - float(lo)) / (float(hi) - float(lo)), 0.0, 1.0)
         gap = self._leaders()[0]
-        safety = -np.clip(1.0 - gap[rows] / (2.0 + f.speed[rows]), 0.0, 1.0)
+        safety = -uclip(1.0 - gap[rows] / (2.0 + f.speed[rows]), 0.0, 1.0)
         safety = np.where(crashed_now[rows], -1.0, safety)
         ua = self._last_actions[rows] if len(self._last_actions) == f.n else np.zeros((len(rows), 2))
         comfort = -0.5 * (ua[:, 0] ** 2 + ua[:, 1] ** 2)
@@ -440,7 +441,7 @@ class IntersectionEnv(IcvAgentsEnv):
         if f.n < 2:
             return gap, dv
         cor = Corridors.plain(w, w.route())
-        e = np.flatnonzero(cor.lead >= 0)
+        e = flatnonzero(cor.lead >= 0)
         if len(e):
             me = cor.rows[e]
             ld = cor.rows[cor.lead[e]]
@@ -464,7 +465,7 @@ class IntersectionEnv(IcvAgentsEnv):
             idx = np.array([slot_of.get(f"icv_{v}", -1) for v in f.vid])
             ok = idx >= 0
             k = len(STATE_FEATURES)
-            out[idx[ok]] = np.clip(F[ok, :k] / self._scales(False)[:k], -1, 1)
+            out[idx[ok]] = uclip(F[ok, :k] / self._scales(False)[:k], -1, 1)
         return out
 
     # ------------------------------------------------------------------ expert

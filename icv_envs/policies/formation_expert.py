@@ -47,7 +47,7 @@ import numpy as np
 
 from icv_envs.formation.bezier import _lane_change_lateral_rows, _pure_pursuit_rows, lane_change_lateral
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV
-from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
 from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies._kernels import (
     exit_lanes,
@@ -273,7 +273,7 @@ class FormationExpert:
         # float64 state array, every length > 0)
         active = tr.lc_lane >= 0
         if active.any():
-            a_rows = np.flatnonzero(active)
+            a_rows = flatnonzero(active)
             y_plan, _ = _lane_change_lateral_rows(a_rows, tr.x, tr.lc_x0, tr.lc_y0, tr.lc_y1, tr.lc_len)
             lane_changes_ended(a_rows, y_plan, tr.x, tr.y, cy, v, tr.lc_x0, tr.lc_len, tr.lc_y1, tr.lc_lane,
                                float(p.replan_tolerance))
@@ -297,7 +297,7 @@ class FormationExpert:
         # the array code bit for bit; tests/test_expert_kernels.py)
         px, py = preview_points(tr.x, v, lane, float(W), float(p.preview_min), float(p.preview_time))
         if active.any():
-            a_rows = np.flatnonzero(active)
+            a_rows = flatnonzero(active)
             py[a_rows] = _lane_change_lateral_rows(a_rows, px, tr.lc_x0, tr.lc_y0, tr.lc_y1, tr.lc_len)[0]
         phi = _pure_pursuit_rows(tr.x, tr.y, tr.heading, px, py, float(p.wheelbase), float(p.steer_max))
 
@@ -320,8 +320,8 @@ class FormationExpert:
         # more than 5 m off), so the error seen here stays small; braking is
         # faded out as v approaches v_min (the control floor; the safety cap
         # below still wins). Compiled: policies/_kernels.expert_accelerations.
-        free_rows = np.flatnonzero(~member)
-        m = np.flatnonzero(member)
+        free_rows = flatnonzero(~member)
+        m = flatnonzero(member)
         free_pow = free_speed_ratio(free_rows, v, lane_speed) ** 4.0
         a_ref = world.manager.reference_accel(tr)  # (cached with references() above)
         acc = expert_accelerations(n, free_rows, free_pow, v, float(p.a_max), float(p.idm_b), float(p.idm_T),

@@ -117,7 +117,10 @@ class Corridors:
         """
         q_rows = np.asarray(q_rows, dtype=np.int64)
         k = len(q_rows)
-        q_corr = np.broadcast_to(np.asarray(q_corr, dtype=np.int64), (k,))
-        qk = np.broadcast_to(q_corr * self.BIG + q_coord, (k,))
+        # (one corridor for all, or one each; np.full instead of broadcast_to + a copy: the same keys)
+        q_corr = np.full(k, q_corr, dtype=np.int64) if np.ndim(q_corr) == 0 else np.asarray(q_corr, dtype=np.int64)
+        qk = q_corr * self.BIG + q_coord
+        if qk.shape != (k,):
+            qk = np.broadcast_to(qk, (k,))
         return corridor_neighbours(self.keys, self.corr, self.rows, self.coord, q_rows, np.ascontiguousarray(q_corr),
                                    np.ascontiguousarray(qk, dtype=np.float64))

@@ -18,6 +18,7 @@ from icv_envs.formation.control import _longitudinal_feedback
 from icv_envs.policies._kernels import box_steering, envelope_pairs
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE, Corridors
 from icv_envs.sim.traffic import idm_acceleration
+from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["PlatoonControl"]
 
@@ -36,9 +37,9 @@ class PlatoonControl:
         phi = self._steering(world, rs)
         acc = self._longitudinal(world, rs)
         cap = self._envelope(world, rs, acc)
-        acc = np.clip(np.minimum(acc, cap), p.a_min, p.a_max)
+        acc = uclip(np.minimum(acc, cap), p.a_min, p.a_max)
         ua = np.where(acc >= 0, acc / p.a_max, -acc / p.a_min)
-        return np.clip(np.stack([ua, phi / p.steer_max], axis=1), -1.0, 1.0)
+        return uclip(np.stack([ua, phi / p.steer_max], axis=1), -1.0, 1.0)
 
     def _steering(self, world, rs) -> np.ndarray:
         """Pure-pursuit steering along the kept lane, the lane-change curve or
@@ -61,20 +62,20 @@ class PlatoonControl:
         v = f.speed
         acc = idm_acceleration(v, p.v0, np.inf, 0.0, min(p.a_max, p.comfort[1]), p.idm_b, p.idm_T, p.idm_s0)
         m = self._mode
-        fol = np.flatnonzero(m == MODE_FOLLOW)
+        fol = flatnonzero(m == MODE_FOLLOW)
         if len(fol):
             x = rs.u[fol]
-            xr = x + np.clip(self._xref[fol] - x, -p.ref_error_clip, p.ref_error_clip)
+            xr = x + uclip(self._xref[fol] - x, -p.ref_error_clip, p.ref_error_clip)
             acc[fol] = _longitudinal_feedback(x, xr, v[fol], self._vref[fol], float(p.kp), float(p.kv),
                                               float(p.comfort[0]), float(p.comfort[1]), 0.0)
-        tr = np.flatnonzero(m == MODE_TREE)
+        tr = flatnonzero(m == MODE_TREE)
         if len(tr):
             x = -rs.X[tr]
-            xr = x + np.clip(-self._xref[tr] - x, -p.ref_error_clip, p.ref_error_clip)
+            xr = x + uclip(-self._xref[tr] - x, -p.ref_error_clip, p.ref_error_clip)
             lo = np.where(self._tight[tr], p.a_min, p.comfort[0])
             a = _longitudinal_feedback(x, xr, v[tr], self._vref[tr], float(p.kp), float(p.kv), float(p.a_min),
                                        float(p.a_max), 0.0)
-            a = np.clip(a, lo, p.a_max)
+            a = uclip(a, lo, p.a_max)
             vc = self._vcap[tr]
             self.stats["virtual_cap_binding"] += int((vc < a - 0.5).sum())
             acc[tr] = np.minimum(a, vc)
@@ -117,7 +118,7 @@ class PlatoonControl:
             np.minimum.at(cap_other, qi, safe)
             self.stats["path_obstacle_binding"] += int((safe < 0).sum())
         # stop line for vehicles that may not enter
-        st = np.flatnonzero(self._stop)
+        st = flatnonzero(self._stop)
         if len(st):
             gap = -rs.u[st] - 0.5 * f.length[st] - p.stop_margin
             a_st = idm_acceleration(f.speed[st], p.v_max, gap, f.speed[st], p.a_max, p.idm_b, p.idm_T, 0.5,
@@ -168,10 +169,10 @@ class PlatoonControl:
         lay = world.layout
         e = np.zeros(0, dtype=np.int64)
         empty = (e, e, np.zeros(0), np.zeros(0))
-        obs = np.flatnonzero(((rs.phase == 1) | ((rs.phase == 2) & (rs.s - rs.L < 10.0))) & (f.speed < v_stopped))
+        obs = flatnonzero(((rs.phase == 1) | ((rs.phase == 2) & (rs.s - rs.L < 10.0))) & (f.speed < v_stopped))
         if not len(obs):
             return empty
-        q = np.flatnonzero((((rs.phase == 0) & (rs.u > -40.0)) | (rs.phase == 1)) & ~f.crashed)
+        q = flatnonzero((((rs.phase == 0) & (rs.u > -40.0)) | (rs.phase == 1)) & ~f.crashed)
         if not len(q):
             return empty
         qi, oj, gap = self._covering(world, rs, q, obs, rs.cx[obs], rs.cy[obs], f.heading[obs],

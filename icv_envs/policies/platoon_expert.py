@@ -159,6 +159,7 @@ from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
 from icv_envs.policies.platoon_control import PlatoonControl
 from icv_envs.policies.regrouping import Regrouping
 from icv_envs.policies.virtual_platoon import VirtualPlatoon
+from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["PlatoonParams", "PlatoonExpert", "VP_METHODS", "Corridors", "MODE_FREE", "MODE_FOLLOW",
            "MODE_TREE", "MODE_PLAN"]
@@ -340,17 +341,17 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
                  & (f.klane != f.tlane))
         if not stuck.any():
             return rs
-        served = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
+        served = lay.allowed[f.mv, uclip(f.klane, 0, 2)]
         # in a lane that serves its movement (not the expected one): it keeps it
-        keep = np.flatnonzero(stuck & served)
+        keep = flatnonzero(stuck & served)
         if len(keep):
             f.tlane[keep] = f.klane[keep]
             f.want[keep] = -1
             self.stats["kept_lane_in_R1"] += len(keep)
-        k = np.flatnonzero(stuck & ~served)
+        k = flatnonzero(stuck & ~served)
         if not len(k):
             return rs
-        lane = np.clip(f.klane[k], 0, 2)
+        lane = uclip(f.klane[k], 0, 2)
         new = np.full(len(k), -1, dtype=np.int64)
         for turn in (1, 0, 2):
             m = 3 * f.leg[k] + turn

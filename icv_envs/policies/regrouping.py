@@ -15,6 +15,7 @@ from icv_envs.formation.bezier import _lane_change_lateral_rows
 from icv_envs.formation.targets import interlaced_targets
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors
 from icv_envs.sim.traffic import idm_acceleration
+from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["Regrouping"]
 
@@ -25,7 +26,7 @@ class Regrouping:
     # ------------------------------------------------------------ lane changes
     def _lane_change_progress(self, world, rs) -> None:
         f = world.fleet
-        act = np.flatnonzero(f.lc_lane >= 0)
+        act = flatnonzero(f.lc_lane >= 0)
         if not len(act):
             return
         entered = rs.phase[act] > 0
@@ -58,7 +59,7 @@ class Regrouping:
                 del self._yield[vid]
         if not need.any():
             return
-        rows = np.flatnonzero(need)
+        rows = flatnonzero(need)
         # vehicles in division start only near their slot; one that is
         # yielding (below) may be any distance behind it
         yielding = np.isin(f.vid[rows], np.fromiter(self._yield, dtype=np.int64, count=len(self._yield)))
@@ -76,7 +77,7 @@ class Regrouping:
         if not len(rows):
             return
         v = f.speed[rows]
-        length = np.clip(v * p.lc_duration, p.lc_min_length, p.lc_max_length)
+        length = uclip(v * p.lc_duration, p.lc_min_length, p.lc_max_length)
         u = rs.u[rows]
         room = -u - p.lc_stop_room
         length = np.minimum(length, room)
@@ -95,14 +96,14 @@ class Regrouping:
         ok &= (gap_f > p.lc_min_gap) & (gap_r > p.lc_min_gap) & (own > -p.b_safe) & (fol > -p.b_safe)
         self._note_yields(world, rs, rows, possible & ~ok, lr, gap_f, fr, gap_r)
         # two vehicles must not start into the same lane side by side in one step
-        cand = np.flatnonzero(ok)
+        cand = flatnonzero(ok)
         if len(cand) > 1:
             key = 3 * f.leg[rows[cand]] + nxt[cand]
             o = cand[np.lexsort((-u[cand], key))]
             ko = 3 * f.leg[rows[o]] + nxt[o]
             close = (ko[1:] == ko[:-1]) & (np.abs(u[o][1:] - u[o][:-1]) < 12.0)
             drop = np.zeros(len(o), dtype=bool)
-            for k in np.flatnonzero(close):
+            for k in flatnonzero(close):
                 if not drop[k]:
                     drop[k + 1] = True
             ok[o[drop]] = False
@@ -141,7 +142,7 @@ class Regrouping:
         side_r = refused & (fr >= 0) & (gap_r <= self.p.lc_min_gap)
         side_f = refused & (lr >= 0) & (gap_f <= self.p.lc_min_gap) & ~side_r
         moving = (rs.dist[rows] > lay.R1) & (f.speed[rows] >= 2.0)
-        for k in np.flatnonzero((side_r | side_f) & moving):
+        for k in flatnonzero((side_r | side_f) & moving):
             me = int(f.vid[rows[k]])
             other = int(f.vid[int(fr[k]) if side_r[k] else int(lr[k])])
             if other in self._yield:
@@ -263,7 +264,7 @@ class Regrouping:
         dist = world.route().dist[rows]
         tidx = f.tidx[rows].copy()
         for ln in np.unique(f.tlane[rows]):
-            k = np.flatnonzero(f.tlane[rows] == ln)
+            k = flatnonzero(f.tlane[rows] == ln)
             tidx[k[np.argsort(dist[k], kind="stable")]] = np.sort(tidx[k])
         f.tidx[rows] = tidx
         # ranks in physical order (distance to the centre; ties: target order):
@@ -352,7 +353,7 @@ class Regrouping:
         assigned the other's lane at division, stood from the warm-up to the
         end of the run and 92 vehicles jammed behind them).  The division's
         assignment (Sec. 3.2's cost) is kept everywhere else."""
-        pend = np.flatnonzero((f.klane[rows] != f.tlane[rows]) & (f.lc_lane[rows] < 0))
+        pend = flatnonzero((f.klane[rows] != f.tlane[rows]) & (f.lc_lane[rows] < 0))
         if len(pend) < 2:
             return
         done = set()

@@ -18,6 +18,7 @@ from icv_envs.platoon.tree import _reference_positions
 from icv_envs.policies._kernels import repair_order
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
+from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["VirtualPlatoon"]
 
@@ -94,7 +95,7 @@ class VirtualPlatoon:
                 else:
                     del self.subs[sid]
         # vehicles in the zone without a sub-formation (not expected, but safe)
-        orphan = np.flatnonzero((rs.dist <= R1) & (f.node < 0) & (f.sub < 0) & (rs.phase < 2) & ~f.cleared)
+        orphan = flatnonzero((rs.dist <= R1) & (f.node < 0) & (f.sub < 0) & (rs.phase < 2) & ~f.cleared)
         if len(orphan):
             orphan = orphan[(f.klane[orphan] == f.tlane[orphan]) & (f.lc_lane[orphan] < 0) | (rs.phase[orphan] > 0)]
         for r in orphan:
@@ -104,7 +105,7 @@ class VirtualPlatoon:
         if self.nodes:
             ids, rows, seg, sizes = self._member_rows(f)
             done = np.bincount(seg, weights=~f.cleared[rows], minlength=len(ids)) == 0
-            for k in np.flatnonzero(done).tolist():
+            for k in flatnonzero(done).tolist():
                 r = rows[seg == k]
                 f.node[r] = -1
                 f.ref[r] = -1
@@ -129,7 +130,7 @@ class VirtualPlatoon:
         from the centre leave the node and form a node of their own (ordered
         after the foreign vehicle)."""
         f = world.fleet
-        rows = np.flatnonzero((f.node >= 0) & (rs.phase == 0))
+        rows = flatnonzero((f.node >= 0) & (rs.phase == 0))
         if not len(rows):
             return
         cor = Corridors.plain(world, rs)
@@ -322,7 +323,7 @@ class VirtualPlatoon:
         # formation following (approach / adjusting zones, and followers of nodes before R1)
         fol = (f.ref >= 0) & (f.node < 0)
         if fol.any():
-            k = np.flatnonzero(fol)
+            k = flatnonzero(fol)
             rr = f.rows(f.ref[k])
             # safety net: two vehicles referring to each other (must not happen)
             cyc = (rr >= 0) & (f.ref[np.maximum(rr, 0)] == f.vid[k]) & (rs.dist[k] < rs.dist[np.maximum(rr, 0)])
@@ -400,7 +401,7 @@ class VirtualPlatoon:
         self._apply_yields(world, rs)
         self._vcap = self._virtual_cap(world, rs)
         # may a vehicle enter the box? only from an allowed lane, lane change finished
-        allowed = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
+        allowed = lay.allowed[f.mv, uclip(f.klane, 0, 2)]
         self._stop = (rs.phase == 0) & (~allowed | (f.lc_lane >= 0) | (f.klane != f.tlane))
         # in the coordinating zone only coordinated vehicles (a node / a reservation) may enter
         self._stop |= (rs.phase == 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
@@ -509,7 +510,7 @@ class VirtualPlatoon:
         f = world.fleet
         lay = world.layout
         p = self.p
-        cand = np.flatnonzero((mode == MODE_FREE) & (rs.phase == 0) & (f.node < 0) & (rs.dist > lay.R1)
+        cand = flatnonzero((mode == MODE_FREE) & (rs.phase == 0) & (f.node < 0) & (rs.dist > lay.R1)
                               & (rs.dist <= lay.R2) & ~f.cleared)
         if not len(cand):
             return

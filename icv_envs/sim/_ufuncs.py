@@ -1,4 +1,4 @@
-"""NumPy's ``clip`` ufunc, called directly.
+"""NumPy's ``clip`` ufunc, called directly, and ``flatnonzero`` of a 1-D array without its wrapper.
 
 ``numpy.clip`` is a Python wrapper (``fromnumeric.clip`` -> ``ndarray.clip``
 -> ``_methods._clip``) around the ``clip`` ufunc; on the arrays of one step
@@ -14,4 +14,12 @@ try:
 except ImportError:  # numpy < 2
     from numpy.core.umath import clip  # type: ignore[no-redef]
 
-__all__ = ["clip"]
+__all__ = ["clip", "flatnonzero"]
+
+
+def flatnonzero(a):
+    """``numpy.flatnonzero(a)`` of a 1-D array ``a``: the same index array
+    (``a.nonzero()[0]``), without ``numpy.flatnonzero``'s ``ravel`` and
+    dispatch (about 0.3 instead of 1.1 us; a step of the intersection asks
+    about fifteen times, the formation layer about ten)."""
+    return a.nonzero()[0]

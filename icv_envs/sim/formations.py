@@ -65,7 +65,7 @@ from icv_envs.sim._kernels.formation_step import (
     reform_costs,
     reform_slots,
 )
-from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
 from icv_envs.sim.join_plans import JoinPlans
 
 __all__ = ["FormationManager"]
@@ -162,7 +162,7 @@ class FormationManager:
         read-only; kept until a formation is made or dissolves."""
         g = self._live
         if g is None:
-            g = self._live = np.flatnonzero(~np.isnan(self._A[:self.next_gid]))
+            g = self._live = flatnonzero(~np.isnan(self._A[:self.next_gid]))
             g.flags.writeable = False
         return g
 
@@ -325,7 +325,7 @@ class FormationManager:
     def _reform(self, traffic, road, gid: int, cx: np.ndarray) -> None:
         """Paper Sec. 3.2-3.3: generate targets for the members on the
         drivable lanes and assign them by minimum total cost F_w."""
-        rows = np.flatnonzero(traffic.group == gid)
+        rows = flatnonzero(traffic.group == gid)
         n = len(rows)
         self._cnt[gid] = n
         if n == 0:
@@ -413,13 +413,13 @@ class FormationManager:
             self.next_gid = next_gid
             self._live = None
         self._hold_targets(traffic, road, g_arr, chg, room, cx, dt)
-        changed = np.flatnonzero(chg[:self.next_gid]).tolist()
+        changed = flatnonzero(chg[:self.next_gid]).tolist()
         for gid in changed:  # ascending
             self._reform(traffic, road, gid, cx)
         # members that fell off their reference (held back by traffic) re-plan
         # from where they are
         # (compiled: sim/_kernels/formation_step.off_reference_rows)
-        m = np.flatnonzero(traffic.group >= 0) if n else np.zeros(0, dtype=np.int64)
+        m = flatnonzero(traffic.group >= 0) if n else np.zeros(0, dtype=np.int64)
         if len(m):
             d, _, _ = self._profile(traffic, m)
             off = off_reference_rows(traffic.group, m, cx, self._anchor_lut(), traffic.tgt_behind, d, length,
@@ -451,7 +451,7 @@ class FormationManager:
         if not traffic.n or not len(g_arr):
             return
         grp = traffic.group
-        m = np.flatnonzero(grp >= 0)
+        m = flatnonzero(grp >= 0)
         if not len(m):
             return
         # the lead of the front target over its members is measured against
@@ -504,7 +504,7 @@ class FormationManager:
         """``((x_ref, lane_ref, v_ref, member), a_ref)`` computed (compiled:
         :func:`icv_envs.sim._kernels.reference_rows`, the arithmetic of the
         array code it replaced, tests/test_join_reference.py)."""
-        m = np.flatnonzero(traffic.group >= 0)
+        m = flatnonzero(traffic.group >= 0)
         if len(m):
             d, dv, dd = self._profile(traffic, m)
         else:  # read-only like the profiles (one numba specialisation of reference_rows)
@@ -524,7 +524,7 @@ class FormationManager:
         """Per-vehicle target position ``X_slot = anchor - x_g`` (``nan`` for
         free vehicles), the end point of every member's reference."""
         out = np.full(traffic.n, np.nan)
-        m = np.flatnonzero(traffic.group >= 0)
+        m = flatnonzero(traffic.group >= 0)
         if len(m):
             out[m] = self._slot_x(traffic, m)
             if traffic.period is not None:

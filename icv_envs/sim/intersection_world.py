@@ -62,6 +62,7 @@ from icv_envs.sim.intersection_metrics import (
 )
 from icv_envs.sim._kernels.frames import intersection_frames
 from icv_envs.sim._kernels.intersection import box_collision_pairs, route_rows, rows_of_ids
+from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
 
 __all__ = [
     "IntersectionLayout",
@@ -354,7 +355,7 @@ class IntersectionWorld:
             stt["wrong_exits"] += int(new_wrong.sum())
             events.wrong_exit.update(int(v) for v in f.vid[new_wrong])
         if clear_now.any():
-            kc = np.flatnonzero(clear_now)
+            kc = flatnonzero(clear_now)
             good = kc[~f.wrong_exit[kc]]
             stt["cleared"] += len(good)
             if len(good):
@@ -402,11 +403,11 @@ class IntersectionWorld:
         (the front of a discharging queue)?  Vehicles in or past the box: False."""
         f = self.fleet
         w = self.layout.lane_width
-        appr = np.flatnonzero(~f.entered)
+        appr = flatnonzero(~f.entered)
         out = np.zeros(len(rows), dtype=bool)
         if not len(appr):
             return out
-        lane = np.clip(np.floor(lat_leg[appr] / w), 0, N_LANES - 1).astype(np.int64)
+        lane = uclip(np.floor(lat_leg[appr] / w), 0, N_LANES - 1).astype(np.int64)
         key = 3 * f.leg[appr] + lane
         ua = u[appr]
         o = np.lexsort((-ua, key))
@@ -416,7 +417,7 @@ class IntersectionWorld:
         first[1:] = key[1:] != key[:-1]
         gap = np.empty(len(a))
         gap[first] = -ua[first] - 0.5 * ln[first]
-        nf = np.flatnonzero(~first)
+        nf = flatnonzero(~first)
         gap[nf] = ua[nf - 1] - ua[nf] - 0.5 * (ln[nf - 1] + ln[nf])
         linked = gap < QUEUE_GAP
         # an anchor for the vehicle behind: the stop line (first vehicle of the lane) or a moving leader

@@ -24,6 +24,7 @@ from icv_envs.formation.control import (
     _quintic_coeffs,
     join_profile,
 )
+from icv_envs.sim._ufuncs import flatnonzero
 
 __all__ = ["JoinPlans", "JOIN_MAX_DURATION"]
 
@@ -135,7 +136,7 @@ class JoinPlans:
         if len(vid):
             self.grow(int(vid.max()) + 1)
         if c is not None and c[0] == key:
-            stale = np.flatnonzero(self.stamp[vid] > c[1])
+            stale = flatnonzero(self.stamp[vid] > c[1])
             out = tuple(arr.copy() for arr in c[2])
             if len(stale):
                 for arr, p in zip(out, self._eval(vid[stale], time)):
