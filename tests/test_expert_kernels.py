@@ -278,3 +278,90 @@ def test_compute_equals_the_replaced_array_code_on_runs(monkeypatch, case):
     assert seen["calls"] >= 100 and seen["active"] > 0 and seen["ended"] > 0 and seen["members"] > 0, seen
     if case == "ramps":
         assert seen["free"] > 0, seen
+
+
+# ----------------------------------------------------------------------------
+# the intersection experts' longitudinal law and normalisation
+# (icv_envs/policies/platoon_control.py at 4d79153), frozen
+def _old_platoon_longitudinal(self, world, rs):
+    from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE
+
+    p = self.p
+    f = world.fleet
+    v = f.speed
+    acc = idm_acceleration(v, p.v0, np.inf, 0.0, min(p.a_max, p.comfort[1]), p.idm_b, p.idm_T, p.idm_s0)
+    m = self._mode
+    fol = np.flatnonzero(m == MODE_FOLLOW)
+    if len(fol):
+        x = rs.u[fol]
+        xr = x + np.clip(self._xref[fol] - x, -p.ref_error_clip, p.ref_error_clip)
+        acc[fol] = _longitudinal_feedback(x, xr, v[fol], self._vref[fol], float(p.kp), float(p.kv),
+                                          float(p.comfort[0]), float(p.comfort[1]), 0.0)
+    tr = np.flatnonzero(m == MODE_TREE)
+    binding = 0
+    if len(tr):
+        x = -rs.X[tr]
+        xr = x + np.clip(-self._xref[tr] - x, -p.ref_error_clip, p.ref_error_clip)
+        lo = np.where(self._tight[tr], p.a_min, p.comfort[0])
+        a = _longitudinal_feedback(x, xr, v[tr], self._vref[tr], float(p.kp), float(p.kv), float(p.a_min),
+                                   float(p.a_max), 0.0)
+        a = np.clip(a, lo, p.a_max)
+        vc = self._vcap[tr]
+        binding = int((vc < a - 0.5).sum())
+        acc[tr] = np.minimum(a, vc)
+    return acc, binding
+
+
+def _old_platoon_normalised(acc, cap, phi, a_min, a_max, steer_max):
+    acc = np.clip(np.minimum(acc, cap), a_min, a_max)
+    ua = np.where(acc >= 0, acc / a_max, -acc / a_min)
+    return np.clip(np.stack([ua, phi / steer_max], axis=1), -1.0, 1.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_platoon_normalisation_equals_the_replaced_array_code(data):
+    from icv_envs.policies._kernels import normalised_actions
+    from icv_envs.sim._ufuncs import clip as uclip
+
+    n = data.draw(st.integers(1, 20))
+    fl = st.floats(-10, 10)
+    acc = np.array([data.draw(st.sampled_from([0.0, -0.0, 2.0, -6.0, 7.5]) | fl) for _ in range(n)])
+    cap = np.array([data.draw(st.sampled_from([np.inf, 0.0, -0.0, 2.0, -6.0]) | fl) for _ in range(n)])
+    phi = np.array([data.draw(st.sampled_from([0.0, -0.0, 0.6, -0.6, 0.7]) | st.floats(-1, 1)) for _ in range(n)])
+    want = _old_platoon_normalised(acc, cap, phi, -6.0, 2.0, 0.6)
+    got = normalised_actions(uclip(np.minimum(acc, cap), -6.0, 2.0), phi, 2.0, -6.0, 0.6)
+    assert _same(got, want)
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 2600.0, 3), ("single-vp", 2200.0, 4),
+                                                    ("fcfs", 2600.0, 5)])
+def test_platoon_longitudinal_equals_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
+    from icv_envs.envs import intersection_v0
+    from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE
+    from icv_envs.policies.platoon_control import PlatoonControl
+
+    real = PlatoonControl._longitudinal
+    seen = {"follow": 0, "tree": 0, "binding": 0}
+
+    def checked(self, world, rs):
+        want, binding = _old_platoon_longitudinal(self, world, rs)
+        before = self.stats["virtual_cap_binding"]
+        got = real(self, world, rs)
+        assert _same(got, want)
+        assert self.stats["virtual_cap_binding"] - before == binding
+        seen["follow"] += int((self._mode == MODE_FOLLOW).sum())
+        seen["tree"] += int((self._mode == MODE_TREE).sum())
+        seen["binding"] += binding
+        return got
+
+    monkeypatch.setattr(PlatoonControl, "_longitudinal", checked)
+    env = intersection_v0.parallel_env(method=method, throughput=throughput, duration=90.0)
+    obs, infos = env.reset(seed=seed)
+    for _ in range(450):
+        if not env.agents:
+            break
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    assert seen["follow"] > 0, seen
+    if method != "fcfs":
+        assert seen["tree"] > 0, seen

@@ -37,7 +37,7 @@ from icv_envs.sim._kernels.physics import interval_ends_at, lanes_available, npy
 
 __all__ = ["box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_lane_speeds",
            "free_speed_ratio", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
-           "preview_points", "repair_order", "safety_cap"]
+           "platoon_accelerations", "preview_points", "repair_order", "safety_cap"]
 
 
 @nb.njit(cache=True)
@@ -902,3 +902,66 @@ def expert_accelerations(n, free_rows, free_pow, v, a_max, b, T, s0, m_rows, cx,
         floor = 1.0 * (v_min - v[i])
         acc[i] = u if u > floor else floor
     return acc
+
+
+@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
+def platoon_accelerations(v, free_pow, a_free, b, T, s0, mode, mode_follow, mode_tree, u, X, xref, vref, tight, vcap,
+                          clip_err, kp, kv, comfort_lo, comfort_hi, a_min, a_max):
+    """The intersection experts' longitudinal law
+    (:meth:`icv_envs.policies.platoon_control.PlatoonControl._longitudinal`):
+    every vehicle the IDM without a leader (``free_pow`` its free term's
+    power, from numpy; the interaction term with an infinite gap, as
+    ``traffic.idm_acceleration`` takes it; ``a_free`` its maximum
+    acceleration), then followers (``mode_follow``) the feedback law on the
+    reference ``xref`` (the error clipped to ``+-clip_err``) in the comfort
+    range, and tree vehicles (``mode_tree``) the feedback law on ``-xref``
+    in ``-X``, clipped to ``[a_min, a_max]``, then to ``[a_min or comfort_lo
+    (tight or not), a_max]``, then capped by the virtual cap ``vcap``.
+    Returns ``(acc, binding)``: ``binding`` the tree vehicles whose cap is
+    more than 0.5 m/s^2 below their law."""
+    n = v.shape[0]
+    acc = np.empty(n)
+    root = 2.0 * math.sqrt(a_free * b)
+    binding = 0
+    for i in range(n):
+        w = v[i] * T + v[i] * 0.0 / root
+        s_star = s0 + (0.0 if 0.0 > w else w)
+        q = s_star / np.inf
+        acc[i] = a_free * (1.0 - free_pow[i] - q * q)
+        if mode[i] == mode_follow:
+            x = u[i]
+            e = xref[i] - x
+            if e < -clip_err:
+                e = -clip_err
+            if e > clip_err:
+                e = clip_err
+            xr = x + e
+            a = 0.0 + kp * (x - xr) + kv * (v[i] - vref[i])
+            if a < comfort_lo:
+                a = comfort_lo
+            if a > comfort_hi:
+                a = comfort_hi
+            acc[i] = a
+        elif mode[i] == mode_tree:
+            x = -X[i]
+            e = -xref[i] - x
+            if e < -clip_err:
+                e = -clip_err
+            if e > clip_err:
+                e = clip_err
+            xr = x + e
+            a = 0.0 + kp * (x - xr) + kv * (v[i] - vref[i])
+            if a < a_min:
+                a = a_min
+            if a > a_max:
+                a = a_max
+            lo = a_min if tight[i] else comfort_lo
+            if a < lo:
+                a = lo
+            if a > a_max:
+                a = a_max
+            vc = vcap[i]
+            if vc < a - 0.5:
+                binding += 1
+            acc[i] = a if a < vc else vc
+    return acc, binding

@@ -14,8 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.formation.control import _longitudinal_feedback
-from icv_envs.policies._kernels import box_steering, envelope_pairs
+from icv_envs.policies._kernels import box_steering, envelope_pairs, normalised_actions, platoon_accelerations
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE, Corridors
 from icv_envs.sim.traffic import idm_acceleration
 from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
@@ -37,9 +36,10 @@ class PlatoonControl:
         phi = self._steering(world, rs)
         acc = self._longitudinal(world, rs)
         cap = self._envelope(world, rs, acc)
-        acc = uclip(np.minimum(acc, cap), p.a_min, p.a_max)
-        ua = np.where(acc >= 0, acc / p.a_max, -acc / p.a_min)
-        return uclip(np.stack([ua, phi / p.steer_max], axis=1), -1.0, 1.0)
+        # normalised: a / a_max for a >= 0, else -a / a_min; phi / steer_max;
+        # both clipped to [-1, 1] (compiled: policies/_kernels.normalised_actions)
+        return normalised_actions(uclip(np.minimum(acc, cap), p.a_min, p.a_max), phi, float(p.a_max),
+                                  float(p.a_min), float(p.steer_max))
 
     def _steering(self, world, rs) -> np.ndarray:
         """Pure-pursuit steering along the kept lane, the lane-change curve or
@@ -57,28 +57,27 @@ class PlatoonControl:
                             float(p.wheelbase), float(p.steer_max))
 
     def _longitudinal(self, world, rs) -> np.ndarray:
+        """Every vehicle the IDM without a leader; followers (``MODE_FOLLOW``)
+        the feedback law on their reference in the comfort range; tree
+        vehicles (``MODE_TREE``) the feedback law on their reference in
+        ``X``, with full braking where the safety bound binds (``tight``),
+        capped by the virtual cap. The reference error is clipped to
+        ``ref_error_clip`` first. Compiled
+        (:func:`icv_envs.policies._kernels.platoon_accelerations`, the
+        arithmetic of the array code it replaced, frozen in
+        ``tests/test_expert_kernels.py``); the IDM's power from numpy."""
         p = self.p
         f = world.fleet
         v = f.speed
-        acc = idm_acceleration(v, p.v0, np.inf, 0.0, min(p.a_max, p.comfort[1]), p.idm_b, p.idm_T, p.idm_s0)
-        m = self._mode
-        fol = flatnonzero(m == MODE_FOLLOW)
-        if len(fol):
-            x = rs.u[fol]
-            xr = x + uclip(self._xref[fol] - x, -p.ref_error_clip, p.ref_error_clip)
-            acc[fol] = _longitudinal_feedback(x, xr, v[fol], self._vref[fol], float(p.kp), float(p.kv),
-                                              float(p.comfort[0]), float(p.comfort[1]), 0.0)
-        tr = flatnonzero(m == MODE_TREE)
-        if len(tr):
-            x = -rs.X[tr]
-            xr = x + uclip(-self._xref[tr] - x, -p.ref_error_clip, p.ref_error_clip)
-            lo = np.where(self._tight[tr], p.a_min, p.comfort[0])
-            a = _longitudinal_feedback(x, xr, v[tr], self._vref[tr], float(p.kp), float(p.kv), float(p.a_min),
-                                       float(p.a_max), 0.0)
-            a = uclip(a, lo, p.a_max)
-            vc = self._vcap[tr]
-            self.stats["virtual_cap_binding"] += int((vc < a - 0.5).sum())
-            acc[tr] = np.minimum(a, vc)
+        free_pow = (v / np.maximum(p.v0, 0.1)) ** 4.0
+        n = f.n
+        vcap = self._vcap if len(self._vcap) == n else np.zeros(n)
+        acc, binding = platoon_accelerations(
+            v, free_pow, float(min(p.a_max, p.comfort[1])), float(p.idm_b), float(p.idm_T), float(p.idm_s0),
+            self._mode, MODE_FOLLOW, MODE_TREE, rs.u, rs.X, self._xref, self._vref, self._tight, vcap,
+            float(p.ref_error_clip), float(p.kp), float(p.kv), float(p.comfort[0]), float(p.comfort[1]),
+            float(p.a_min), float(p.a_max))
+        self.stats["virtual_cap_binding"] += int(binding)
         return acc
 
     def _envelope(self, world, rs, acc_ref) -> np.ndarray:
