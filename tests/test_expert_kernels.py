@@ -365,3 +365,54 @@ def test_platoon_longitudinal_equals_the_replaced_array_code_on_runs(monkeypatch
     assert seen["follow"] > 0, seen
     if method != "fcfs":
         assert seen["tree"] > 0, seen
+
+
+def _old_virtual_cap(self, world, rs):
+    """VirtualPlatoon._virtual_cap at 4d79153."""
+    p = self.p
+    f = world.fleet
+    cap = np.full(f.n, np.inf)
+    T = self._tree
+    if T is None:
+        return cap
+    rows_all, kk = self._tree_rows
+    if not len(rows_all):
+        return cap
+    U = T["U"]
+    mask = U[:, kk].T
+    if not mask.any():
+        return cap
+    b = abs(p.a_min)
+    tau = p.cap_tau
+    vr = f.speed[T["rear_row"]]
+    G = rs.X[rows_all][:, None] - T["rear"][None, :] - p.D_safe
+    vs = -b * tau + np.sqrt((b * tau) ** 2 + vr[None, :] ** 2 + 2.0 * b * np.maximum(G, 0.0))
+    vs = np.where(mask, vs, np.inf).min(axis=1)
+    cap[rows_all] = (vs - f.speed[rows_all]) / tau
+    return cap
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 2600.0, 3), ("single-vp", 2200.0, 4)])
+def test_virtual_cap_equals_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
+    from icv_envs.envs import intersection_v0
+    from icv_envs.policies.virtual_platoon import VirtualPlatoon
+
+    real = VirtualPlatoon._virtual_cap
+    seen = {"capped": 0, "calls": 0}
+
+    def checked(self, world, rs):
+        got = real(self, world, rs)
+        want = _old_virtual_cap(self, world, rs)
+        assert _same(got, want)
+        seen["calls"] += 1
+        seen["capped"] += int(np.isfinite(got).sum())
+        return got
+
+    monkeypatch.setattr(VirtualPlatoon, "_virtual_cap", checked)
+    env = intersection_v0.parallel_env(method=method, throughput=throughput, duration=90.0)
+    obs, infos = env.reset(seed=seed)
+    for _ in range(450):
+        if not env.agents:
+            break
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    assert seen["calls"] > 100 and seen["capped"] > 0, seen

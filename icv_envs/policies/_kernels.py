@@ -37,7 +37,7 @@ from icv_envs.sim._kernels.physics import interval_ends_at, lanes_available, npy
 
 __all__ = ["box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_lane_speeds",
            "free_speed_ratio", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
-           "platoon_accelerations", "preview_points", "repair_order", "safety_cap"]
+           "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "virtual_caps"]
 
 
 @nb.njit(cache=True)
@@ -965,3 +965,31 @@ def platoon_accelerations(v, free_pow, a_free, b, T, s0, mode, mode_follow, mode
                 binding += 1
             acc[i] = a if a < vc else vc
     return acc, binding
+
+
+@nb.njit(cache=True)
+def virtual_caps(n, rows_all, kk, U, X, rear, rear_row, speed, D_safe, b, tau, bt2):
+    """The virtual lane's safe-speed caps
+    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._virtual_cap`):
+    for member ``rows_all[j]`` of node ``kk[j]``, Gipps' safe speed behind
+    the rear vehicle of every earlier node ``i`` it conflicts with
+    (``U[i, kk[j]]``), the smallest, as an acceleration cap ``(v_safe - v) /
+    tau``; ``inf`` for every other vehicle (and for members without such a
+    node); ``bt2 = (b tau)^2`` as the caller's Python computes it. The array
+    code's operations in its order (``sqrt`` is exactly rounded everywhere;
+    its ``maximum(G, 0)`` returns 0 on a tie)."""
+    cap = np.full(n, np.inf)
+    K = rear.shape[0]
+    for j in range(rows_all.shape[0]):
+        r = rows_all[j]
+        k = kk[j]
+        best = np.inf
+        for i in range(K):
+            if U[i, k]:
+                G = X[r] - rear[i] - D_safe
+                vr = speed[rear_row[i]]
+                vs = -b * tau + math.sqrt(bt2 + vr * vr + 2.0 * b * (G if G > 0.0 else 0.0))
+                if vs < best:
+                    best = vs
+        cap[r] = (best - speed[r]) / tau
+    return cap

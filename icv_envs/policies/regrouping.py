@@ -62,7 +62,9 @@ class Regrouping:
         rows = flatnonzero(need)
         # vehicles in division start only near their slot; one that is
         # yielding (below) may be any distance behind it
-        yielding = np.isin(f.vid[rows], np.fromiter(self._yield, dtype=np.int64, count=len(self._yield)))
+        # (a set lookup per row: np.isin costs ~20 us on these few rows)
+        yv = self._yield
+        yielding = np.fromiter((v in yv for v in f.vid[rows].tolist()), dtype=bool, count=len(rows))
         ready = np.ones(len(rows), dtype=bool)
         dv = f.stage[rows] == ST_LC
         if dv.any():

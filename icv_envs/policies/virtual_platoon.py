@@ -15,7 +15,7 @@ import numpy as np
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon._kernels import depths_of
 from icv_envs.platoon.tree import _reference_positions
-from icv_envs.policies._kernels import repair_order
+from icv_envs.policies._kernels import repair_order, virtual_caps
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
@@ -598,15 +598,10 @@ class VirtualPlatoon:
         rows_all, kk = self._tree_rows
         if not len(rows_all):
             return cap
-        U = T["U"]
-        mask = U[:, kk].T  # (members, K): earlier conflicting nodes
-        if not mask.any():
-            return cap
+        # (compiled: policies/_kernels.virtual_caps, the array code's
+        # arithmetic per member and earlier conflicting node; frozen in
+        # tests/test_expert_kernels.py)
         b = abs(p.a_min)
         tau = p.cap_tau
-        vr = f.speed[T["rear_row"]]
-        G = rs.X[rows_all][:, None] - T["rear"][None, :] - p.D_safe
-        vs = -b * tau + np.sqrt((b * tau) ** 2 + vr[None, :] ** 2 + 2.0 * b * np.maximum(G, 0.0))
-        vs = np.where(mask, vs, np.inf).min(axis=1)
-        cap[rows_all] = (vs - f.speed[rows_all]) / tau
-        return cap
+        return virtual_caps(f.n, rows_all, kk, T["U"], rs.X, T["rear"], T["rear_row"], f.speed, float(p.D_safe),
+                            float(b), float(tau), float((b * tau) ** 2))
