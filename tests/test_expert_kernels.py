@@ -416,3 +416,150 @@ def test_virtual_cap_equals_the_replaced_array_code_on_runs(monkeypatch, method,
             break
         obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
     assert seen["calls"] > 100 and seen["capped"] > 0, seen
+
+
+def _old_anticipate(self, world, rs, mode, xref, vref):
+    """VirtualPlatoon._anticipate at 4d79153 (stats in a dict of its own)."""
+    from icv_envs.policies.platoon_common import MODE_FREE, MODE_TREE
+
+    stats = {"advised": 0, "anticipating": 0}
+    anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
+    advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
+    T = self._tree
+    if T is None:
+        return anticipation, advised, stats
+    f = world.fleet
+    lay = world.layout
+    p = self.p
+    cand = np.flatnonzero((mode == MODE_FREE) & (rs.phase == 0) & (f.node < 0) & (rs.dist > lay.R1)
+                          & (rs.dist <= lay.R2) & ~f.cleared)
+    if not len(cand):
+        return anticipation, advised, stats
+    ids = self.node_order
+    depths, lens = T["depths"], T["lens"]
+    C = lay.conflict[f.mv[cand][:, None], T["mvs"][None, :]]
+    behind = ((lay.leg_of[T["mvs"]][None, :] == f.leg[cand][:, None])
+              & (rs.dist[T["rear_row"]][None, :] >= rs.dist[cand][:, None]))
+    first_behind = np.where(behind.any(axis=1), behind.argmax(axis=1), len(ids))
+    C &= np.arange(len(ids))[None, :] < first_behind[:, None]
+    dnew = 1 + np.where(C, depths[None, :], 0).max(axis=1, initial=0)
+    layer_max = np.zeros(int(max(dnew.max(), depths.max(initial=0))) + 1)
+    np.maximum.at(layer_max, depths, lens)
+    before = np.concatenate([[0.0], np.cumsum(layer_max)])
+    x0 = float(T["refs"][0])
+    ref = x0 + dnew * p.D_t + before[dnew]
+    lbc = np.where(C, T["rear"][None, :] + p.D_t, -np.inf)
+    lb = lbc.max(axis=1, initial=-np.inf)
+    pred = lbc.argmax(axis=1)
+    R = np.maximum(ref, lb)
+    room = f.speed[cand] ** 2 / (2.0 * abs(p.comfort[0]))
+    H = R - rs.X[cand]
+    hold = (H > 0) & (H <= room)
+    slow = (H > room) & (p.advisory_speed_floor < p.v0)
+    if not (hold.any() or slow.any()):
+        return anticipation, advised, stats
+    L = np.maximum(rs.dist[cand] - lay.R1, 0.0)
+    v_adv = np.maximum(p.v0 * L / (L + np.maximum(H, 1e-9)), p.advisory_speed_floor)
+    if slow.any():
+        ks = cand[slow]
+        mode[ks] = MODE_TREE
+        xref[ks] = rs.X[ks]
+        vref[ks] = v_adv[slow]
+        advised = (ks, v_adv[slow], H[slow])
+        stats["advised"] += len(ks)
+    if not hold.any():
+        return anticipation, advised, stats
+    k = cand[hold]
+    mode[k] = MODE_TREE
+    xref[k] = R[hold]
+    vref[k] = np.where(lb[hold] >= ref[hold], f.speed[T["rear_row"][pred[hold]]], p.v0)
+    bound = np.where(lb[hold] >= ref[hold], np.asarray(ids, dtype=np.int64)[pred[hold]], -1)
+    anticipation = (k, R[hold], bound)
+    stats["anticipating"] += len(k)
+    return anticipation, advised, stats
+
+
+@pytest.mark.parametrize("throughput,seed", [(2600.0, 3), (3000.0, 1)])
+def test_anticipation_equals_the_replaced_array_code_on_runs(monkeypatch, throughput, seed):
+    from icv_envs.envs import intersection_v0
+    from icv_envs.policies.virtual_platoon import VirtualPlatoon
+
+    real = VirtualPlatoon._anticipate
+    seen = {"anticipating": 0, "advised": 0}
+
+    def checked(self, world, rs, mode, xref, vref):
+        m2, x2, v2 = mode.copy(), xref.copy(), vref.copy()
+        s0 = {k: self.stats[k] for k in ("advised", "anticipating")}
+        want = _old_anticipate(self, world, rs, m2, x2, v2)
+        real(self, world, rs, mode, xref, vref)
+        assert _same(mode, m2) and _same(xref, x2) and _same(vref, v2)
+        for got, exp in zip(self._anticipation + self._advised, want[0] + want[1]):
+            assert _same(got, exp)
+        for k in ("advised", "anticipating"):
+            assert self.stats[k] - s0[k] == want[2][k]
+            seen[k] += want[2][k]
+
+    monkeypatch.setattr(VirtualPlatoon, "_anticipate", checked)
+    env = intersection_v0.parallel_env(method="multi-vp", throughput=throughput, duration=120.0)
+    obs, infos = env.reset(seed=seed)
+    for _ in range(600):
+        if not env.agents:
+            break
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    assert seen["anticipating"] > 0 and seen["advised"] > 0, seen
+
+
+def _old_anticipation_core(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs, rear_row, rear, depths, lens, x0,
+                           D_t, comfort0):
+    """The part of the frozen _anticipate that anticipated_references replaced."""
+    K = len(mvs)
+    C = conflict[mv[cand][:, None], mvs[None, :]]
+    behind = (leg_of[mvs][None, :] == leg[cand][:, None]) & (dist[rear_row][None, :] >= dist[cand][:, None])
+    first_behind = np.where(behind.any(axis=1), behind.argmax(axis=1), K)
+    C &= np.arange(K)[None, :] < first_behind[:, None]
+    dnew = 1 + np.where(C, depths[None, :], 0).max(axis=1, initial=0)
+    layer_max = np.zeros(int(max(dnew.max(), depths.max(initial=0))) + 1)
+    np.maximum.at(layer_max, depths, lens)
+    before = np.concatenate([[0.0], np.cumsum(layer_max)])
+    ref = x0 + dnew * D_t + before[dnew]
+    lbc = np.where(C, rear[None, :] + D_t, -np.inf)
+    lb = lbc.max(axis=1, initial=-np.inf)
+    pred = lbc.argmax(axis=1)
+    R = np.maximum(ref, lb)
+    room = speed[cand] ** 2 / (2.0 * abs(comfort0))
+    H = R - X[cand]
+    return ref, lb, pred, R, room, H
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_anticipated_references_equal_the_replaced_array_code(data):
+    from icv_envs.policies._kernels import anticipated_references
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n_mv, n = 12, data.draw(st.integers(1, 30))
+    K = data.draw(st.integers(1, 10))
+    conflict = rng.random((n_mv, n_mv)) < 0.5
+    conflict = conflict | conflict.T
+    leg_of = np.arange(n_mv, dtype=np.int64) // 3
+    mv = rng.integers(0, n_mv, n).astype(np.int64)
+    leg = leg_of[mv]
+    # distances and rears with ties (the own-leg test's >=, the bound's argmax)
+    dist = rng.choice([50.0, 120.0, 120.0, 300.0], n) + (rng.random(n) if data.draw(st.booleans()) else 0.0)
+    X = rng.uniform(-300, 0, n)
+    speed = rng.uniform(0, 15, n)
+    mvs = rng.integers(0, n_mv, K).astype(np.int64)
+    rear_row = rng.integers(0, n, K).astype(np.int64)
+    rear = rng.choice([-40.0, -40.0, -10.5, 3.0], K) + (rng.uniform(-1, 1, K) if data.draw(st.booleans()) else 0.0)
+    depths = rng.integers(1, 4, K).astype(np.int64)  # several nodes per layer
+    lens = rng.choice([0.0, 5.0, 17.3], K) + rng.uniform(0, 30, K)
+    cand = np.flatnonzero(rng.random(n) < 0.6).astype(np.int64)
+    if not len(cand):
+        cand = np.array([0], dtype=np.int64)
+    x0, D_t, comfort0 = float(rng.uniform(-50, 0)), float(rng.choice([21.0, 19.7])), -3.3
+    want = _old_anticipation_core(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs, rear_row, rear, depths, lens,
+                                  x0, D_t, comfort0)
+    got = anticipated_references(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs, rear_row, rear, depths, lens,
+                                 x0, D_t, float(2.0 * abs(comfort0)))
+    for g, w in zip(got, want):
+        assert _same(g, w)

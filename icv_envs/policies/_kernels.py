@@ -35,7 +35,7 @@ from icv_envs.sim._kernels.neighbours import leader_entries, leader_rows
 from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lanes_available, npy_mod
 
-__all__ = ["box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_lane_speeds",
+__all__ = ["anticipated_references", "box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_lane_speeds",
            "free_speed_ratio", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
            "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "virtual_caps"]
 
@@ -993,3 +993,76 @@ def virtual_caps(n, rows_all, kk, U, X, rear, rear_row, speed, D_safe, b, tau, b
                     best = vs
         cap[r] = (best - speed[r]) / tau
     return cap
+
+
+@nb.njit(cache=True)
+def anticipated_references(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs, rear_row, rear, depths, lens, x0,
+                           D_t, den):
+    """The references the adjusting zone's free vehicles ``cand`` would get
+    if their nodes were made now
+    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._anticipate`):
+    per candidate, the current nodes it conflicts with, up to the first
+    node of its own leg with a vehicle behind it; its depth ``1 +`` their
+    largest depth (0 without one); the layer reference ``x0 + depth D_t +``
+    the longest node of every layer before it; the bound ``D_t`` behind the
+    rear of those nodes (``-inf`` without one) and the first node attaining
+    it; their maximum ``R``; the braking room ``v^2 / den``; the hold ``R -
+    X``. Returns ``(ref, lb, pred, R, room, H)``. The array code's
+    operations in its order (the layers' longest node and their running sum
+    as ``maximum.at`` and ``cumsum`` take them; ``argmax``'s first index)."""
+    nc = cand.shape[0]
+    K = mvs.shape[0]
+    C = np.zeros((nc, K), dtype=np.bool_)
+    dnew = np.empty(nc, dtype=np.int64)
+    top = 0
+    for k in range(K):
+        if depths[k] > top:
+            top = depths[k]
+    for j in range(nc):
+        c = cand[j]
+        first_behind = K
+        for k in range(K):
+            if leg_of[mvs[k]] == leg[c] and dist[rear_row[k]] >= dist[c]:
+                first_behind = k
+                break
+        m = 0
+        for k in range(K):
+            ck = conflict[mv[c], mvs[k]] and k < first_behind
+            C[j, k] = ck
+            if ck and depths[k] > m:
+                m = depths[k]
+        dnew[j] = 1 + m
+        if dnew[j] > top:
+            top = dnew[j]
+    layer_max = np.zeros(top + 1)
+    for k in range(K):
+        d = depths[k]
+        layer_max[d] = layer_max[d] if layer_max[d] > lens[k] else lens[k]
+    before = np.empty(top + 2)
+    before[0] = 0.0
+    s = 0.0
+    for i in range(top + 1):
+        s += layer_max[i]
+        before[i + 1] = s
+    ref = np.empty(nc)
+    lb = np.empty(nc)
+    pred = np.zeros(nc, dtype=np.int64)
+    R = np.empty(nc)
+    room = np.empty(nc)
+    H = np.empty(nc)
+    for j in range(nc):
+        c = cand[j]
+        ref[j] = x0 + dnew[j] * D_t + before[dnew[j]]
+        best = -np.inf
+        arg = 0
+        for k in range(K):
+            v = rear[k] + D_t if C[j, k] else -np.inf
+            if v > best:
+                best = v
+                arg = k
+        lb[j] = best
+        pred[j] = arg
+        R[j] = ref[j] if ref[j] > lb[j] else lb[j]
+        room[j] = speed[c] * speed[c] / den
+        H[j] = R[j] - X[c]
+    return ref, lb, pred, R, room, H

@@ -15,7 +15,7 @@ import numpy as np
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon._kernels import depths_of
 from icv_envs.platoon.tree import _reference_positions
-from icv_envs.policies._kernels import repair_order, virtual_caps
+from icv_envs.policies._kernels import anticipated_references, repair_order, virtual_caps
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
@@ -515,36 +515,24 @@ class VirtualPlatoon:
         if not len(cand):
             return
         ids = self.node_order
-        depths, lens = T["depths"], T["lens"]
-        C = lay.conflict[f.mv[cand][:, None], T["mvs"][None, :]]  # (cand, K)
         # its node would be ordered before the first node of its own leg that
         # has a vehicle behind it (_repair_order): only the nodes before that
         # one may bound it.  Bounded by that node, or by a later node that
         # waits for it, it would hold the vehicle behind it, which that node
         # waits for: a circular wait (multi-vp, 3000 veh/h, seed 1: 331
         # jammed with the own-leg node; 2500 veh/h, seed 13: 51 jammed with a
-        # node of another leg bounded by it)
-        behind = ((lay.leg_of[T["mvs"]][None, :] == f.leg[cand][:, None])
-                  & (rs.dist[T["rear_row"]][None, :] >= rs.dist[cand][:, None]))
-        first_behind = np.where(behind.any(axis=1), behind.argmax(axis=1), len(ids))
-        C &= np.arange(len(ids))[None, :] < first_behind[:, None]
-        dnew = 1 + np.where(C, depths[None, :], 0).max(axis=1, initial=0)
-        layer_max = np.zeros(int(max(dnew.max(), depths.max(initial=0))) + 1)
-        np.maximum.at(layer_max, depths, lens)  # layer 0 (the leader) has length 0
-        before = np.concatenate([[0.0], np.cumsum(layer_max)])
-        x0 = float(T["refs"][0])
-        ref = x0 + dnew * p.D_t + before[dnew]
-        lbc = np.where(C, T["rear"][None, :] + p.D_t, -np.inf)
-        lb = lbc.max(axis=1, initial=-np.inf)
-        pred = lbc.argmax(axis=1)
-        R = np.maximum(ref, lb)
+        # node of another leg bounded by it).  Its depth, layer reference, the
+        # bound behind the conflicting nodes' rears and the hold, compiled
+        # (policies/_kernels.anticipated_references; the array code it
+        # replaced is frozen in tests/test_expert_kernels.py)
+        ref, lb, pred, R, room, H = anticipated_references(
+            cand, f.mv, f.leg, rs.dist, rs.X, f.speed, lay.conflict, lay.leg_of, T["mvs"], T["rear_row"], T["rear"],
+            T["depths"], T["lens"], float(T["refs"][0]), float(p.D_t), float(2.0 * abs(p.comfort[0])))
         # only a hold that braking at the comfortable deceleration absorbs
         # before standing still: a larger one would hold the vehicle outside
         # R1 while nodes of other legs enter first and deepen its reference
         # (starvation: multi-vp, 3000 veh/h, seed 12, 19 jammed for 904 s);
         # it waits at R1 as the paper's zones are printed
-        room = f.speed[cand] ** 2 / (2.0 * abs(p.comfort[0]))
-        H = R - rs.X[cand]
         hold = (H > 0) & (H <= room)
         # a larger hold: a speed advisory instead of standing at R1.  The
         # reference moves towards the box at about v0, so driving the rest of
