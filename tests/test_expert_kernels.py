@@ -563,3 +563,39 @@ def test_anticipated_references_equal_the_replaced_array_code(data):
                                  x0, D_t, float(2.0 * abs(comfort0)))
     for g, w in zip(got, want):
         assert _same(g, w)
+
+
+def _old_tree_layers(mvs, conflict, xf, lens, rear, D_t):
+    """The end of VirtualPlatoon.tree at 4d79153."""
+    from icv_envs.platoon._kernels import depths_of
+    from icv_envs.platoon.tree import _reference_positions
+
+    K = len(mvs)
+    C = conflict[np.ix_(mvs, mvs)]
+    depths = depths_of(C)
+    refs = _reference_positions(np.maximum.accumulate(xf), lens, depths, float(D_t))
+    U = np.triu(C, 1)
+    cand = np.where(U, rear[:, None] + D_t, -np.inf)
+    lb = cand.max(axis=0) if K else np.zeros(0)
+    pred = cand.argmax(axis=0) if K else np.zeros(0, dtype=np.int64)
+    return depths, refs, U, lb, pred
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_tree_layers_equal_the_replaced_array_code(data):
+    from icv_envs.policies._kernels import tree_layers
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n_mv, K = 12, data.draw(st.integers(1, 12))
+    conflict = rng.random((n_mv, n_mv)) < data.draw(st.sampled_from([0.2, 0.5, 0.9]))
+    conflict = conflict | conflict.T
+    mvs = rng.integers(0, n_mv, K).astype(np.int64)
+    xf = np.sort(rng.uniform(-300, 0, K)) if data.draw(st.booleans()) else rng.uniform(-300, 0, K)
+    lens = rng.choice([0.0, 5.0, 17.3], K) + (rng.uniform(0, 30, K) if data.draw(st.booleans()) else 0.0)
+    rear = rng.choice([-40.0, -40.0, -10.5], K) + (rng.uniform(-1, 1, K) if data.draw(st.booleans()) else 0.0)
+    D_t = float(rng.choice([21.0, 19.7]))
+    want = _old_tree_layers(mvs, conflict, xf, lens, rear, D_t)
+    got = tree_layers(mvs, conflict, xf, lens, rear, D_t)
+    for g, w in zip(got, want):
+        assert _same(g, w)

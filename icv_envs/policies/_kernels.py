@@ -31,13 +31,14 @@ import math
 import numba as nb
 import numpy as np
 
+from icv_envs.platoon._kernels import depths_of
 from icv_envs.sim._kernels.neighbours import leader_entries, leader_rows
 from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lanes_available, npy_mod
 
 __all__ = ["anticipated_references", "box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_lane_speeds",
            "free_speed_ratio", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
-           "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "virtual_caps"]
+           "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "tree_layers", "virtual_caps"]
 
 
 @nb.njit(cache=True)
@@ -1066,3 +1067,62 @@ def anticipated_references(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs,
         room[j] = speed[c] * speed[c] / den
         H[j] = R[j] - X[c]
     return ref, lb, pred, R, room, H
+
+
+@nb.njit(cache=True)
+def tree_layers(mvs, conflict, xf, lens, rear, D_t):
+    """The virtual platoon's tree and references for nodes in order
+    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon.tree`): the
+    conflict block of the nodes' movements, the tree-layers
+    (:func:`icv_envs.platoon._kernels.depths_of`), the layer references of
+    :func:`icv_envs.platoon.tree._reference_positions` (the first vehicles'
+    ``X`` made nondecreasing first), the upper triangle ``U`` (earlier
+    conflicting nodes), and per node the bound ``D_t`` behind the rear of
+    its earlier conflicting nodes (``-inf`` without one) with the first node
+    attaining it. Returns ``(depths, refs, U, lb, pred)``; the array code's
+    operations in its order (``maximum.accumulate``, ``maximum.at`` and
+    ``cumsum`` as numpy takes them; ``argmax``'s first index)."""
+    K = mvs.shape[0]
+    C = np.empty((K, K), dtype=np.bool_)
+    for i in range(K):
+        for j in range(K):
+            C[i, j] = conflict[mvs[i], mvs[j]]
+    depths = depths_of(C)
+    # _reference_positions(maximum.accumulate(xf), lens, depths, D_t)
+    top = 0
+    for k in range(K + 1):
+        if depths[k] > top:
+            top = depths[k]
+    layer_max = np.zeros(top + 1)
+    for k in range(K):
+        d = depths[k + 1]
+        layer_max[d] = layer_max[d] if layer_max[d] > lens[k] else lens[k]
+    before = np.empty(top + 2)
+    before[0] = 0.0
+    s = 0.0
+    for i in range(top + 1):
+        s += layer_max[i]
+        before[i + 1] = s
+    refs = np.empty(K + 1)
+    x0 = xf[0] - D_t
+    for k in range(K + 1):
+        refs[k] = x0 + depths[k] * D_t + before[depths[k]]
+    refs[0] = x0
+    U = np.zeros((K, K), dtype=np.bool_)
+    lb = np.empty(K)
+    pred = np.zeros(K, dtype=np.int64)
+    for j in range(K):
+        best = -np.inf
+        arg = 0
+        for i in range(K):
+            if i < j and C[i, j]:
+                U[i, j] = True
+                v = rear[i] + D_t
+            else:
+                v = -np.inf
+            if v > best:
+                best = v
+                arg = i
+        lb[j] = best
+        pred[j] = arg
+    return depths, refs, U, lb, pred

@@ -13,9 +13,7 @@ import itertools
 import numpy as np
 
 from icv_envs.formation.targets import formation_length, interlaced_targets
-from icv_envs.platoon._kernels import depths_of
-from icv_envs.platoon.tree import _reference_positions
-from icv_envs.policies._kernels import anticipated_references, repair_order, virtual_caps
+from icv_envs.policies._kernels import anticipated_references, repair_order, tree_layers, virtual_caps
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
@@ -269,7 +267,6 @@ class VirtualPlatoon:
         ids = list(self.nodes)
         if not ids:
             return [], np.zeros(1, dtype=np.int64), None
-        K = len(ids)
         # every node's members in one array (each node's in member order): per
         # node the first vehicle (least distance to the centre) and the rear one
         # (largest X); ties go to the earlier member, as argmin / argmax do
@@ -296,15 +293,14 @@ class VirtualPlatoon:
         o = self._repair_order(world, rs, o, ids, rows, seg)
         xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
         ids = [ids[i] for i in o]
-        C = world.layout.conflict[np.ix_(mvs, mvs)]
-        # the paper's tree and references, unchecked: C is a symmetric bool block of the layout's
-        # conflict matrix, the first vehicles' X made nondecreasing, lengths >= 0
-        depths = depths_of(C)
-        refs = _reference_positions(np.maximum.accumulate(xf), lens, depths, float(p.D_t))
-        U = np.triu(C, 1)
-        cand = np.where(U, rear[:, None] + p.D_t, -np.inf)
-        lb = cand.max(axis=0) if K else np.zeros(0)
-        pred = cand.argmax(axis=0) if K else np.zeros(0, dtype=np.int64)
+        # the paper's tree and references (Sec. 4.2: the conflict graph of the
+        # nodes' movements, the tree-layers, the layer references from the
+        # first vehicles' X made nondecreasing) and the bound D_t behind the
+        # rear of each node's earlier conflicting nodes, in one compiled pass
+        # (policies/_kernels.tree_layers; the array code it replaced,
+        # depths_of and _reference_positions on the conflict block, is frozen
+        # in tests/test_expert_kernels.py)
+        depths, refs, U, lb, pred = tree_layers(mvs, world.layout.conflict, xf, lens, rear, float(p.D_t))
         return ids, depths, {"xf": xf, "rear": rear, "first": first, "rear_row": rear_row, "refs": refs,
                              "lb": lb, "pred": pred, "mvs": mvs, "U": U, "depths": depths[1:], "lens": lens}
 
