@@ -599,3 +599,38 @@ def test_tree_layers_equal_the_replaced_array_code(data):
     got = tree_layers(mvs, conflict, xf, lens, rear, D_t)
     for g, w in zip(got, want):
         assert _same(g, w)
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 3000.0, 2), ("fcfs", 2600.0, 5)])
+def test_prune_shortcut_changes_nothing(monkeypatch, method, throughput, seed):
+    """PlatoonExpert._prune skips its rebuild when nothing left; every step
+    its groups equal those of the full rebuild (the code before), applied to
+    a copy."""
+    import copy
+
+    from icv_envs.envs import intersection_v0
+    from icv_envs.policies.platoon_expert import PlatoonExpert
+
+    real = PlatoonExpert._prune
+    seen = {"skipped": 0, "removed": 0}
+
+    def checked(self, f):
+        ref = copy.deepcopy((self.formations, self.subs, self.nodes, self.vp_order))
+        alive = set(f.vid.tolist())
+        PlatoonExpert._keep_members(alive.__contains__, ref[:3])
+        want_order = [k for k in ref[3] if k in ref[2]]
+        before = sum(len(g["members"]) for st in (self.formations, self.subs, self.nodes) for g in st.values())
+        real(self, f)
+        assert (self.formations, self.subs, self.nodes) == ref[:3] and self.vp_order == want_order
+        after = sum(len(g["members"]) for st in (self.formations, self.subs, self.nodes) for g in st.values())
+        seen["removed"] += before - after
+        seen["skipped"] += before == after
+
+    monkeypatch.setattr(PlatoonExpert, "_prune", checked)
+    env = intersection_v0.parallel_env(method=method, throughput=throughput, duration=120.0)
+    obs, infos = env.reset(seed=seed)
+    for _ in range(600):
+        if not env.agents:
+            break
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    assert seen["removed"] > 0 and seen["skipped"] > 0, seen

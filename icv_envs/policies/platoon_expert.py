@@ -382,6 +382,19 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
                     del store[k]
 
     def _prune(self, f) -> None:
+        """Members that left the road leave their groups; empty groups go;
+        the virtual platoon's order keeps only live nodes. Skipped when it
+        would change nothing: no vehicle left the fleet since the last call
+        (its count grew by exactly the ids handed out since), no group is
+        empty and every ordered node exists (most steps; it rebuilt every
+        member list each step)."""
+        key = (id(f), f.n, f.next_vid)
+        last = getattr(self, "_pruned", None)
+        self._pruned = key
+        if (last is not None and last[0] == key[0] and f.n - last[1] == f.next_vid - last[2]
+                and all(g["members"] for store in (self.formations, self.subs, self.nodes) for g in store.values())
+                and all(k in self.nodes for k in self.vp_order)):
+            return
         alive = set(f.vid.tolist())
         self._keep_members(alive.__contains__, (self.formations, self.subs, self.nodes))
         self.vp_order = [k for k in self.vp_order if k in self.nodes]
