@@ -634,3 +634,254 @@ def test_prune_shortcut_changes_nothing(monkeypatch, method, throughput, seed):
             break
         obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
     assert seen["removed"] > 0 and seen["skipped"] > 0, seen
+
+
+# ----------------------------------------------------------------------------
+# VirtualPlatoon._references (follow and tree references, the stop flags)
+def _old_references(self, world, rs) -> None:
+    """VirtualPlatoon._references at 4d79153."""
+    from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE
+    p = self.p
+    f = world.fleet
+    lay = world.layout
+    n = f.n
+    mode = np.full(n, MODE_FREE, dtype=np.int64)
+    xref = np.zeros(n)  # MODE_FOLLOW: u reference; MODE_TREE: X reference
+    vref = np.full(n, p.v0)
+    tight = np.zeros(n, dtype=bool)  # the safety bound binds: full braking allowed
+    hold = np.zeros(n, dtype=bool)  # the bound is violated: stop before the box
+    # formation following (approach / adjusting zones, and followers of nodes before R1)
+    fol = (f.ref >= 0) & (f.node < 0)
+    if fol.any():
+        k = np.flatnonzero(fol)
+        rr = f.rows(f.ref[k])
+        # safety net: two vehicles referring to each other (must not happen)
+        cyc = (rr >= 0) & (f.ref[np.maximum(rr, 0)] == f.vid[k]) & (rs.dist[k] < rs.dist[np.maximum(rr, 0)])
+        if cyc.any():
+            self.stats["ref_cycles_broken"] += int(cyc.sum())
+            f.ref[k[cyc]] = -1
+            rr[cyc] = -1
+        ok = rr >= 0
+        k, rr = k[ok], rr[ok]
+        # a follower ahead of the vehicle it follows, in that vehicle's own
+        # lane, is that vehicle's leader on the road: holding its slot
+        # (ahead of the reference, in another lane) makes each wait for the
+        # other once the lane change to the slot is blocked, a circular
+        # wait (multi-vp, 3500 veh/h, seed 0: a member stood 1 m ahead of
+        # its sub-formation's first vehicle in lane 2, waiting for a gap
+        # in lane 1, for 150 s). Such a follower drives free until the
+        # lane change separates the two.  The same holds in the lane that
+        # vehicle waits to change into: it is listed there too (its turn
+        # signal), brakes behind the follower alongside or ahead of it,
+        # and the follower stood waiting to drop back to its slot behind
+        # it (multi-vp, 3000 veh/h, seed 23: from 450 s to the end of the
+        # run, 39 vehicles jammed behind the two)
+        sig = self._signals(f)
+        in_its_lanes = (f.klane[k] == f.klane[rr]) | (f.klane[k] == sig[rr])
+        ahead = in_its_lanes & (rs.dist[k] < rs.dist[rr]) & (rs.phase[k] == 0)
+        if ahead.any():
+            self.stats["ahead_of_reference"] += int(ahead.sum())
+            k, rr = k[~ahead], rr[~ahead]
+        mode[k] = MODE_FOLLOW
+        xref[k] = rs.u[rr] - f.xg[k]
+        vref[k] = f.speed[rr]
+    self.node_depth = {}
+    self.node_order = []
+    self._tree = None
+    self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    if self.nodes:
+        ids, depths, T = self.tree(world, rs)
+        self.node_order = ids
+        for k, nid in enumerate(ids):
+            self.node_depth[nid] = int(depths[k + 1])
+        _, rows_all, kk, _ = self._member_rows(f, ids)
+        live = ~f.cleared[rows_all]
+        rows_all, kk = rows_all[live], kk[live]
+        self._tree, self._tree_rows = T, (rows_all, kk)
+        first = T["first"][kk]
+        is_first = rows_all == first
+        # a node's first vehicle never chases a reference ahead of it: it
+        # then drives at v0 (the virtual platoon only holds vehicles back)
+        # followers: their slot relative to the first vehicle's slot, which is
+        # not slot 0 once the members ahead of it have left the road (with
+        # the absolute slot, multi-vp, 3000 veh/h, seed 2: a member with
+        # x_g = 72 m following the node's new first vehicle 9-11 m behind
+        # got a reference 30-50 m behind it, braked to a stop in the box
+        # and held the whole virtual platoon: 9 jammed at R1)
+        paper = np.where(is_first, np.maximum(T["refs"][kk + 1], rs.X[rows_all]),
+                         rs.X[first] + f.xg[rows_all] - f.xg[first])
+        vpaper = np.where(is_first, p.v0, f.speed[first])
+        lb = T["lb"][kk]
+        bind = lb > paper
+        pred_rear = T["rear_row"][T["pred"][kk]]
+        mode[rows_all] = MODE_TREE
+        # the hard spacing to an earlier conflicting node is already lost
+        # (a node that entered late, close to the box): the virtual lane
+        # cannot restore it, so the vehicle stops before the box until
+        # that node's rear has moved D_safe ahead of it
+        hold[rows_all] = rs.X[rows_all] < lb - (p.D_t - p.D_safe) - 1e-9
+        xref[rows_all] = np.where(bind, lb, paper)
+        vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
+        tight[rows_all] = bind
+    self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0))
+    advised = self._advise_in_zone(world, rs, xref, vref, tight) if p.zone_advisory else self._zone_advised[0]
+    if p.anticipate:
+        self._anticipate(world, rs, mode, xref, vref)
+    self._mode, self._xref, self._vref, self._tight = mode, xref, vref, tight
+    self._apply_yields(world, rs)
+    self._vcap = self._virtual_cap(world, rs)
+    # may a vehicle enter the box? only from an allowed lane, lane change finished
+    allowed = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
+    self._stop = (rs.phase == 0) & (~allowed | (f.lc_lane >= 0) | (f.klane != f.tlane))
+    # in the coordinating zone only coordinated vehicles (a node / a reservation) may enter
+    self._stop |= (rs.phase == 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
+    self._stop |= (rs.phase == 0) & hold
+    self._stop[advised] = True  # the hold lasts: it waits at the stop line at most
+    self.stats["held_at_line"] += int(((rs.phase == 0) & hold).sum())
+    self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 3000.0, 2), ("single-vp", 2600.0, 4),
+                                                    ("fcfs", 2600.0, 5)])
+def test_references_equal_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
+    import copy
+
+    from icv_envs.envs import intersection_v0
+    from icv_envs.policies.virtual_platoon import VirtualPlatoon
+
+    real = VirtualPlatoon._references
+    seen = {"follow": 0, "tree": 0, "stop": 0, "hold": 0}
+
+    def checked(self, world, rs):
+        me2, w2, rs2 = copy.deepcopy((self, world, rs))
+        _old_references(me2, w2, rs2)
+        real(self, world, rs)
+        for name in ("_mode", "_xref", "_vref", "_tight", "_stop", "_vcap"):
+            assert _same(getattr(self, name), getattr(me2, name)), name
+        assert self.stats == me2.stats
+        assert _same(world.fleet.ref, w2.fleet.ref)
+        for a, b in zip(self._tree_rows, me2._tree_rows):
+            assert _same(a, b)
+        seen["follow"] += int((self._mode == 1).sum())
+        seen["tree"] += int((self._mode == 2).sum())
+        seen["stop"] += int(self._stop.sum())
+
+    monkeypatch.setattr(VirtualPlatoon, "_references", checked)
+    env = intersection_v0.parallel_env(method=method, throughput=throughput, duration=60.0)
+    obs, infos = env.reset(seed=seed)
+    for _ in range(300):
+        if not env.agents:
+            break
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    assert seen["follow"] > 0 and seen["stop"] > 0, seen
+    if method != "fcfs":
+        assert seen["tree"] > 0, seen
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_reference_kernels_equal_the_replaced_array_code(data):
+    """follow_references, tree_references and stop_flags against the
+    fragments of the frozen _references they replaced, on random fleets
+    pushed onto their boundaries (reference cycles, gone references, a
+    follower in its reference's signal lane, equal distances, X exactly at
+    the hold bound, dist exactly R1, u exactly at the line)."""
+    from icv_envs.policies._kernels import follow_references, stop_flags, tree_references
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n = data.draw(st.integers(2, 25))
+    vid = np.sort(rng.choice(200, n, replace=False)).astype(np.int64)
+    dist = rng.choice([100.0, 150.0, 150.0], n) + (rng.uniform(0, 50, n) if data.draw(st.booleans()) else 0.0)
+    klane = rng.integers(-1, 4, n).astype(np.int64)
+    sig = rng.integers(-1, 3, n).astype(np.int64)
+    phase = rng.integers(0, 3, n).astype(np.int64)
+    u = rng.uniform(-300, 10, n)
+    xg = rng.choice([0.0, 7.5, 15.0], n) + (rng.uniform(0, 1, n) if data.draw(st.booleans()) else 0.0)
+    speed = rng.uniform(0, 15, n)
+    # 1. follow: followers k, their reference vehicles' rows rr (some gone, some mutual)
+    k = np.flatnonzero(rng.random(n) < 0.6).astype(np.int64)
+    rr = rng.integers(-1, n, len(k)).astype(np.int64)
+    ref = np.full(n, -1, dtype=np.int64)
+    ref[k] = np.where(rr >= 0, vid[np.maximum(rr, 0)], 999)
+    if len(k) >= 2 and data.draw(st.booleans()):  # a mutual pair
+        a, b = k[0], k[1]
+        rr[0], rr[1] = b, a
+        ref[a], ref[b] = vid[b], vid[a]
+    if data.draw(st.booleans()):
+        sig[np.maximum(rr, 0)] = klane[k]
+    mode_a, xref_a, vref_a = np.zeros(n, dtype=np.int64), np.zeros(n), np.full(n, 15.0)
+    mode_b, xref_b, vref_b = mode_a.copy(), xref_a.copy(), vref_a.copy()
+    ref_a, ref_b = ref.copy(), ref.copy()
+    # (the frozen fragment)
+    ka, rra = k.copy(), rr.copy()
+    cyc = (rra >= 0) & (ref_a[np.maximum(rra, 0)] == vid[ka]) & (dist[ka] < dist[np.maximum(rra, 0)])
+    n_cyc = int(cyc.sum())
+    ref_a[ka[cyc]] = -1
+    rra[cyc] = -1
+    ok = rra >= 0
+    ka, rra = ka[ok], rra[ok]
+    in_its_lanes = (klane[ka] == klane[rra]) | (klane[ka] == sig[rra])
+    ahead = in_its_lanes & (dist[ka] < dist[rra]) & (phase[ka] == 0)
+    n_ahead = int(ahead.sum())
+    ka, rra = ka[~ahead], rra[~ahead]
+    mode_a[ka] = 1
+    xref_a[ka] = u[rra] - xg[ka]
+    vref_a[ka] = speed[rra]
+    got = follow_references(k, rr, ref_b, vid, dist, klane, sig, phase, u, xg, speed, 1, mode_b, xref_b, vref_b)
+    assert got == (n_cyc, n_ahead)
+    for x, y in ((mode_a, mode_b), (xref_a, xref_b), (vref_a, vref_b), (ref_a, ref_b)):
+        assert _same(x, y)
+    # 2. tree: live members of K nodes
+    K = data.draw(st.integers(1, 5))
+    kk = rng.integers(0, K, n).astype(np.int64)
+    rows_all = np.flatnonzero(rng.random(n) < 0.7).astype(np.int64)
+    kk = kk[rows_all]
+    first_of = np.array([rows_all[kk == c][0] if (kk == c).any() else 0 for c in range(K)], dtype=np.int64)
+    X = rng.uniform(-200, 0, n)
+    refs = np.concatenate([[0.0], rng.uniform(-250, 0, K)])
+    lb_of = np.where(rng.random(K) < 0.3, -np.inf, rng.uniform(-250, 0, K))
+    D_t, D_safe = 21.0, 10.0
+    if len(rows_all) and data.draw(st.booleans()):  # X exactly on the hold bound, paper exactly at the bound
+        X[rows_all[0]] = lb_of[kk[0]] - (D_t - D_safe) - 1e-9
+        refs[kk[0] + 1] = lb_of[kk[0]]
+    pred_of = rng.integers(0, K, K).astype(np.int64)
+    rear_row = rng.integers(0, n, K).astype(np.int64)
+    arrs_a = (np.zeros(n, dtype=np.int64), np.zeros(n), np.full(n, 15.0), np.zeros(n, dtype=bool), np.zeros(n, bool))
+    arrs_b = tuple(a.copy() for a in arrs_a)
+    mode_a, xref_a, vref_a, tight_a, hold_a = arrs_a
+    first = first_of[kk]
+    is_first = rows_all == first
+    paper = np.where(is_first, np.maximum(refs[kk + 1], X[rows_all]), X[first] + xg[rows_all] - xg[first])
+    vpaper = np.where(is_first, 15.0, speed[first])
+    lb = lb_of[kk]
+    bind = lb > paper
+    pred_rear = rear_row[pred_of[kk]]
+    mode_a[rows_all] = 2
+    hold_a[rows_all] = X[rows_all] < lb - (D_t - D_safe) - 1e-9
+    xref_a[rows_all] = np.where(bind, lb, paper)
+    vref_a[rows_all] = np.where(bind, speed[pred_rear], vpaper)
+    tight_a[rows_all] = bind
+    tree_references(rows_all, kk, first_of, refs, lb_of, pred_of, rear_row, X, xg, speed, 15.0, D_t - D_safe, 2,
+                    *arrs_b)
+    for x, y in zip(arrs_a, arrs_b):
+        assert _same(x, y)
+    # 3. the stop flags
+    allowed = rng.random((12, 3)) < 0.6
+    mv = rng.integers(0, 12, n).astype(np.int64)
+    lc_lane = rng.integers(-1, 3, n).astype(np.int64)
+    tlane = np.where(rng.random(n) < 0.7, klane, rng.integers(0, 3, n)).astype(np.int64)
+    R1 = 150.0
+    coordinated = rng.random(n) < 0.5
+    hold = rng.random(n) < 0.3
+    advised = np.flatnonzero(rng.random(n) < 0.2).astype(np.int64)
+    length = rng.choice([4.5, 5.0], n)
+    u = np.where(rng.random(n) < 0.3, -0.5 * length, u)
+    want = (phase == 0) & (~allowed[mv, np.clip(klane, 0, 2)] | (lc_lane >= 0) | (klane != tlane))
+    want |= (phase == 0) & (dist <= R1) & ~coordinated
+    want |= (phase == 0) & hold
+    want[advised] = True
+    held = int(((phase == 0) & hold).sum())
+    want &= ~(u > -0.5 * length)
+    got, got_held = stop_flags(phase, allowed, mv, klane, lc_lane, tlane, dist, R1, coordinated, hold, advised, u,
+                               length)
+    assert _same(got, want) and got_held == held

@@ -37,8 +37,9 @@ from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wra
 from icv_envs.sim._kernels.physics import interval_ends_at, lanes_available, npy_mod
 
 __all__ = ["anticipated_references", "box_steering", "corridor_index", "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_lane_speeds",
-           "free_speed_ratio", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
-           "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "tree_layers", "virtual_caps"]
+           "follow_references", "free_speed_ratio", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
+           "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "stop_flags", "tree_layers", "tree_references",
+           "virtual_caps"]
 
 
 @nb.njit(cache=True)
@@ -1126,3 +1127,104 @@ def tree_layers(mvs, conflict, xf, lens, rear, D_t):
         lb[j] = best
         pred[j] = arg
     return depths, refs, U, lb, pred
+
+
+@nb.njit(cache=True)
+def follow_references(k, rr, ref, vid, dist, klane, sig, phase, u, xg, speed, mode_follow, mode, xref, vref):
+    """Formation following of
+    :meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._references`,
+    in place: followers ``k`` of the vehicles at rows ``rr`` (-1: gone).
+    Two vehicles referring to each other (a safety net) lose the nearer
+    one's reference (``ref = -1``; the test reads the references as they
+    were before any is cleared); a follower ahead of its reference vehicle
+    in that vehicle's lane or in the lane it signals into (``sig``), still
+    approaching, drives free; the others follow (``mode_follow``) at ``u``
+    of the reference vehicle minus their offset ``xg``, at its speed.
+    Returns ``(cycles broken, followers ahead of their reference)``."""
+    m = k.shape[0]
+    cyc = np.zeros(m, dtype=np.bool_)
+    for j in range(m):
+        r = rr[j]
+        q = r if r > 0 else 0
+        cyc[j] = r >= 0 and ref[q] == vid[k[j]] and dist[k[j]] < dist[q]
+    n_cyc = 0
+    n_ahead = 0
+    for j in range(m):
+        if cyc[j]:
+            n_cyc += 1
+            ref[k[j]] = -1
+    for j in range(m):
+        if cyc[j] or rr[j] < 0:
+            continue
+        i = k[j]
+        r = rr[j]
+        in_its_lanes = klane[i] == klane[r] or klane[i] == sig[r]
+        if in_its_lanes and dist[i] < dist[r] and phase[i] == 0:
+            n_ahead += 1
+            continue
+        mode[i] = mode_follow
+        xref[i] = u[r] - xg[i]
+        vref[i] = speed[r]
+    return n_cyc, n_ahead
+
+
+@nb.njit(cache=True)
+def tree_references(rows_all, kk, first_of, refs, lb_of, pred_of, rear_row, X, xg, speed, v0, hold_gap, mode_tree,
+                    mode, xref, vref, tight, hold):
+    """The virtual platoon's references of the live members ``rows_all`` of
+    nodes ``kk``, in place (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._references`):
+    a node's first vehicle its layer reference (never ahead of itself) at
+    ``v0``, the others their offset behind the first vehicle at its speed;
+    the bound behind an earlier conflicting node's rear (``lb_of``) binds
+    where it lies ahead of that (``tight``: full braking), at the speed of
+    that rear vehicle; ``hold`` where the vehicle is already more than
+    ``hold_gap`` (+1e-9) inside that bound."""
+    for j in range(rows_all.shape[0]):
+        r = rows_all[j]
+        c = kk[j]
+        first = first_of[c]
+        if r == first:
+            a = refs[c + 1]
+            paper = a if a > X[r] else X[r]
+            vpaper = v0
+        else:
+            paper = X[first] + xg[r] - xg[first]
+            vpaper = speed[first]
+        lb = lb_of[c]
+        bind = lb > paper
+        mode[r] = mode_tree
+        hold[r] = X[r] < lb - hold_gap - 1e-9
+        xref[r] = lb if bind else paper
+        vref[r] = speed[rear_row[pred_of[c]]] if bind else vpaper
+        tight[r] = bind
+
+
+@nb.njit(cache=True)
+def stop_flags(phase, allowed, mv, klane, lc_lane, tlane, dist, R1, coordinated, hold, advised, u, length):
+    """Who may not enter the box (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._references`):
+    an approaching vehicle in a lane its movement may not leave from
+    (``allowed[mv, clip(klane, 0, 2)]``), changing lanes or not yet in its
+    target lane; inside ``R1`` without coordination; held; advised (rows
+    ``advised``); none already at the line (``u > -length / 2``). Returns
+    ``(stop, held approaching vehicles)``."""
+    n = phase.shape[0]
+    stop = np.empty(n, dtype=np.bool_)
+    held = 0
+    for i in range(n):
+        lane = klane[i]
+        if lane < 0:
+            lane = 0
+        if lane > 2:
+            lane = 2
+        appr = phase[i] == 0
+        s = appr and (not allowed[mv[i], lane] or lc_lane[i] >= 0 or klane[i] != tlane[i])
+        s = s or (appr and dist[i] <= R1 and not coordinated[i])
+        s = s or (appr and hold[i])
+        if appr and hold[i]:
+            held += 1
+        stop[i] = s
+    for j in range(advised.shape[0]):
+        stop[advised[j]] = True
+    for i in range(n):
+        stop[i] = stop[i] and not (u[i] > -0.5 * length[i])
+    return stop, held

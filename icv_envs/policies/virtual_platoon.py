@@ -13,10 +13,18 @@ import itertools
 import numpy as np
 
 from icv_envs.formation.targets import formation_length, interlaced_targets
-from icv_envs.policies._kernels import anticipated_references, repair_order, tree_layers, virtual_caps
+from icv_envs.policies._kernels import (
+    anticipated_references,
+    follow_references,
+    repair_order,
+    stop_flags,
+    tree_layers,
+    tree_references,
+    virtual_caps,
+)
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
-from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
+from icv_envs.sim._ufuncs import flatnonzero
 
 __all__ = ["VirtualPlatoon"]
 
@@ -320,37 +328,27 @@ class VirtualPlatoon:
         fol = (f.ref >= 0) & (f.node < 0)
         if fol.any():
             k = flatnonzero(fol)
-            rr = f.rows(f.ref[k])
-            # safety net: two vehicles referring to each other (must not happen)
-            cyc = (rr >= 0) & (f.ref[np.maximum(rr, 0)] == f.vid[k]) & (rs.dist[k] < rs.dist[np.maximum(rr, 0)])
-            if cyc.any():
-                self.stats["ref_cycles_broken"] += int(cyc.sum())
-                f.ref[k[cyc]] = -1
-                rr[cyc] = -1
-            ok = rr >= 0
-            k, rr = k[ok], rr[ok]
-            # a follower ahead of the vehicle it follows, in that vehicle's own
-            # lane, is that vehicle's leader on the road: holding its slot
-            # (ahead of the reference, in another lane) makes each wait for the
-            # other once the lane change to the slot is blocked, a circular
-            # wait (multi-vp, 3500 veh/h, seed 0: a member stood 1 m ahead of
-            # its sub-formation's first vehicle in lane 2, waiting for a gap
-            # in lane 1, for 150 s). Such a follower drives free until the
-            # lane change separates the two.  The same holds in the lane that
+            # safety net: two vehicles referring to each other (must not
+            # happen): the nearer one drops its reference.  A follower ahead
+            # of the vehicle it follows, in that vehicle's own lane, is that
+            # vehicle's leader on the road: holding its slot (ahead of the
+            # reference, in another lane) makes each wait for the other once
+            # the lane change to the slot is blocked, a circular wait
+            # (multi-vp, 3500 veh/h, seed 0: a member stood 1 m ahead of its
+            # sub-formation's first vehicle in lane 2, waiting for a gap in
+            # lane 1, for 150 s). Such a follower drives free until the lane
+            # change separates the two.  The same holds in the lane that
             # vehicle waits to change into: it is listed there too (its turn
             # signal), brakes behind the follower alongside or ahead of it,
             # and the follower stood waiting to drop back to its slot behind
             # it (multi-vp, 3000 veh/h, seed 23: from 450 s to the end of the
-            # run, 39 vehicles jammed behind the two)
-            sig = self._signals(f)
-            in_its_lanes = (f.klane[k] == f.klane[rr]) | (f.klane[k] == sig[rr])
-            ahead = in_its_lanes & (rs.dist[k] < rs.dist[rr]) & (rs.phase[k] == 0)
-            if ahead.any():
-                self.stats["ahead_of_reference"] += int(ahead.sum())
-                k, rr = k[~ahead], rr[~ahead]
-            mode[k] = MODE_FOLLOW
-            xref[k] = rs.u[rr] - f.xg[k]
-            vref[k] = f.speed[rr]
+            # run, 39 vehicles jammed behind the two).  Compiled:
+            # policies/_kernels.follow_references (the array code it replaced
+            # is frozen in tests/test_expert_kernels.py)
+            n_cyc, n_ahead = follow_references(k, f.rows(f.ref[k]), f.ref, f.vid, rs.dist, f.klane, self._signals(f),
+                                               rs.phase, rs.u, f.xg, f.speed, MODE_FOLLOW, mode, xref, vref)
+            self.stats["ref_cycles_broken"] += int(n_cyc)
+            self.stats["ahead_of_reference"] += int(n_ahead)
         self.node_depth = {}
         self.node_order = []
         self._tree = None
@@ -364,8 +362,6 @@ class VirtualPlatoon:
             live = ~f.cleared[rows_all]
             rows_all, kk = rows_all[live], kk[live]
             self._tree, self._tree_rows = T, (rows_all, kk)
-            first = T["first"][kk]
-            is_first = rows_all == first
             # a node's first vehicle never chases a reference ahead of it: it
             # then drives at v0 (the virtual platoon only holds vehicles back)
             # followers: their slot relative to the first vehicle's slot, which is
@@ -373,22 +369,14 @@ class VirtualPlatoon:
             # the absolute slot, multi-vp, 3000 veh/h, seed 2: a member with
             # x_g = 72 m following the node's new first vehicle 9-11 m behind
             # got a reference 30-50 m behind it, braked to a stop in the box
-            # and held the whole virtual platoon: 9 jammed at R1)
-            paper = np.where(is_first, np.maximum(T["refs"][kk + 1], rs.X[rows_all]),
-                             rs.X[first] + f.xg[rows_all] - f.xg[first])
-            vpaper = np.where(is_first, p.v0, f.speed[first])
-            lb = T["lb"][kk]
-            bind = lb > paper
-            pred_rear = T["rear_row"][T["pred"][kk]]
-            mode[rows_all] = MODE_TREE
-            # the hard spacing to an earlier conflicting node is already lost
-            # (a node that entered late, close to the box): the virtual lane
-            # cannot restore it, so the vehicle stops before the box until
-            # that node's rear has moved D_safe ahead of it
-            hold[rows_all] = rs.X[rows_all] < lb - (p.D_t - p.D_safe) - 1e-9
-            xref[rows_all] = np.where(bind, lb, paper)
-            vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
-            tight[rows_all] = bind
+            # and held the whole virtual platoon: 9 jammed at R1).  The hard
+            # spacing to an earlier conflicting node is already lost (a node
+            # that entered late, close to the box): the virtual lane cannot
+            # restore it, so the vehicle stops before the box until that
+            # node's rear has moved D_safe ahead of it (hold).  Compiled:
+            # policies/_kernels.tree_references
+            tree_references(rows_all, kk, T["first"], T["refs"], T["lb"], T["pred"], T["rear_row"], rs.X, f.xg,
+                            f.speed, float(p.v0), float(p.D_t - p.D_safe), MODE_TREE, mode, xref, vref, tight, hold)
         self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0))
         advised = self._advise_in_zone(world, rs, xref, vref, tight) if p.zone_advisory else self._zone_advised[0]
         if p.anticipate:
@@ -396,15 +384,15 @@ class VirtualPlatoon:
         self._mode, self._xref, self._vref, self._tight = mode, xref, vref, tight
         self._apply_yields(world, rs)
         self._vcap = self._virtual_cap(world, rs)
-        # may a vehicle enter the box? only from an allowed lane, lane change finished
-        allowed = lay.allowed[f.mv, uclip(f.klane, 0, 2)]
-        self._stop = (rs.phase == 0) & (~allowed | (f.lc_lane >= 0) | (f.klane != f.tlane))
-        # in the coordinating zone only coordinated vehicles (a node / a reservation) may enter
-        self._stop |= (rs.phase == 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
-        self._stop |= (rs.phase == 0) & hold
-        self._stop[advised] = True  # the hold lasts: it waits at the stop line at most
-        self.stats["held_at_line"] += int(((rs.phase == 0) & hold).sum())
-        self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
+        # may a vehicle enter the box? only from an allowed lane, lane change
+        # finished; in the coordinating zone only coordinated vehicles (a node
+        # / a reservation); not while held or advised (the hold lasts: it
+        # waits at the stop line at most); a vehicle already at the line goes
+        # on (compiled: policies/_kernels.stop_flags)
+        self._stop, held = stop_flags(rs.phase, lay.allowed, f.mv, f.klane, f.lc_lane, f.tlane, rs.dist,
+                                      float(lay.R1), np.asarray(self._coordinated(f), dtype=bool), hold,
+                                      np.asarray(advised, dtype=np.int64), rs.u, f.length)
+        self.stats["held_at_line"] += int(held)
 
     def _advise_in_zone(self, world, rs, xref, vref, tight) -> np.ndarray:
         """The speed advisory inside ``R1`` too: a node vehicle whose
