@@ -59,3 +59,14 @@ def test_time_icv_formation_counts_vehicle_steps():
     r = time_icv_formation(12, seconds=0.4, warmup=0.2)
     # 12 vehicles, 0.4 s at 25 Hz physics: 10 physics steps each
     assert r["vehicle_steps_per_s"] > 0 and r["ms_per_sim_s"] > 0
+
+
+def test_highway_formation_bench_times_after_its_warmup():
+    """``icv-envs bench highway-formation`` times ``seconds`` after an untimed
+    warm-up (the first steps of a process load the compiled kernels; at 50
+    vehicles they doubled the figure)."""
+    from icv_envs.experiments.bench import time_icv
+
+    r = time_icv(12, seconds=0.4, warmup=0.2)
+    assert r["sim_seconds"] == pytest.approx(0.4, abs=1e-6)
+    assert r["wall_per_sim_s"] > 0 and r["collisions"] == 0
