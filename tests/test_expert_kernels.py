@@ -38,6 +38,18 @@ def _same(a, b) -> bool:
     a, b = np.asarray(a), np.asarray(b)
     return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
+def _drive_intersection(method: str, throughput: float, seed: int, duration: float, steps: int) -> None:
+    """Run the intersection env under its expert (the infos' labels fed back)."""
+    from icv_envs.envs import intersection_v0
+
+    env = intersection_v0.parallel_env(method=method, throughput=throughput, duration=duration)
+    obs, infos = env.reset(seed=seed)
+    for _ in range(steps):
+        if not env.agents:
+            break
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+
+
 
 # ----------------------------------------------------------------------------
 # the replaced code (icv_envs/policies/formation_expert.py at 4d79153), frozen
@@ -337,7 +349,6 @@ def test_platoon_normalisation_equals_the_replaced_array_code(data):
 @pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 2600.0, 3), ("single-vp", 2200.0, 4),
                                                     ("fcfs", 2600.0, 5)])
 def test_platoon_longitudinal_equals_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
-    from icv_envs.envs import intersection_v0
     from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE
     from icv_envs.policies.platoon_control import PlatoonControl
 
@@ -356,12 +367,7 @@ def test_platoon_longitudinal_equals_the_replaced_array_code_on_runs(monkeypatch
         return got
 
     monkeypatch.setattr(PlatoonControl, "_longitudinal", checked)
-    env = intersection_v0.parallel_env(method=method, throughput=throughput, duration=90.0)
-    obs, infos = env.reset(seed=seed)
-    for _ in range(450):
-        if not env.agents:
-            break
-        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    _drive_intersection(method, throughput, seed, 90.0, 450)
     assert seen["follow"] > 0, seen
     if method != "fcfs":
         assert seen["tree"] > 0, seen
@@ -394,7 +400,6 @@ def _old_virtual_cap(self, world, rs):
 
 @pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 2600.0, 3), ("single-vp", 2200.0, 4)])
 def test_virtual_cap_equals_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
-    from icv_envs.envs import intersection_v0
     from icv_envs.policies.virtual_platoon import VirtualPlatoon
 
     real = VirtualPlatoon._virtual_cap
@@ -409,12 +414,7 @@ def test_virtual_cap_equals_the_replaced_array_code_on_runs(monkeypatch, method,
         return got
 
     monkeypatch.setattr(VirtualPlatoon, "_virtual_cap", checked)
-    env = intersection_v0.parallel_env(method=method, throughput=throughput, duration=90.0)
-    obs, infos = env.reset(seed=seed)
-    for _ in range(450):
-        if not env.agents:
-            break
-        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    _drive_intersection(method, throughput, seed, 90.0, 450)
     assert seen["calls"] > 100 and seen["capped"] > 0, seen
 
 
@@ -481,7 +481,6 @@ def _old_anticipate(self, world, rs, mode, xref, vref):
 
 @pytest.mark.parametrize("throughput,seed", [(2600.0, 3), (3000.0, 1)])
 def test_anticipation_equals_the_replaced_array_code_on_runs(monkeypatch, throughput, seed):
-    from icv_envs.envs import intersection_v0
     from icv_envs.policies.virtual_platoon import VirtualPlatoon
 
     real = VirtualPlatoon._anticipate
@@ -500,12 +499,7 @@ def test_anticipation_equals_the_replaced_array_code_on_runs(monkeypatch, throug
             seen[k] += want[2][k]
 
     monkeypatch.setattr(VirtualPlatoon, "_anticipate", checked)
-    env = intersection_v0.parallel_env(method="multi-vp", throughput=throughput, duration=120.0)
-    obs, infos = env.reset(seed=seed)
-    for _ in range(600):
-        if not env.agents:
-            break
-        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    _drive_intersection("multi-vp", throughput, seed, 120.0, 600)
     assert seen["anticipating"] > 0 and seen["advised"] > 0, seen
 
 
@@ -608,7 +602,6 @@ def test_prune_shortcut_changes_nothing(monkeypatch, method, throughput, seed):
     a copy."""
     import copy
 
-    from icv_envs.envs import intersection_v0
     from icv_envs.policies.platoon_expert import PlatoonExpert
 
     real = PlatoonExpert._prune
@@ -627,12 +620,7 @@ def test_prune_shortcut_changes_nothing(monkeypatch, method, throughput, seed):
         seen["skipped"] += before == after
 
     monkeypatch.setattr(PlatoonExpert, "_prune", checked)
-    env = intersection_v0.parallel_env(method=method, throughput=throughput, duration=120.0)
-    obs, infos = env.reset(seed=seed)
-    for _ in range(600):
-        if not env.agents:
-            break
-        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    _drive_intersection(method, throughput, seed, 120.0, 600)
     assert seen["removed"] > 0 and seen["skipped"] > 0, seen
 
 
@@ -746,7 +734,6 @@ def _old_references(self, world, rs) -> None:
 def test_references_equal_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
     import copy
 
-    from icv_envs.envs import intersection_v0
     from icv_envs.policies.virtual_platoon import VirtualPlatoon
 
     real = VirtualPlatoon._references
@@ -767,12 +754,7 @@ def test_references_equal_the_replaced_array_code_on_runs(monkeypatch, method, t
         seen["stop"] += int(self._stop.sum())
 
     monkeypatch.setattr(VirtualPlatoon, "_references", checked)
-    env = intersection_v0.parallel_env(method=method, throughput=throughput, duration=60.0)
-    obs, infos = env.reset(seed=seed)
-    for _ in range(300):
-        if not env.agents:
-            break
-        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    _drive_intersection(method, throughput, seed, 60.0, 300)
     assert seen["follow"] > 0 and seen["stop"] > 0, seen
     if method != "fcfs":
         assert seen["tree"] > 0, seen

@@ -906,6 +906,26 @@ def expert_accelerations(n, free_rows, free_pow, v, a_max, b, T, s0, m_rows, cx,
     return acc
 
 
+@nb.njit(cache=True)
+def _feedback1(x, target, v, vref, clip_err, kp, kv, lo, hi):
+    """One vehicle's feedback law (``formation.control._longitudinal_feedback``
+    with ``a_ref = 0``) on a reference whose error is clipped: ``clip(0 + kp
+    (x - xr) + kv (v - vref), lo, hi)``, ``xr = x + clip(target - x,
+    -clip_err, clip_err)``; numpy's clip on finite values."""
+    e = target - x
+    if e < -clip_err:
+        e = -clip_err
+    if e > clip_err:
+        e = clip_err
+    xr = x + e
+    a = 0.0 + kp * (x - xr) + kv * (v - vref)
+    if a < lo:
+        a = lo
+    if a > hi:
+        a = hi
+    return a
+
+
 @nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
 def platoon_accelerations(v, free_pow, a_free, b, T, s0, mode, mode_follow, mode_tree, u, X, xref, vref, tight, vcap,
                           clip_err, kp, kv, comfort_lo, comfort_hi, a_min, a_max):
@@ -931,32 +951,9 @@ def platoon_accelerations(v, free_pow, a_free, b, T, s0, mode, mode_follow, mode
         q = s_star / np.inf
         acc[i] = a_free * (1.0 - free_pow[i] - q * q)
         if mode[i] == mode_follow:
-            x = u[i]
-            e = xref[i] - x
-            if e < -clip_err:
-                e = -clip_err
-            if e > clip_err:
-                e = clip_err
-            xr = x + e
-            a = 0.0 + kp * (x - xr) + kv * (v[i] - vref[i])
-            if a < comfort_lo:
-                a = comfort_lo
-            if a > comfort_hi:
-                a = comfort_hi
-            acc[i] = a
+            acc[i] = _feedback1(u[i], xref[i], v[i], vref[i], clip_err, kp, kv, comfort_lo, comfort_hi)
         elif mode[i] == mode_tree:
-            x = -X[i]
-            e = -xref[i] - x
-            if e < -clip_err:
-                e = -clip_err
-            if e > clip_err:
-                e = clip_err
-            xr = x + e
-            a = 0.0 + kp * (x - xr) + kv * (v[i] - vref[i])
-            if a < a_min:
-                a = a_min
-            if a > a_max:
-                a = a_max
+            a = _feedback1(-X[i], -xref[i], v[i], vref[i], clip_err, kp, kv, a_min, a_max)
             lo = a_min if tight[i] else comfort_lo
             if a < lo:
                 a = lo
@@ -998,6 +995,26 @@ def virtual_caps(n, rows_all, kk, U, X, rear, rear_row, speed, D_safe, b, tau, b
 
 
 @nb.njit(cache=True)
+def _layers_before(depths, offset, lens, top):
+    """``before[m]``: the summed length of the longest node of every layer
+    below ``m`` (layers ``0..top``; node ``k`` of depth ``depths[k + offset]``
+    and length ``lens[k]``), as ``numpy.maximum.at`` then ``cumsum`` take them
+    (the maximum returns the new length on a tie; the sum runs in order).
+    ``before`` has ``top + 2`` entries."""
+    layer_max = np.zeros(top + 1)
+    for k in range(lens.shape[0]):
+        d = depths[k + offset]
+        layer_max[d] = layer_max[d] if layer_max[d] > lens[k] else lens[k]
+    before = np.empty(top + 2)
+    before[0] = 0.0
+    s = 0.0
+    for i in range(top + 1):
+        s += layer_max[i]
+        before[i + 1] = s
+    return before
+
+
+@nb.njit(cache=True)
 def anticipated_references(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs, rear_row, rear, depths, lens, x0,
                            D_t, den):
     """The references the adjusting zone's free vehicles ``cand`` would get
@@ -1036,16 +1053,7 @@ def anticipated_references(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs,
         dnew[j] = 1 + m
         if dnew[j] > top:
             top = dnew[j]
-    layer_max = np.zeros(top + 1)
-    for k in range(K):
-        d = depths[k]
-        layer_max[d] = layer_max[d] if layer_max[d] > lens[k] else lens[k]
-    before = np.empty(top + 2)
-    before[0] = 0.0
-    s = 0.0
-    for i in range(top + 1):
-        s += layer_max[i]
-        before[i + 1] = s
+    before = _layers_before(depths, 0, lens, top)
     ref = np.empty(nc)
     lb = np.empty(nc)
     pred = np.zeros(nc, dtype=np.int64)
@@ -1094,16 +1102,7 @@ def tree_layers(mvs, conflict, xf, lens, rear, D_t):
     for k in range(K + 1):
         if depths[k] > top:
             top = depths[k]
-    layer_max = np.zeros(top + 1)
-    for k in range(K):
-        d = depths[k + 1]
-        layer_max[d] = layer_max[d] if layer_max[d] > lens[k] else lens[k]
-    before = np.empty(top + 2)
-    before[0] = 0.0
-    s = 0.0
-    for i in range(top + 1):
-        s += layer_max[i]
-        before[i + 1] = s
+    before = _layers_before(depths, 1, lens, top)
     refs = np.empty(K + 1)
     x0 = xf[0] - D_t
     for k in range(K + 1):
