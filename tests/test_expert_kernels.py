@@ -867,3 +867,93 @@ def test_reference_kernels_equal_the_replaced_array_code(data):
     got, got_held = stop_flags(phase, allowed, mv, klane, lc_lane, tlane, dist, R1, coordinated, hold, advised, u,
                                length)
     assert _same(got, want) and got_held == held
+
+
+# ----------------------------------------------------------------------------
+# the intersection env's features and rewards (icv_envs/envs/intersection.py at 4d79153)
+def _old_intersection_features(self):
+    w = self.world
+    f = w.fleet
+    lay = self.layout
+    rs = w.route()
+    has, d, dv, go = self.expert.references(w)
+    F = np.zeros((f.n, 14))
+    F[:, 0] = 1.0
+    F[:, 1] = rs.cx
+    F[:, 2] = rs.cy
+    F[:, 3] = f.speed * np.cos(f.heading)
+    F[:, 4] = f.speed * np.sin(f.heading)
+    F[:, 5] = np.cos(f.heading)
+    F[:, 6] = np.sin(f.heading)
+    F[:, 7] = rs.dist
+    F[:, 8] = np.where(has, d, 0.0)
+    F[:, 9] = np.where(has, dv, 0.0)
+    appr = rs.phase == 0
+    F[:, 10] = np.where(appr, rs.lat_leg - (np.clip(f.klane, 0, 2) + 0.5) * lay.lane_width, rs.lat)
+    F[:, 11] = (f.mv % 3) - 1.0
+    zone = np.where(rs.dist > lay.R2, 0.0, np.where(rs.dist > lay.R1, 1.0 / 3.0, 2.0 / 3.0))
+    F[:, 12] = np.where(appr, zone, 1.0)
+    F[:, 13] = go
+    if getattr(self._obs_type, "extra", ()):
+        pd = self._perception_distance()
+        gap, dv = self._leaders()
+        has = np.isfinite(gap)
+        F = np.column_stack([F, np.where(has, np.minimum(gap, pd), pd), np.where(has, dv, 0.0)])
+    return F
+
+
+def _old_intersection_rewards(self, rows, crashed_now, F):
+    c = self.config
+    f = self.world.fleet
+    wts = c["reward"]
+    lo, hi = c["reward_speed_range"] or (0.0, c["speed_range"][1])
+    progress = np.clip((f.speed[rows] - float(lo)) / (float(hi) - float(lo)), 0.0, 1.0)
+    gap = self._leaders()[0]
+    safety = -np.clip(1.0 - gap[rows] / (2.0 + f.speed[rows]), 0.0, 1.0)
+    safety = np.where(crashed_now[rows], -1.0, safety)
+    ua = self._last_actions[rows] if len(self._last_actions) == f.n else np.zeros((len(rows), 2))
+    comfort = -0.5 * (ua[:, 0] ** 2 + ua[:, 1] ** 2)
+    track = np.where(F[rows, 8] != 0.0, np.exp(-(F[rows, 8] / 10.0) ** 2), 0.0)
+    total = wts["progress"] * progress + wts["safety"] * safety + wts["comfort"] * comfort + wts["tracking"] * track
+    return total, {"progress": progress, "safety": safety, "comfort": comfort, "tracking": track}
+
+
+@pytest.mark.parametrize("method,seed,extra", [("multi-vp", 3, False), ("fcfs", 5, True)])
+def test_intersection_features_and_rewards_equal_the_replaced_array_code(monkeypatch, method, seed, extra):
+    from icv_envs.envs import intersection_v0
+    from icv_envs.envs.intersection import IntersectionEnv
+
+    real_f, real_r = IntersectionEnv._features, IntersectionEnv._rewards_rows
+    seen = {"calls": 0, "tracked": 0, "crashed": 0}
+
+    def features(self):
+        got = real_f(self)
+        assert _same(got, _old_intersection_features(self))
+        seen["calls"] += 1
+        seen["tracked"] += int((got[:, 8] != 0.0).sum())
+        return got
+
+    def rewards(self, rows, crashed_now, F):
+        got = real_r(self, rows, crashed_now, F)
+        want = _old_intersection_rewards(self, rows, crashed_now, F)
+        assert _same(got[0], want[0]) and got[1].keys() == want[1].keys()
+        for k in want[1]:
+            assert _same(got[1][k], want[1][k]), k
+        seen["crashed"] += int(np.asarray(crashed_now)[rows].sum())
+        return got
+
+    monkeypatch.setattr(IntersectionEnv, "_features", features)
+    monkeypatch.setattr(IntersectionEnv, "_rewards_rows", rewards)
+    cfg = {"observation": {"type": "Kinematics", "features": ["presence", "x", "y", "lead_gap", "lead_dv"]}} \
+        if extra else {}
+    env = intersection_v0.parallel_env(method=method, throughput=2600.0, duration=60.0, **cfg)
+    obs, infos = env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    for _ in range(300):
+        if not env.agents:
+            break
+        # a third of the agents act at random (collisions: the safety term's -1)
+        acts = {a: (rng.uniform(-1, 1, 2).astype(np.float32) if rng.random() < 0.3 else infos[a]["expert_action"])
+                for a in env.agents}
+        obs, rew, term, trunc, infos = env.step(acts)
+    assert seen["calls"] > 100 and seen["tracked"] > 0, seen

@@ -50,6 +50,7 @@ from icv_envs.platoon.geometry import LEGS, movement_name
 from icv_envs.policies.fcfs import FcfsExpert
 from icv_envs.policies.platoon_expert import Corridors, PlatoonExpert, PlatoonParams
 from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents, validate_radii
+from icv_envs.sim._kernels import intersection_feature_rows, intersection_reward_pre, intersection_reward_rows
 from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "OBS_EXTRA_FEATURES", "MAX_THROUGHPUT"]
@@ -339,23 +340,14 @@ class IntersectionEnv(IcvAgentsEnv):
         lay = self.layout
         rs = w.route()
         has, d, dv, go = self.expert.references(w)
-        F = np.zeros((f.n, len(OBS_FEATURES)))
-        F[:, 0] = 1.0
-        F[:, 1] = rs.cx
-        F[:, 2] = rs.cy
-        F[:, 3] = f.speed * np.cos(f.heading)
-        F[:, 4] = f.speed * np.sin(f.heading)
-        F[:, 5] = np.cos(f.heading)
-        F[:, 6] = np.sin(f.heading)
-        F[:, 7] = rs.dist
-        F[:, 8] = np.where(has, d, 0.0)
-        F[:, 9] = np.where(has, dv, 0.0)
-        appr = rs.phase == 0
-        F[:, 10] = np.where(appr, rs.lat_leg - (uclip(f.klane, 0, 2) + 0.5) * lay.lane_width, rs.lat)
-        F[:, 11] = (f.mv % 3) - 1.0
-        zone = np.where(rs.dist > lay.R2, 0.0, np.where(rs.dist > lay.R1, 1.0 / 3.0, 2.0 / 3.0))
-        F[:, 12] = np.where(appr, zone, 1.0)
-        F[:, 13] = go
+        # (compiled: sim/_kernels/observation.intersection_feature_rows, the
+        # heading's cosine and sine from numpy; the array code it replaced is
+        # frozen in tests/test_expert_kernels.py)
+        F = intersection_feature_rows(rs.cx, rs.cy, f.speed, np.cos(f.heading), np.sin(f.heading), rs.dist,
+                                      np.asarray(has, dtype=bool), np.asarray(d, dtype=np.float64),
+                                      np.asarray(dv, dtype=np.float64), rs.phase, rs.lat_leg, f.klane,
+                                      float(lay.lane_width), rs.lat, f.mv, float(lay.R1), float(lay.R2),
+                                      np.asarray(go, dtype=np.float64))
         if getattr(self._obs_type, "extra", ()):  # OBS_EXTRA_FEATURES, in that order
             pd = self._perception_distance()
             gap, dv = self._leaders()
@@ -416,14 +408,16 @@ class IntersectionEnv(IcvAgentsEnv):
         f = w.fleet
         wts = c["reward"]
         lo, hi = c["reward_speed_range"] or (0.0, c["speed_range"][1])
-        progress = uclip((f.speed[rows] - float(lo)) / (float(hi) - float(lo)), 0.0, 1.0)
         gap = self._leaders()[0]
-        safety = -uclip(1.0 - gap[rows] / (2.0 + f.speed[rows]), 0.0, 1.0)
-        safety = np.where(crashed_now[rows], -1.0, safety)
+        rows = np.asarray(rows, dtype=np.int64)
         ua = self._last_actions[rows] if len(self._last_actions) == f.n else np.zeros((len(rows), 2))
-        comfort = -0.5 * (ua[:, 0] ** 2 + ua[:, 1] ** 2)
-        track = np.where(F[rows, 8] != 0.0, np.exp(-(F[rows, 8] / 10.0) ** 2), 0.0)
-        total = wts["progress"] * progress + wts["safety"] * safety + wts["comfort"] * comfort + wts["tracking"] * track
+        # (compiled: sim/_kernels/observation.intersection_reward_rows, the
+        # tracking term's exp from numpy; frozen in tests/test_expert_kernels.py)
+        ex = np.exp(intersection_reward_pre(rows, F))
+        total, progress, safety, comfort, track = intersection_reward_rows(
+            rows, f.speed, float(lo), float(hi) - float(lo), gap, np.asarray(crashed_now, dtype=bool),
+            np.ascontiguousarray(ua, dtype=np.float64), F, ex, float(wts["progress"]), float(wts["safety"]),
+            float(wts["comfort"]), float(wts["tracking"]))
         return total, {"progress": progress, "safety": safety, "comfort": comfort, "tracking": track}
 
     def _leaders(self) -> tuple[np.ndarray, np.ndarray]:

@@ -73,8 +73,9 @@ from icv_envs.sim._kernels.formation_step import (hold_pass, membership_pass, of
 from icv_envs.sim._kernels.frames import intersection_frames, quiet_substeps
 from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs, build_lane_index, leader_entries,
                                               leader_rows, own_lane_gap_rows)
-from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_reward_terms, kinematics_rows,
-                                               nearest_along_road)
+from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_reward_terms,
+                                               intersection_feature_rows, intersection_reward_pre,
+                                               intersection_reward_rows, kinematics_rows, nearest_along_road)
 from icv_envs.sim._kernels.physics import npy_mod, kinematic_substep, road_check, interval_ends, lanes_available
 from icv_envs.sim._kernels.stats import pairwise_sum, motion_record, headway_record, pet_transitions
 
@@ -91,6 +92,9 @@ __all__ = [
     "leader_rows",
     "own_lane_gap_rows",
     "nearest_along_road",
+    "intersection_feature_rows",
+    "intersection_reward_pre",
+    "intersection_reward_rows",
     "kinematics_rows",
     "formation_feature_rows",
     "formation_reward_terms",

@@ -11,7 +11,8 @@ import numpy as np
 from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lane_of1, npy_mod
 
-__all__ = ["nearest_along_road", "kinematics_rows", "formation_feature_rows", "formation_reward_terms"]
+__all__ = ["nearest_along_road", "kinematics_rows", "formation_feature_rows", "formation_reward_terms",
+           "intersection_feature_rows", "intersection_reward_pre", "intersection_reward_rows"]
 
 
 @nb.njit(cache=True)
@@ -207,3 +208,95 @@ def formation_reward_terms(rows, speed, v_max, gap, crashed_now, ua, F, spacing,
         member[q] = F[r, 10] > 0
         partial[q] = w_progress * progress[q] + w_safety * safety[q] + w_comfort * comfort[q]
     return progress, safety, comfort, expo, member, partial
+
+
+@nb.njit(cache=True)
+def intersection_feature_rows(cx, cy, speed, c, s, dist, has, d, dv, phase, lat_leg, klane, lane_width, lat, mv, R1,
+                              R2, go):
+    """The intersection env's absolute features (``IntersectionEnv._features``,
+    ``OBS_FEATURES`` in order) from the heading's cosine ``c`` and sine
+    ``s`` (numpy's): presence, centre, velocity, heading, distance to the
+    centre, the expert's reference error and speed error (0 without a
+    reference), lateral offset (from the kept lane's centre on the
+    approach, from the path in the box), turn (-1, 0, 1), zone (0 before
+    ``R2``, 1/3 in the adjusting zone, 2/3 inside ``R1``, 1 past the stop
+    line), may go. The array code's operations in its order
+    (tests/test_expert_kernels.py)."""
+    n = cx.shape[0]
+    F = np.zeros((n, 14))
+    for i in range(n):
+        F[i, 0] = 1.0
+        F[i, 1] = cx[i]
+        F[i, 2] = cy[i]
+        F[i, 3] = speed[i] * c[i]
+        F[i, 4] = speed[i] * s[i]
+        F[i, 5] = c[i]
+        F[i, 6] = s[i]
+        F[i, 7] = dist[i]
+        F[i, 8] = d[i] if has[i] else 0.0
+        F[i, 9] = dv[i] if has[i] else 0.0
+        appr = phase[i] == 0
+        lane = klane[i]
+        if lane < 0:
+            lane = 0
+        if lane > 2:
+            lane = 2
+        F[i, 10] = lat_leg[i] - (lane + 0.5) * lane_width if appr else lat[i]
+        F[i, 11] = (mv[i] % 3) - 1.0
+        if appr:
+            F[i, 12] = 0.0 if dist[i] > R2 else (1.0 / 3.0 if dist[i] > R1 else 2.0 / 3.0)
+        else:
+            F[i, 12] = 1.0
+        F[i, 13] = go[i]
+    return F
+
+
+@nb.njit(cache=True)
+def intersection_reward_pre(rows, F):
+    """``-(F[rows, 8] / 10)^2``: the argument of the tracking reward's
+    ``exp`` (numpy's), for :func:`intersection_reward_rows`."""
+    m = rows.shape[0]
+    q = np.empty(m)
+    for k in range(m):
+        e = F[rows[k], 8] / 10.0
+        q[k] = -(e * e)
+    return q
+
+
+@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
+def intersection_reward_rows(rows, speed, lo, span, gap, crashed, ua, F, ex, w_progress, w_safety, w_comfort,
+                             w_tracking):
+    """The intersection env's reward terms of ``rows``
+    (``IntersectionEnv._rewards_rows``): progress ``clip((v - lo) / span, 0,
+    1)``, safety ``-clip(1 - gap / (2 + v), 0, 1)`` (-1 on a collision),
+    comfort ``-(u_a^2 + u_s^2) / 2`` of the last actions ``ua`` (rows
+    aligned with ``rows``), tracking ``ex = exp(-(dx / 10)^2)`` where the
+    reference error ``F[:, 8]`` is not 0, and their weighted sum. Returns
+    ``(total, progress, safety, comfort, tracking)``."""
+    m = rows.shape[0]
+    total = np.empty(m)
+    progress = np.empty(m)
+    safety = np.empty(m)
+    comfort = np.empty(m)
+    track = np.empty(m)
+    for k in range(m):
+        i = rows[k]
+        p = (speed[i] - lo) / span
+        if p < 0.0:
+            p = 0.0
+        if p > 1.0:
+            p = 1.0
+        q = 1.0 - gap[i] / (2.0 + speed[i])
+        if q < 0.0:
+            q = 0.0
+        if q > 1.0:
+            q = 1.0
+        sf = -1.0 if crashed[i] else -q
+        cf = -0.5 * (ua[k, 0] * ua[k, 0] + ua[k, 1] * ua[k, 1])
+        tr = ex[k] if F[i, 8] != 0.0 else 0.0
+        progress[k] = p
+        safety[k] = sf
+        comfort[k] = cf
+        track[k] = tr
+        total[k] = w_progress * p + w_safety * sf + w_comfort * cf + w_tracking * tr
+    return total, progress, safety, comfort, track
