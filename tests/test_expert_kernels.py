@@ -334,7 +334,7 @@ def _old_platoon_normalised(acc, cap, phi, a_min, a_max, steer_max):
 @given(st.data())
 def test_platoon_normalisation_equals_the_replaced_array_code(data):
     from icv_envs.policies._kernels import normalised_actions
-    from icv_envs.sim._ufuncs import clip as uclip
+    from icv_envs._ufuncs import clip as uclip
 
     n = data.draw(st.integers(1, 20))
     fl = st.floats(-10, 10)
@@ -957,3 +957,49 @@ def test_intersection_features_and_rewards_equal_the_replaced_array_code(monkeyp
                 for a in env.agents}
         obs, rew, term, trunc, infos = env.step(acts)
     assert seen["calls"] > 100 and seen["tracked"] > 0, seen
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_platoon_accelerations_equal_the_replaced_array_code(data):
+    """platoon_accelerations against the frozen _longitudinal's array code on
+    random fleets: every mode, tight and not, errors beyond the clip, hard
+    braking below the comfort range, caps above and below the law."""
+    from icv_envs.policies._kernels import platoon_accelerations
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n = data.draw(st.integers(1, 30))
+    v = rng.choice([0.0, 5.0, 12.0], n) + rng.uniform(0, 3, n)
+    mode = rng.integers(0, 4, n).astype(np.int64)
+    u, X = rng.uniform(-300, 0, n), rng.uniform(-300, 0, n)
+    xref = np.where(rng.random(n) < 0.5, u + rng.uniform(-80, 80, n), -X + rng.uniform(-80, 80, n))
+    vref = rng.uniform(0, 15, n)
+    tight = rng.random(n) < 0.5
+    vcap = np.where(rng.random(n) < 0.5, np.inf, rng.uniform(-8, 3, n))
+    p = dict(v0=15.0, a_max=2.0, comfort=(-3.0, 1.5), idm_b=2.0, idm_T=1.2, idm_s0=2.0, clip=20.0,
+             kp=float(rng.choice([-0.3, -1.0])), kv=-0.8, a_min=-7.0)
+    # the frozen array code
+    acc = idm_acceleration(v, p["v0"], np.inf, 0.0, min(p["a_max"], p["comfort"][1]), p["idm_b"], p["idm_T"],
+                           p["idm_s0"])
+    fol = np.flatnonzero(mode == 1)
+    if len(fol):
+        x = u[fol]
+        xr = x + np.clip(xref[fol] - x, -p["clip"], p["clip"])
+        acc[fol] = _longitudinal_feedback(x, xr, v[fol], vref[fol], p["kp"], p["kv"], p["comfort"][0],
+                                          p["comfort"][1], 0.0)
+    tr = np.flatnonzero(mode == 2)
+    binding = 0
+    if len(tr):
+        x = -X[tr]
+        xr = x + np.clip(-xref[tr] - x, -p["clip"], p["clip"])
+        lo = np.where(tight[tr], p["a_min"], p["comfort"][0])
+        a = _longitudinal_feedback(x, xr, v[tr], vref[tr], p["kp"], p["kv"], p["a_min"], p["a_max"], 0.0)
+        a = np.clip(a, lo, p["a_max"])
+        binding = int((vcap[tr] < a - 0.5).sum())
+        acc[tr] = np.minimum(a, vcap[tr])
+    free_pow = (v / np.maximum(p["v0"], 0.1)) ** 4.0
+    got, got_binding = platoon_accelerations(
+        v, free_pow, float(min(p["a_max"], p["comfort"][1])), p["idm_b"], p["idm_T"], p["idm_s0"], mode, 1, 2, u, X,
+        xref, vref, tight, vcap, p["clip"], p["kp"], p["kv"], p["comfort"][0], p["comfort"][1], p["a_min"],
+        p["a_max"])
+    assert _same(got, acc) and got_binding == binding

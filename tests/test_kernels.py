@@ -1114,7 +1114,7 @@ def test_normalised_actions_equal_the_array_code(n, a_max, a_min, steer, seed):
     """The highway expert's normalisation compiled against the array code it
     replaced, with values beyond the limits, exactly at them, signed zeros and NaN."""
     from icv_envs.policies._kernels import normalised_actions
-    from icv_envs.sim._ufuncs import clip as uclip
+    from icv_envs._ufuncs import clip as uclip
 
     rng = np.random.default_rng(seed)
     a = rng.uniform(2.0 * a_min, 2.0 * a_max, n)
@@ -1132,7 +1132,7 @@ def test_normalised_actions_equal_the_array_code(n, a_max, a_min, steer, seed):
 def _numpy_formation_features(env):
     """HighwayFormationEnv._features as the array code wrote it before it was
     compiled (frozen here as the oracle)."""
-    from icv_envs.sim._ufuncs import clip as uclip
+    from icv_envs._ufuncs import clip as uclip
 
     w = env.world
     tr = w.traffic
@@ -1182,7 +1182,7 @@ def _numpy_references(manager, traffic):
 
 def _numpy_formation_rewards(env, rows, crashed_now, F):
     """HighwayFormationEnv._rewards_rows as the array code wrote it (oracle)."""
-    from icv_envs.sim._ufuncs import clip as uclip
+    from icv_envs._ufuncs import clip as uclip
 
     c = env.config
     w = env.world
@@ -1284,7 +1284,7 @@ def _drive_patched(env, rng, steps, random_share, **patches):
 def _numpy_safety_cap(expert, world, index, acc, lane, desired, member, exiting, bounds=None):
     """FormationExpert's safety envelope as the array code wrote it before it
     was compiled (frozen here as the oracle)."""
-    from icv_envs.sim._ufuncs import clip as uclip
+    from icv_envs._ufuncs import clip as uclip
     from icv_envs.sim.traffic import idm_acceleration, leaders
 
     p = expert.p
@@ -1465,7 +1465,7 @@ def _numpy_lane_change_starts(expert, world, index, active, lane, desired, membe
     """FormationExpert.compute's "start lane changes" as array code (what
     policies/_kernels.lane_change_starts replaced), frozen here as its
     reference: ``(start rows, target lanes, curve lengths, blocked)``."""
-    from icv_envs.sim._ufuncs import clip as uclip
+    from icv_envs._ufuncs import clip as uclip
     from icv_envs.sim.traffic import followers, idm_acceleration, leaders
 
     p = expert.p

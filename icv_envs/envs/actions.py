@@ -64,7 +64,7 @@ import numpy as np
 from gymnasium import spaces
 
 from icv_envs.envs._config import pick_type, typed_options
-from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs._ufuncs import clip as uclip
 
 
 __all__ = ["ACTION_TYPES", "check_actions", "ActionType", "ContinuousAction", "DiscreteMetaAction", "FormationResidual",

@@ -37,7 +37,7 @@ from icv_envs.envs.actions import ContinuousAction, action_factory, action_to_co
 from icv_envs.envs.dict_edge import DictEdge
 from icv_envs.envs.ego import EgoEnv
 from icv_envs.envs.observations import observation_factory
-from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs._ufuncs import clip as uclip
 
 __all__ = ["IcvAgentsEnv", "check_actions"]
 

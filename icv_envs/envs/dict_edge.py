@@ -14,7 +14,7 @@ import operator
 
 import numpy as np
 
-from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs._ufuncs import clip as uclip
 
 __all__ = ["DictEdge"]
 

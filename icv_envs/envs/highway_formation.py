@@ -27,7 +27,7 @@ from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
 from icv_envs.sim._kernels import formation_feature_rows, formation_reward_terms, nearest_along_road
-from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs._ufuncs import clip as uclip
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.road import Obstacle, OffRamp, OnRamp, RoadLayout
 from icv_envs.sim.world import StepEvents, World

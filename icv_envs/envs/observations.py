@@ -54,7 +54,7 @@ from gymnasium import spaces
 
 from icv_envs.envs._config import pick_type, typed_options
 from icv_envs.sim._kernels import kinematics_rows
-from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs._ufuncs import clip as uclip
 
 __all__ = ["OBSERVATION_TYPES", "Kinematics", "OccupancyGrid", "observation_factory", "merge_observation_config"]
 

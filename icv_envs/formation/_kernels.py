@@ -31,7 +31,7 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["join_search", "join_search_banded", "lateral_post", "lateral_pre", "plan_rows", "profile_gather", "pursuit_post",
+__all__ = ["clip1", "join_search", "join_search_banded", "lateral_post", "lateral_pre", "plan_rows", "profile_gather", "pursuit_post",
            "pursuit_pre", "quintic_rows"]
 
 
@@ -227,8 +227,19 @@ def profile_gather(vid, time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab):
 # implementations round as their own (on AVX-512 not as libm, which numba
 # calls); everything here is exactly rounded, in the array code's order, so
 # the results are the array code's bit for bit on every SIMD level
-# (tests/test_expert_kernels.py). numpy's clip is ``v < lo ? lo : v`` then
-# ``v > hi ? hi : v`` on finite values (a -0.0 above a 0.0 bound stays -0.0).
+# (tests/test_expert_kernels.py). numpy's clip: :func:`clip1`.
+
+
+@nb.njit(cache=True)
+def clip1(v, lo, hi):
+    """``numpy.clip(v, lo, hi)`` of one finite float: ``lo`` below it,
+    ``hi`` above, ``v`` itself on a tie (a -0.0 above a 0.0 bound stays
+    -0.0), as numpy's clip loop compares."""
+    if v < lo:
+        v = lo
+    if v > hi:
+        v = hi
+    return v
 
 
 @nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
@@ -241,11 +252,7 @@ def lateral_pre(rows, x, x0, d):
     w = np.empty(n)
     for k in range(n):
         i = rows[k]
-        v = (x[i] - x0[i]) / d[i]
-        if v < 0.0:
-            v = 0.0
-        if v > 1.0:
-            v = 1.0
+        v = clip1((x[i] - x0[i]) / d[i], 0.0, 1.0)
         s[k] = v
         w[k] = 4.0 * v - 2.0
     return s, w
@@ -263,11 +270,7 @@ def lateral_post(rows, s, sh, x, x0, y0, y1, d):
     for k in range(n):
         i = rows[k]
         t = 0.5 + sh[k]
-        t = t - (((t - 1.5) * t + 1.5) * t - s[k]) / ((3.0 * t - 3.0) * t + 1.5)
-        if t < 0.0:
-            t = 0.0
-        if t > 1.0:
-            t = 1.0
+        t = clip1(t - (((t - 1.5) * t + 1.5) * t - s[k]) / ((3.0 * t - 3.0) * t + 1.5), 0.0, 1.0)
         dy = y1[i] - y0[i]
         if x[i] <= x0[i]:
             y[k] = y0[i]

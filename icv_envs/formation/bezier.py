@@ -28,11 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-try:  # numpy's clip ufunc without numpy.clip's Python wrapper (as icv_envs.sim._ufuncs; no upward import)
-    from numpy._core.umath import clip as uclip
-except ImportError:  # numpy < 2
-    from numpy.core.umath import clip as uclip  # type: ignore[no-redef]
-
+from icv_envs._ufuncs import clip as uclip
 from icv_envs.formation._kernels import lateral_post, lateral_pre, pursuit_post, pursuit_pre
 from icv_envs.formation._validate import finite
 

@@ -31,6 +31,7 @@ import math
 import numba as nb
 import numpy as np
 
+from icv_envs.formation._kernels import clip1
 from icv_envs.platoon._kernels import depths_of
 from icv_envs.sim._kernels.neighbours import leader_entries, leader_rows
 from icv_envs.sim._kernels.formation import _exit_ahead1, _exit_lookahead1, _wrap1
@@ -889,41 +890,33 @@ def expert_accelerations(n, free_rows, free_pow, v, a_max, b, T, s0, m_rows, cx,
     root = 2.0 * math.sqrt(a_max * b)
     for k in range(free_rows.shape[0]):
         i = free_rows[k]
-        u = v[i] * T + v[i] * 0.0 / root
-        s_star = s0 + (0.0 if 0.0 > u else u)
-        q = s_star / np.inf
-        acc[i] = a_max * (1.0 - free_pow[k] - q * q)
+        acc[i] = _idm_free1(v[i], free_pow[k], a_max, T, s0, root)
     for k in range(m_rows.shape[0]):
         i = m_rows[k]
         xe = cx[i] + _wrap1(x_ref[i] - cx[i], length)
-        u = a_ref[i] + kp * (cx[i] - xe) + kv * (v[i] - v_ref[i])
-        if u < lo:
-            u = lo
-        if u > hi:
-            u = hi
+        u = _feedback1(a_ref[i], cx[i], xe, v[i], v_ref[i], kp, kv, lo, hi)
         floor = 1.0 * (v_min - v[i])
         acc[i] = u if u > floor else floor
     return acc
 
 
+@nb.njit(cache=True, error_model="numpy")
+def _idm_free1(v, free_pow, a_max, T, s0, root):
+    """``traffic.idm_acceleration`` of one vehicle without a leader (gap
+    ``inf``, ``dv = 0``): ``a_max (1 - free_pow - (s*/inf)^2)`` with ``s* =
+    s0 + max(0, v T + v 0 / root)``, ``root = 2 sqrt(a_max b)`` and
+    ``free_pow`` the free term's power (numpy's)."""
+    w = v * T + v * 0.0 / root
+    s_star = s0 + (0.0 if 0.0 > w else w)
+    q = s_star / np.inf
+    return a_max * (1.0 - free_pow - q * q)
+
+
 @nb.njit(cache=True)
-def _feedback1(x, target, v, vref, clip_err, kp, kv, lo, hi):
-    """One vehicle's feedback law (``formation.control._longitudinal_feedback``
-    with ``a_ref = 0``) on a reference whose error is clipped: ``clip(0 + kp
-    (x - xr) + kv (v - vref), lo, hi)``, ``xr = x + clip(target - x,
-    -clip_err, clip_err)``; numpy's clip on finite values."""
-    e = target - x
-    if e < -clip_err:
-        e = -clip_err
-    if e > clip_err:
-        e = clip_err
-    xr = x + e
-    a = 0.0 + kp * (x - xr) + kv * (v - vref)
-    if a < lo:
-        a = lo
-    if a > hi:
-        a = hi
-    return a
+def _feedback1(a_ref, x, x_ref, v, v_ref, kp, kv, lo, hi):
+    """``formation.control._longitudinal_feedback`` of one vehicle:
+    ``clip(a_ref + kp (x - x_ref) + kv (v - v_ref), lo, hi)``."""
+    return clip1(a_ref + kp * (x - x_ref) + kv * (v - v_ref), lo, hi)
 
 
 @nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
@@ -946,19 +939,17 @@ def platoon_accelerations(v, free_pow, a_free, b, T, s0, mode, mode_follow, mode
     root = 2.0 * math.sqrt(a_free * b)
     binding = 0
     for i in range(n):
-        w = v[i] * T + v[i] * 0.0 / root
-        s_star = s0 + (0.0 if 0.0 > w else w)
-        q = s_star / np.inf
-        acc[i] = a_free * (1.0 - free_pow[i] - q * q)
+        acc[i] = _idm_free1(v[i], free_pow[i], a_free, T, s0, root)
         if mode[i] == mode_follow:
-            acc[i] = _feedback1(u[i], xref[i], v[i], vref[i], clip_err, kp, kv, comfort_lo, comfort_hi)
+            # the reference error clipped to +-clip_err first
+            x = u[i]
+            xr = x + clip1(xref[i] - x, -clip_err, clip_err)
+            acc[i] = _feedback1(0.0, x, xr, v[i], vref[i], kp, kv, comfort_lo, comfort_hi)
         elif mode[i] == mode_tree:
-            a = _feedback1(-X[i], -xref[i], v[i], vref[i], clip_err, kp, kv, a_min, a_max)
-            lo = a_min if tight[i] else comfort_lo
-            if a < lo:
-                a = lo
-            if a > a_max:
-                a = a_max
+            x = -X[i]
+            xr = x + clip1(-xref[i] - x, -clip_err, clip_err)
+            a = _feedback1(0.0, x, xr, v[i], vref[i], kp, kv, a_min, a_max)
+            a = clip1(a, a_min if tight[i] else comfort_lo, a_max)
             vc = vcap[i]
             if vc < a - 0.5:
                 binding += 1

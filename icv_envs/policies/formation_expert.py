@@ -47,7 +47,7 @@ import numpy as np
 
 from icv_envs.formation.bezier import _lane_change_lateral_rows, _pure_pursuit_rows, lane_change_lateral
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV
-from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
+from icv_envs._ufuncs import clip as uclip, flatnonzero
 from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies._kernels import (
     exit_lanes,

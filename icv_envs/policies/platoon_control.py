@@ -17,7 +17,7 @@ import numpy as np
 from icv_envs.policies._kernels import box_steering, envelope_pairs, normalised_actions, platoon_accelerations
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE, Corridors
 from icv_envs.sim.traffic import idm_acceleration
-from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
+from icv_envs._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["PlatoonControl"]
 

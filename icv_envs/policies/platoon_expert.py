@@ -159,7 +159,7 @@ from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
 from icv_envs.policies.platoon_control import PlatoonControl
 from icv_envs.policies.regrouping import Regrouping
 from icv_envs.policies.virtual_platoon import VirtualPlatoon
-from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
+from icv_envs._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["PlatoonParams", "PlatoonExpert", "VP_METHODS", "Corridors", "MODE_FREE", "MODE_FOLLOW",
            "MODE_TREE", "MODE_PLAN"]
@@ -248,6 +248,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self._vcap = np.zeros(0)
         self._plan_vids: set | None = None  # set_plan_carriers; None: every vehicle
+        self._pruned: tuple | None = None  # _prune: (fleet id, count, next id) at its last call
         # VirtualPlatoon._anticipate: (rows, reference X, bounding node id or -1)
         self._anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
         self._advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))  # VirtualPlatoon._anticipate
@@ -389,8 +390,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         empty and every ordered node exists (most steps; it rebuilt every
         member list each step)."""
         key = (id(f), f.n, f.next_vid)
-        last = getattr(self, "_pruned", None)
-        self._pruned = key
+        last, self._pruned = self._pruned, key
         if (last is not None and last[0] == key[0] and f.n - last[1] == f.next_vid - last[2]
                 and all(g["members"] for store in (self.formations, self.subs, self.nodes) for g in store.values())
                 and all(k in self.nodes for k in self.vp_order)):

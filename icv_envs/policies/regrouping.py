@@ -15,7 +15,7 @@ from icv_envs.formation.bezier import _lane_change_lateral_rows
 from icv_envs.formation.targets import interlaced_targets
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors
 from icv_envs.sim.traffic import idm_acceleration
-from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
+from icv_envs._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["Regrouping"]
 

@@ -24,7 +24,7 @@ from icv_envs.policies._kernels import (
 )
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
-from icv_envs.sim._ufuncs import flatnonzero
+from icv_envs._ufuncs import flatnonzero
 
 __all__ = ["VirtualPlatoon"]
 

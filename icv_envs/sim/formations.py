@@ -65,7 +65,7 @@ from icv_envs.sim._kernels.formation_step import (
     reform_costs,
     reform_slots,
 )
-from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
+from icv_envs._ufuncs import clip as uclip, flatnonzero
 from icv_envs.sim.join_plans import JoinPlans
 
 __all__ = ["FormationManager"]

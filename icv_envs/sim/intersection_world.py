@@ -62,7 +62,7 @@ from icv_envs.sim.intersection_metrics import (
 )
 from icv_envs.sim._kernels.frames import intersection_frames
 from icv_envs.sim._kernels.intersection import box_collision_pairs, route_rows, rows_of_ids
-from icv_envs.sim._ufuncs import clip as uclip, flatnonzero
+from icv_envs._ufuncs import clip as uclip, flatnonzero
 
 __all__ = [
     "IntersectionLayout",

@@ -24,7 +24,7 @@ from icv_envs.formation.control import (
     _quintic_coeffs,
     join_profile,
 )
-from icv_envs.sim._ufuncs import flatnonzero
+from icv_envs._ufuncs import flatnonzero
 
 __all__ = ["JoinPlans", "JOIN_MAX_DURATION"]
 

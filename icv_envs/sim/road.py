@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from icv_envs.sim._kernels import interval_ends, lanes_available
-from icv_envs.sim._ufuncs import clip as uclip
+from icv_envs._ufuncs import clip as uclip
 
 __all__ = ["OnRamp", "OffRamp", "Obstacle", "RoadLayout"]
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from icv_envs.formation._kernels import clip1
 from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lane_of1, npy_mod
 
@@ -135,6 +136,19 @@ def kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, norma
 
 
 @nb.njit(cache=True)
+def _kinematics_columns(F, i, x, y, v, c, s):
+    """Row ``i``'s first seven features, the layout both envs share:
+    presence, x, y, vx = v cos, vy = v sin, cos, sin of the heading."""
+    F[i, 0] = 1.0
+    F[i, 1] = x
+    F[i, 2] = y
+    F[i, 3] = v * c
+    F[i, 4] = v * s
+    F[i, 5] = c
+    F[i, 6] = s
+
+
+@nb.njit(cache=True)
 def formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
                            n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
     """The feature rows of
@@ -152,13 +166,7 @@ def formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member
     F = np.zeros((n, 13))
     lane = np.empty(n, dtype=np.int64)
     for i in range(n):
-        F[i, 0] = 1.0
-        F[i, 1] = cx[i]
-        F[i, 2] = cy[i]
-        F[i, 3] = speed[i] * ch[i]
-        F[i, 4] = speed[i] * sh[i]
-        F[i, 5] = ch[i]
-        F[i, 6] = sh[i]
+        _kinematics_columns(F, i, cx[i], cy[i], speed[i], ch[i], sh[i])
         if member[i]:
             F[i, 7] = _wrap1(x_ref[i] - cx[i], period)
             F[i, 8] = lane_ref[i] * lane_width - cy[i]
@@ -225,13 +233,7 @@ def intersection_feature_rows(cx, cy, speed, c, s, dist, has, d, dv, phase, lat_
     n = cx.shape[0]
     F = np.zeros((n, 14))
     for i in range(n):
-        F[i, 0] = 1.0
-        F[i, 1] = cx[i]
-        F[i, 2] = cy[i]
-        F[i, 3] = speed[i] * c[i]
-        F[i, 4] = speed[i] * s[i]
-        F[i, 5] = c[i]
-        F[i, 6] = s[i]
+        _kinematics_columns(F, i, cx[i], cy[i], speed[i], c[i], s[i])
         F[i, 7] = dist[i]
         F[i, 8] = d[i] if has[i] else 0.0
         F[i, 9] = dv[i] if has[i] else 0.0
@@ -281,16 +283,8 @@ def intersection_reward_rows(rows, speed, lo, span, gap, crashed, ua, F, ex, w_p
     track = np.empty(m)
     for k in range(m):
         i = rows[k]
-        p = (speed[i] - lo) / span
-        if p < 0.0:
-            p = 0.0
-        if p > 1.0:
-            p = 1.0
-        q = 1.0 - gap[i] / (2.0 + speed[i])
-        if q < 0.0:
-            q = 0.0
-        if q > 1.0:
-            q = 1.0
+        p = clip1((speed[i] - lo) / span, 0.0, 1.0)
+        q = clip1(1.0 - gap[i] / (2.0 + speed[i]), 0.0, 1.0)
         sf = -1.0 if crashed[i] else -q
         cf = -0.5 * (ua[k, 0] * ua[k, 0] + ua[k, 1] * ua[k, 1])
         tr = ex[k] if F[i, 8] != 0.0 else 0.0

@@ -1,5 +1,8 @@
 """NumPy's ``clip`` ufunc, called directly, and ``flatnonzero`` of a 1-D array without its wrapper.
 
+Below every layer of the package: the algorithms in ``formation/`` use it,
+as the simulator, the policies and the envs do.
+
 ``numpy.clip`` is a Python wrapper (``fromnumeric.clip`` -> ``ndarray.clip``
 -> ``_methods._clip``) around the ``clip`` ufunc; on the arrays of one step
 (20-450 vehicles) the wrapper costs more than the clipping, and a step
