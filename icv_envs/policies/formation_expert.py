@@ -234,7 +234,7 @@ class FormationExpert:
                           float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(a_min), float(a_max))
 
     def _normalise(self, a: np.ndarray, phi: np.ndarray) -> np.ndarray:
-        # compiled (policies/_kernels.py::normalised_actions: the arithmetic
+        # compiled (policies/_kernels/laws.py::normalised_actions: the arithmetic
         # of ``clip(stack([where(a >= 0, a / a_max, -a / a_min), phi /
         # steer_max], axis=1), -1, 1)``, element by element)
         p = self.p

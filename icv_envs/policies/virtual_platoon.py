@@ -256,7 +256,7 @@ class VirtualPlatoon:
         over (node, node, lane): per node and approach lane the nearest and
         the farthest member distance."""
         K = len(ids)
-        # (the pair test over (node, node, lane) and the repair loop compiled: policies/_kernels.py)
+        # (the pair test over (node, node, lane) and the repair loop compiled: policies/_kernels/virtual_platoon.py)
         leg = world.layout.leg_of[np.array([self.nodes[k]["mv"] for k in ids], dtype=np.int64)]
         at, moves = repair_order(np.asarray(o, dtype=np.int64), K, np.asarray(rows, dtype=np.int64),
                                  np.asarray(seg, dtype=np.int64), np.asarray(rs.phase, dtype=np.int64),

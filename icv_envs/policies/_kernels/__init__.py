@@ -1,0 +1,62 @@
+"""Compiled inner loops of the experts (numba, ``@njit(cache=True)``), one
+module per room of the paper's method, as the policies that call them:
+
+* :mod:`.laws` -- the control laws both experts share (normalised actions,
+  the IDM without a leader, the clipped feedback law, paper Sec. 2.2 eq. (law));
+* :mod:`.formation_expert` -- the highway formation expert (paper Sec. 2.2, 3.4):
+  safety envelope, lane-change starts, exit and lane-end lanes, and the
+  arithmetic of ``FormationExpert.compute`` around the numpy calls that stay;
+* :mod:`.corridors` -- the intersection's corridor index (read by Sec. 5's regrouping and Sec. 4.2);
+* :mod:`.virtual_platoon` -- the improved virtual platoon (Sec. 4.2):
+  passing-order repair, the virtual lane's caps, anticipation, tree-layers,
+  references, stop flags;
+* :mod:`.platoon_control` -- the intersection experts' control (Sec. 4.3, Sec. 5's controller):
+  steering through the box, the safety envelope, the longitudinal law.
+
+Same rule as :mod:`icv_envs.sim._kernels`: the same IEEE-754 operations on
+the same values, in the same order, as the numpy code each kernel replaced
+(comparisons, one subtraction and product per lane test, ``corr * BIG +
+coord`` for the corridor keys; numpy's ``maximum(a, b)`` and ``minimum(a,
+b)`` return ``b`` on a tie, its ``clip`` keeps the value on a tie), no
+``fastmath``, so trajectories are the same bit for bit
+(``tests/test_trajectory_hash.py``; the replaced code is frozen in
+``tests/test_kernels.py``, ``tests/test_expert_kernels.py``,
+``tests/test_corridor_index.py`` and ``tests/test_box_steering.py``).
+Transcendental calls whose NumPy SIMD rounding can differ from libm's
+(``arcsinh``, ``sinh``, ``hypot``, ``cos``, ``sin``, ``arctan``, the IDM's
+power) stay NumPy's in the highway expert, the kernels computing what lies
+between them; the intersection's steering uses libm's, as NumPy's float64
+loops up to AVX2 (the rule and its AVX-512 caveat: :mod:`icv_envs.sim._kernels`).
+Kernels added from stop 36 that divide use ``error_model="numpy"`` (IEEE
+``inf``/``nan`` as NumPy's, no ``ZeroDivisionError``).
+"""
+
+from icv_envs.policies._kernels.corridors import corridor_index, corridor_neighbours
+from icv_envs.policies._kernels.formation_expert import (
+    exit_lanes,
+    expert_accelerations,
+    expert_lane_speeds,
+    free_speed_ratio,
+    lane_change_starts,
+    lane_changes_ended,
+    lane_end_escape,
+    preview_points,
+    safety_cap,
+)
+from icv_envs.policies._kernels.laws import normalised_actions
+from icv_envs.policies._kernels.platoon_control import box_steering, envelope_pairs, platoon_accelerations
+from icv_envs.policies._kernels.virtual_platoon import (
+    anticipated_references,
+    follow_references,
+    repair_order,
+    stop_flags,
+    tree_layers,
+    tree_references,
+    virtual_caps,
+)
+
+__all__ = ["anticipated_references", "box_steering", "corridor_index", "corridor_neighbours", "envelope_pairs",
+           "exit_lanes", "expert_accelerations", "expert_lane_speeds", "follow_references", "free_speed_ratio",
+           "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
+           "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "stop_flags", "tree_layers",
+           "tree_references", "virtual_caps"]

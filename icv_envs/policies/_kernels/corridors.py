@@ -1,0 +1,125 @@
+"""The intersection's corridor index (the conflict geometry the
+regrouping, paper Sec. 5, and the virtual platoon, Sec. 4.2, read):
+:func:`corridor_index` builds the sorted entries of
+:class:`icv_envs.policies.platoon_common.Corridors`, which the experts
+rebuild two or three times per step from about eighty small array
+operations (about 140 us at 65 vehicles, most of it numpy's per-call
+overhead); :func:`corridor_neighbours` answers its queries. The
+trigonometry of the footprint's reach stays in numpy (numba's ``sin`` and
+numpy's SIMD ``sin`` may round differently). Rules:
+:mod:`icv_envs.policies._kernels`.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+__all__ = ["corridor_index", "corridor_neighbours"]
+
+
+@nb.njit(cache=True)
+def corridor_index(appr, lane, lat_leg, reach, w, leg, s, signal_lane, box, pid, early, plane0, dep, dep_corr,
+                   L, big):
+    """Entries ``(rows, corr, coord, keys, signal_only, lead)`` of the corridor index, sorted by key then
+    row. Candidate entries in the order of the numpy code: the approach lanes ``lane - 1, lane,
+    lane + 1`` the footprint reaches into (``|lat_leg - (ln + 0.5) w| < reach``), the signal lane, the
+    path of an in-box vehicle, its approach lane over its first metres (``early``), the departure lane
+    (``dep``); of two entries of one vehicle in one corridor the first is kept (a vehicle whose body
+    covers its signal lane is listed there physically)."""
+    n = appr.shape[0]
+    cap = 7 * n + 1
+    rows = np.empty(cap, dtype=np.int64)
+    corr = np.empty(cap, dtype=np.int64)
+    coord = np.empty(cap, dtype=np.float64)
+    sig = np.zeros(cap, dtype=np.bool_)
+    m = 0
+    for dl in (-1, 0, 1):
+        for i in range(n):
+            ln = lane[i] + dl
+            if appr[i] and ln >= 0 and ln < 3 and abs(lat_leg[i] - (ln + 0.5) * w) < reach[i]:
+                rows[m] = i
+                corr[m] = 3 * leg[i] + ln
+                coord[m] = s[i]
+                m += 1
+    for i in range(n):
+        if appr[i] and signal_lane[i] >= 0:
+            rows[m] = i
+            corr[m] = 3 * leg[i] + signal_lane[i]
+            coord[m] = s[i]
+            sig[m] = True
+            m += 1
+    for i in range(n):
+        if box[i]:
+            rows[m] = i
+            corr[m] = 24 + pid[i]
+            coord[m] = s[i]
+            m += 1
+    for i in range(n):
+        if early[i]:
+            rows[m] = i
+            corr[m] = 3 * leg[i] + plane0[i]
+            coord[m] = s[i]
+            m += 1
+    for i in range(n):
+        if dep[i]:
+            rows[m] = i
+            corr[m] = dep_corr[i]
+            coord[m] = s[i] - L[i]
+            m += 1
+    # first occurrence of each (row, corridor)
+    keep = np.ones(m, dtype=np.bool_)
+    for a in range(m):
+        if sig[a]:
+            for b in range(a):
+                if keep[b] and rows[b] == rows[a] and corr[b] == corr[a]:
+                    keep[a] = False
+                    break
+    idx = np.flatnonzero(keep)
+    rows, corr, coord, sig = rows[idx], corr[idx], coord[idx], sig[idx]
+    keys = corr * big + coord
+    # sort by key, ties by row (np.lexsort((rows, keys)))
+    o = np.argsort(rows, kind="mergesort")
+    o = o[np.argsort(keys[o], kind="mergesort")]
+    rows, corr, coord, keys, sig = rows[o], corr[o], coord[o], keys[o], sig[o]
+    k = rows.shape[0]
+    lead = np.full(k, -1, dtype=np.int64)
+    for a in range(k - 1):
+        if corr[a + 1] == corr[a]:
+            lead[a] = a + 1
+    return rows, corr, coord, keys, sig, lead
+
+
+@nb.njit(cache=True)
+def corridor_neighbours(keys, corr, rows, coord, q_rows, q_corr, qk):
+    """Per query: the nearest entry of another vehicle ahead (key > ``qk``) and behind (<=) in
+    corridor ``q_corr``, looking at most 4 entries each way (a vehicle is listed at most once per
+    corridor, so its own entry is the only one skipped). ``(lead_row, lead_coord, foll_row,
+    foll_coord)``, -1 / +-inf when none."""
+    k = q_rows.shape[0]
+    m = keys.shape[0]
+    lr = np.full(k, -1, dtype=np.int64)
+    lc = np.full(k, np.inf)
+    fr = np.full(k, -1, dtype=np.int64)
+    fc = np.full(k, -np.inf)
+    if m == 0:
+        return lr, lc, fr, fc
+    pos = np.searchsorted(keys, qk, side="right")
+    for i in range(k):
+        for j in range(4):
+            p = pos[i] + j
+            if p >= m or corr[p] != q_corr[i]:
+                break
+            if rows[p] != q_rows[i]:
+                lr[i] = rows[p]
+                lc[i] = coord[p]
+                break
+        for j in range(1, 5):
+            p = pos[i] - j
+            if p < 0 or corr[p] != q_corr[i]:
+                break
+            if rows[p] != q_rows[i]:
+                fr[i] = rows[p]
+                fc[i] = coord[p]
+                break
+    return lr, lc, fr, fc

@@ -1,0 +1,350 @@
+"""The improved virtual platoon's compiled loops (paper Sec. 4.2,
+:class:`icv_envs.policies.virtual_platoon.VirtualPlatoon`): the repair of
+the passing order (:func:`repair_order`), the virtual lane's Gipps caps
+(:func:`virtual_caps`), the adjusting zone's anticipation
+(:func:`anticipated_references`), the tree-layers with their references
+and bounds (:func:`tree_layers`), the formation-following and tree
+references (:func:`follow_references`, :func:`tree_references`) and the
+stop flags (:func:`stop_flags`). Rules: :mod:`icv_envs.policies._kernels`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from icv_envs.platoon._kernels import depths_of
+
+__all__ = ["anticipated_references", "follow_references", "repair_order", "stop_flags", "tree_layers",
+           "tree_references", "virtual_caps"]
+
+
+@nb.njit(cache=True)
+def repair_order(at, K, rows, seg, phase, lane, dist, leg):
+    """:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._repair_order`'s
+    pair test and repair loop, compiled: per node (``seg``, 0..K-1) and approach
+    lane the nearest and farthest member distance over the members still
+    approaching (``rows >= 0`` with ``phase == 0``); node ``k`` must come before
+    node ``i`` of its leg when in a shared lane its nearest member is ahead of
+    ``i``'s farthest (by more than 1e-6 m) and of ``i``'s nearest. The order
+    ``at`` (node indices) is scanned later node ``b`` first, then earlier
+    ``a``; the first such pair moves ``b`` to ``a``'s place and the scan
+    restarts, at most ``4 len(at) + 4`` times. Returns the new order and the
+    number of moves."""
+    C = 1
+    for q in range(rows.shape[0]):
+        if rows[q] >= 0 and phase[rows[q]] == 0 and lane[rows[q]] + 1 > C:
+            C = lane[rows[q]] + 1
+    lo = np.full((K, C), np.inf)
+    hi = np.full((K, C), -np.inf)
+    any_app = False
+    for q in range(rows.shape[0]):
+        r = rows[q]
+        if r < 0 or phase[r] != 0:
+            continue
+        any_app = True
+        g = seg[q]
+        c = lane[r]
+        d = dist[r]
+        if d < lo[g, c]:
+            lo[g, c] = d
+        if d > hi[g, c]:
+            hi[g, c] = d
+    at = at.copy()
+    moves = 0
+    if not any_app:
+        return at, moves
+    M = np.zeros((K, K), dtype=np.bool_)
+    for k in range(K):
+        for i in range(K):
+            if leg[k] != leg[i]:
+                continue
+            for c in range(C):
+                if lo[k, c] < hi[i, c] - 1e-6 and lo[k, c] < lo[i, c]:
+                    M[k, i] = True
+                    break
+    n = at.shape[0]
+    for _ in range(4 * n + 4):
+        hit_b = -1
+        hit_a = -1
+        for b in range(n):
+            for a in range(b):
+                if M[at[b], at[a]]:
+                    hit_b = b
+                    hit_a = a
+                    break
+            if hit_b >= 0:
+                break
+        if hit_b < 0:
+            break
+        moved = at[hit_b]
+        for q in range(hit_b, hit_a, -1):
+            at[q] = at[q - 1]
+        at[hit_a] = moved
+        moves += 1
+    return at, moves
+
+
+@nb.njit(cache=True)
+def virtual_caps(n, rows_all, kk, U, X, rear, rear_row, speed, D_safe, b, tau, bt2):
+    """The virtual lane's safe-speed caps
+    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._virtual_cap`):
+    for member ``rows_all[j]`` of node ``kk[j]``, Gipps' safe speed behind
+    the rear vehicle of every earlier node ``i`` it conflicts with
+    (``U[i, kk[j]]``), the smallest, as an acceleration cap ``(v_safe - v) /
+    tau``; ``inf`` for every other vehicle (and for members without such a
+    node); ``bt2 = (b tau)^2`` as the caller's Python computes it. The array
+    code's operations in its order (``sqrt`` is exactly rounded everywhere;
+    its ``maximum(G, 0)`` returns 0 on a tie)."""
+    cap = np.full(n, np.inf)
+    K = rear.shape[0]
+    for j in range(rows_all.shape[0]):
+        r = rows_all[j]
+        k = kk[j]
+        best = np.inf
+        for i in range(K):
+            if U[i, k]:
+                G = X[r] - rear[i] - D_safe
+                vr = speed[rear_row[i]]
+                vs = -b * tau + math.sqrt(bt2 + vr * vr + 2.0 * b * (G if G > 0.0 else 0.0))
+                if vs < best:
+                    best = vs
+        cap[r] = (best - speed[r]) / tau
+    return cap
+
+
+@nb.njit(cache=True)
+def _layers_before(depths, offset, lens, top):
+    """``before[m]``: the summed length of the longest node of every layer
+    below ``m`` (layers ``0..top``; node ``k`` of depth ``depths[k + offset]``
+    and length ``lens[k]``), as ``numpy.maximum.at`` then ``cumsum`` take them
+    (the maximum returns the new length on a tie; the sum runs in order).
+    ``before`` has ``top + 2`` entries."""
+    layer_max = np.zeros(top + 1)
+    for k in range(lens.shape[0]):
+        d = depths[k + offset]
+        layer_max[d] = layer_max[d] if layer_max[d] > lens[k] else lens[k]
+    before = np.empty(top + 2)
+    before[0] = 0.0
+    s = 0.0
+    for i in range(top + 1):
+        s += layer_max[i]
+        before[i + 1] = s
+    return before
+
+
+@nb.njit(cache=True)
+def anticipated_references(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs, rear_row, rear, depths, lens, x0,
+                           D_t, den):
+    """The references the adjusting zone's free vehicles ``cand`` would get
+    if their nodes were made now
+    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._anticipate`):
+    per candidate, the current nodes it conflicts with, up to the first
+    node of its own leg with a vehicle behind it; its depth ``1 +`` their
+    largest depth (0 without one); the layer reference ``x0 + depth D_t +``
+    the longest node of every layer before it; the bound ``D_t`` behind the
+    rear of those nodes (``-inf`` without one) and the first node attaining
+    it; their maximum ``R``; the braking room ``v^2 / den``; the hold ``R -
+    X``. Returns ``(ref, lb, pred, R, room, H)``. The array code's
+    operations in its order (the layers' longest node and their running sum
+    as ``maximum.at`` and ``cumsum`` take them; ``argmax``'s first index)."""
+    nc = cand.shape[0]
+    K = mvs.shape[0]
+    C = np.zeros((nc, K), dtype=np.bool_)
+    dnew = np.empty(nc, dtype=np.int64)
+    top = 0
+    for k in range(K):
+        if depths[k] > top:
+            top = depths[k]
+    for j in range(nc):
+        c = cand[j]
+        first_behind = K
+        for k in range(K):
+            if leg_of[mvs[k]] == leg[c] and dist[rear_row[k]] >= dist[c]:
+                first_behind = k
+                break
+        m = 0
+        for k in range(K):
+            ck = conflict[mv[c], mvs[k]] and k < first_behind
+            C[j, k] = ck
+            if ck and depths[k] > m:
+                m = depths[k]
+        dnew[j] = 1 + m
+        if dnew[j] > top:
+            top = dnew[j]
+    before = _layers_before(depths, 0, lens, top)
+    ref = np.empty(nc)
+    lb = np.empty(nc)
+    pred = np.zeros(nc, dtype=np.int64)
+    R = np.empty(nc)
+    room = np.empty(nc)
+    H = np.empty(nc)
+    for j in range(nc):
+        c = cand[j]
+        ref[j] = x0 + dnew[j] * D_t + before[dnew[j]]
+        best = -np.inf
+        arg = 0
+        for k in range(K):
+            v = rear[k] + D_t if C[j, k] else -np.inf
+            if v > best:
+                best = v
+                arg = k
+        lb[j] = best
+        pred[j] = arg
+        R[j] = ref[j] if ref[j] > lb[j] else lb[j]
+        room[j] = speed[c] * speed[c] / den
+        H[j] = R[j] - X[c]
+    return ref, lb, pred, R, room, H
+
+
+@nb.njit(cache=True)
+def tree_layers(mvs, conflict, xf, lens, rear, D_t):
+    """The virtual platoon's tree and references for nodes in order
+    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon.tree`): the
+    conflict block of the nodes' movements, the tree-layers
+    (:func:`icv_envs.platoon._kernels.depths_of`), the layer references of
+    :func:`icv_envs.platoon.tree._reference_positions` (the first vehicles'
+    ``X`` made nondecreasing first), the upper triangle ``U`` (earlier
+    conflicting nodes), and per node the bound ``D_t`` behind the rear of
+    its earlier conflicting nodes (``-inf`` without one) with the first node
+    attaining it. Returns ``(depths, refs, U, lb, pred)``; the array code's
+    operations in its order (``maximum.accumulate``, ``maximum.at`` and
+    ``cumsum`` as numpy takes them; ``argmax``'s first index)."""
+    K = mvs.shape[0]
+    C = np.empty((K, K), dtype=np.bool_)
+    for i in range(K):
+        for j in range(K):
+            C[i, j] = conflict[mvs[i], mvs[j]]
+    depths = depths_of(C)
+    # _reference_positions(maximum.accumulate(xf), lens, depths, D_t)
+    top = 0
+    for k in range(K + 1):
+        if depths[k] > top:
+            top = depths[k]
+    before = _layers_before(depths, 1, lens, top)
+    refs = np.empty(K + 1)
+    x0 = xf[0] - D_t
+    for k in range(K + 1):
+        refs[k] = x0 + depths[k] * D_t + before[depths[k]]
+    refs[0] = x0
+    U = np.zeros((K, K), dtype=np.bool_)
+    lb = np.empty(K)
+    pred = np.zeros(K, dtype=np.int64)
+    for j in range(K):
+        best = -np.inf
+        arg = 0
+        for i in range(K):
+            if i < j and C[i, j]:
+                U[i, j] = True
+                v = rear[i] + D_t
+            else:
+                v = -np.inf
+            if v > best:
+                best = v
+                arg = i
+        lb[j] = best
+        pred[j] = arg
+    return depths, refs, U, lb, pred
+
+
+@nb.njit(cache=True)
+def follow_references(k, rr, ref, vid, dist, klane, sig, phase, u, xg, speed, mode_follow, mode, xref, vref):
+    """Formation following of
+    :meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._references`,
+    in place: followers ``k`` of the vehicles at rows ``rr`` (-1: gone).
+    Two vehicles referring to each other (a safety net) lose the nearer
+    one's reference (``ref = -1``; the test reads the references as they
+    were before any is cleared); a follower ahead of its reference vehicle
+    in that vehicle's lane or in the lane it signals into (``sig``), still
+    approaching, drives free; the others follow (``mode_follow``) at ``u``
+    of the reference vehicle minus their offset ``xg``, at its speed.
+    Returns ``(cycles broken, followers ahead of their reference)``."""
+    m = k.shape[0]
+    cyc = np.zeros(m, dtype=np.bool_)
+    for j in range(m):
+        r = rr[j]
+        q = r if r > 0 else 0
+        cyc[j] = r >= 0 and ref[q] == vid[k[j]] and dist[k[j]] < dist[q]
+    n_cyc = 0
+    n_ahead = 0
+    for j in range(m):
+        if cyc[j]:
+            n_cyc += 1
+            ref[k[j]] = -1
+    for j in range(m):
+        if cyc[j] or rr[j] < 0:
+            continue
+        i = k[j]
+        r = rr[j]
+        in_its_lanes = klane[i] == klane[r] or klane[i] == sig[r]
+        if in_its_lanes and dist[i] < dist[r] and phase[i] == 0:
+            n_ahead += 1
+            continue
+        mode[i] = mode_follow
+        xref[i] = u[r] - xg[i]
+        vref[i] = speed[r]
+    return n_cyc, n_ahead
+
+
+@nb.njit(cache=True)
+def tree_references(rows_all, kk, first_of, refs, lb_of, pred_of, rear_row, X, xg, speed, v0, hold_gap, mode_tree,
+                    mode, xref, vref, tight, hold):
+    """The virtual platoon's references of the live members ``rows_all`` of
+    nodes ``kk``, in place (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._references`):
+    a node's first vehicle its layer reference (never ahead of itself) at
+    ``v0``, the others their offset behind the first vehicle at its speed;
+    the bound behind an earlier conflicting node's rear (``lb_of``) binds
+    where it lies ahead of that (``tight``: full braking), at the speed of
+    that rear vehicle; ``hold`` where the vehicle is already more than
+    ``hold_gap`` (+1e-9) inside that bound."""
+    for j in range(rows_all.shape[0]):
+        r = rows_all[j]
+        c = kk[j]
+        first = first_of[c]
+        if r == first:
+            a = refs[c + 1]
+            paper = a if a > X[r] else X[r]
+            vpaper = v0
+        else:
+            paper = X[first] + xg[r] - xg[first]
+            vpaper = speed[first]
+        lb = lb_of[c]
+        bind = lb > paper
+        mode[r] = mode_tree
+        hold[r] = X[r] < lb - hold_gap - 1e-9
+        xref[r] = lb if bind else paper
+        vref[r] = speed[rear_row[pred_of[c]]] if bind else vpaper
+        tight[r] = bind
+
+
+@nb.njit(cache=True)
+def stop_flags(phase, allowed, mv, klane, lc_lane, tlane, dist, R1, coordinated, hold, advised, u, length):
+    """Who may not enter the box (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._references`):
+    an approaching vehicle in a lane its movement may not leave from
+    (``allowed[mv, clip(klane, 0, 2)]``), changing lanes or not yet in its
+    target lane; inside ``R1`` without coordination; held; advised (rows
+    ``advised``); none already at the line (``u > -length / 2``). Returns
+    ``(stop, held approaching vehicles)``."""
+    n = phase.shape[0]
+    stop = np.empty(n, dtype=np.bool_)
+    held = 0
+    for i in range(n):
+        lane = klane[i]
+        if lane < 0:
+            lane = 0
+        if lane > 2:
+            lane = 2
+        appr = phase[i] == 0
+        s = appr and (not allowed[mv[i], lane] or lc_lane[i] >= 0 or klane[i] != tlane[i])
+        s = s or (appr and dist[i] <= R1 and not coordinated[i])
+        s = s or (appr and hold[i])
+        if appr and hold[i]:
+            held += 1
+        stop[i] = s
+    for j in range(advised.shape[0]):
+        stop[advised[j]] = True
+    for i in range(n):
+        stop[i] = stop[i] and not (u[i] > -0.5 * length[i])
+    return stop, held
