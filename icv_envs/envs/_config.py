@@ -98,6 +98,27 @@ def flag(config: dict, key: str, optional: bool = False) -> None:
         raise ValueError(f"config[{key!r}] = {v!r} is invalid; allowed: True or False" + (" or None" if optional else ""))
 
 
+def info_keys(config: dict, allowed: tuple) -> None:
+    """``config["info_keys"]``: None (every per-step info key the env
+    reports) or a list or tuple of distinct names from ``allowed``; the
+    expert's label has its own switch, ``expert_in_info``."""
+    v = config["info_keys"]
+    if v is None:
+        return
+    if not isinstance(v, (list, tuple)) or not all(isinstance(k, str) for k in v):
+        raise ValueError(f"config['info_keys'] = {v!r} is invalid; allowed: None (all) or a list of names from "
+                         f"{list(allowed)}")
+    if "expert_action" in v:
+        raise ValueError("config['info_keys'] lists 'expert_action'; the expert's label is switched by "
+                         "config['expert_in_info'] (True or False); allowed names in info_keys: " + str(list(allowed)))
+    bad = [k for k in v if k not in allowed]
+    if bad:
+        raise ValueError(f"config['info_keys'] = {list(v)!r}: unknown names {bad}; allowed: {list(allowed)}")
+    if len(set(v)) != len(v):
+        raise ValueError(f"config['info_keys'] = {list(v)!r} names a key twice; allowed: distinct names from "
+                         f"{list(allowed)}")
+
+
 def is_speed_pair(sr, v_top: float) -> bool:
     """``[lo, hi]`` of finite reals with ``0 <= lo < hi <= v_top``."""
     ok = isinstance(sr, (list, tuple)) and len(sr) == 2 and all(_is_real(v) for v in sr)

@@ -359,6 +359,15 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         """Per-agent truncation flags (or one bool for all) when the time is up."""
         return truncated_all
 
+    def _info_selection(self) -> tuple[tuple, bool]:
+        """``(the info columns to build, whether infos carry the reward
+        components)`` from ``config["info_keys"]`` (None: all of
+        ``INFO_KEYS``), in ``INFO_KEYS`` order."""
+        k = self.config["info_keys"]
+        if k is None:
+            return self.INFO_KEYS, True
+        return tuple(x for x in self.INFO_KEYS if x in k and x != "rewards"), "rewards" in k
+
     def _on_step_end(self, events) -> None:
         """Hook for subclasses (recorders); called once per policy step."""
 
@@ -417,8 +426,9 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
             # dicts at the end of the step with the expert's labels, which
             # come from the final state; then the infos of those that left
             # and of late spawns, in this order (``extra``)
-            cols = self._ma_info_columns(rows) if len(rows) else None
-            if cols is not None and crashed_now.any():
+            info_keys, info_rewards = self._info_selection()
+            cols = self._ma_info_columns(rows, info_keys) if len(rows) else None
+            if cols is not None and "crashed" in cols and crashed_now.any():
                 crashed_col = cols["crashed"]
                 for i in np.flatnonzero(crashed_now).tolist():
                     crashed_col[i] = True
@@ -471,7 +481,8 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         if not arrays:
             # (the expert is computed only when some info will carry its label)
             lab = self._expert_label_rows(step_vid) if (len(agents) or extra) else None
-            infos = {} if cols is None else self._info_dicts(agents, cols, parts, None if lab is None else list(lab[0]))
+            infos = {} if cols is None else self._info_dicts(agents, cols, parts if info_rewards else None,
+                                                             None if lab is None else list(lab[0]))
             for a, info in extra:
                 infos[a] = info
             if lab is not None:

@@ -81,6 +81,8 @@ class DictEdge:
         if labels is not None:
             tail = ("expert_action",)
             vals.append(labels)
+        if not vals:  # no key selected (``info_keys=[]`` without the expert's label): one empty dict each
+            return {a: {} for a in agents}
         return _dict_builder(tuple(keys), tuple(pk), tail)(agents, vals)
 
     @staticmethod

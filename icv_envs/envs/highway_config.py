@@ -21,12 +21,17 @@ from icv_envs.envs._config import (
     check_render,
     check_unused,
     flag,
+    info_keys,
     num as _num,
     section,
     speed_range,
 )
 
-__all__ = ["VEHICLE_LENGTH", "JAM_DISTANCE", "UNUSED_KEYS", "config_entries", "check_config"]
+__all__ = ["INFO_KEYS", "VEHICLE_LENGTH", "JAM_DISTANCE", "UNUSED_KEYS", "config_entries", "check_config"]
+
+#: The per-step keys of an agent's info dict, in their order (``info_keys``
+#: selects among them; ``expert_action`` is switched by ``expert_in_info``)
+INFO_KEYS = ("speed", "lane", "formation", "target_lane", "crashed", "rewards")
 
 _FORMATION_DEFAULTS = {
     "geometry": "interlaced",
@@ -85,6 +90,7 @@ def config_entries() -> dict:
         "action": {"type": "ContinuousAction"},
         "reward": dict(_REWARD_DEFAULTS),
         "expert_in_info": True,
+        "info_keys": None,
         "expert_driven_check": True,
         "missing_action": "error",
         "show_formation": True,
@@ -163,6 +169,7 @@ def check_config(c: dict, known: dict, env_name: str, unused_keys: dict, min_veh
     if c["missing_action"] not in ("error", "expert"):
         raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
     flag(c, "expert_in_info")
+    info_keys(c, INFO_KEYS)
     flag(c, "expert_driven_check")
     check_render(c, flags=("show_formation", "show_overlay"))
     if c["lane_drop"] is not None:

@@ -21,7 +21,7 @@ from highway_env.envs.common.abstract import AbstractEnv
 
 from icv_envs.envs.actions import action_to_controls, controls_to_action  # noqa: F401  (re-exported)
 from icv_envs.envs.base import IcvAgentsEnv
-from icv_envs.envs.highway_config import UNUSED_KEYS, check_config, config_entries
+from icv_envs.envs.highway_config import INFO_KEYS, UNUSED_KEYS, check_config, config_entries
 from icv_envs.envs.observations import merge_observation_config
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
@@ -60,6 +60,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
 
     MIN_VEHICLES = 1
     OBS_FEATURES = OBS_FEATURES
+    INFO_KEYS = INFO_KEYS
 
     def _vehicles(self):
         return self.world.traffic
@@ -405,20 +406,26 @@ class HighwayFormationEnv(IcvAgentsEnv):
         return self._spawn_due()
 
     def _ma_infos(self, agents, rows, parts) -> dict:
-        return self._info_dicts(agents, self._ma_info_columns(rows), parts)
+        keys, rewards = self._info_selection()
+        return self._info_dicts(agents, self._ma_info_columns(rows, keys), parts if rewards else None)
 
-    def _ma_info_columns(self, rows) -> dict:
-        """Per-agent info columns (lists aligned with ``rows``)."""
+    def _ma_info_columns(self, rows, keys: tuple = INFO_KEYS) -> dict:
+        """Per-agent info columns (lists aligned with ``rows``), those named
+        in ``keys`` (``config["info_keys"]``), in :data:`INFO_KEYS` order."""
         tr = self.world.traffic
-        lane_ref = np.where(tr.group >= 0, tr.tgt_lane, -1)  # references()' lane_ref, without the profiles
         rows = np.asarray(rows, dtype=np.int64)
-        cols = {
-            "speed": tr.speed[rows].tolist(),
-            "lane": self.world.road.lane_of(tr.center()[1])[rows].tolist(),
-            "formation": tr.group[rows].tolist(),
-            "target_lane": lane_ref[rows].tolist(),
-            "crashed": [False] * len(rows),
-        }
+        cols = {}
+        if "speed" in keys:
+            cols["speed"] = tr.speed[rows].tolist()
+        if "lane" in keys:
+            cols["lane"] = self.world.road.lane_of(tr.center()[1])[rows].tolist()
+        if "formation" in keys:
+            cols["formation"] = tr.group[rows].tolist()
+        if "target_lane" in keys:
+            lane_ref = np.where(tr.group >= 0, tr.tgt_lane, -1)  # references()' lane_ref, without the profiles
+            cols["target_lane"] = lane_ref[rows].tolist()
+        if "crashed" in keys:
+            cols["crashed"] = [False] * len(rows)
         return cols
 
     # ------------------------------------------------------- gymnasium (ego)

@@ -116,7 +116,7 @@ Per agent and per step, the weighted sum (weights in `config["reward"]`) of
 * `formation` (0.5): `exp(-(dx / L_s)^2 - (dy / lane_width)^2)` of the target
   error for members, 0 for free vehicles.
 
-The components are in `infos[agent]["rewards"]`.
+The components are in `infos[agent]["rewards"]` (unless `info_keys` leaves them out).
 
 ## Episode end
 
@@ -154,6 +154,7 @@ the road. Use it for centralised critics.
 | `action` | `{"type": "ContinuousAction"}` | see Action types |
 | `reward` | see Rewards | |
 | `expert_in_info` | True | put the expert's action in infos (costs one vectorised expert call per step) |
+| `info_keys` | None | the per-step keys of each agent's info: None for all (`speed`, `lane`, `formation`, `target_lane`, `crashed`, `rewards`), or a list of them, `[]` for none (as a TraCI subscription: a user pays for the per-agent values it reads; at 800 agents the full infos cost about 15% of a step). The order stays the one above; `expert_action` is switched by `expert_in_info`; an agent's last info when it leaves the road (`exited`, `left_road`, `crashed`) is always whole |
 | `expert_driven_check` | True | compare every action with the expert's (float32): a vehicle whose action equals it is *expert-driven* (it carries out the expert's lane-change plan; its collisions are counted under `expert` in `collisions_by_fault`). False: every vehicle is policy-driven and no step computes the expert for this check (training on learned actions: about a quarter of a 20-agent step; `icv_envs.vector.BatchedWorlds(expert=False)` sets it). Feeding the expert's actions back then does not reproduce the expert's trajectory |
 | `missing_action` | `"error"` | or `"expert"` |
 | `show_formation` | True | draw targets and the assignment when rendering |

@@ -38,6 +38,7 @@ from highway_env.envs.common.abstract import AbstractEnv
 from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.intersection_config import (  # noqa: F401  (METHODS, FCFS_TIGHT, MAX_THROUGHPUT re-exported)
     FCFS_TIGHT,
+    INFO_KEYS,
     MAX_THROUGHPUT,
     METHODS,
     check_config,
@@ -87,6 +88,7 @@ class IntersectionEnv(IcvAgentsEnv):
     """
 
     OBS_FEATURES = OBS_FEATURES
+    INFO_KEYS = INFO_KEYS
     OBS_EXTRA_FEATURES = OBS_EXTRA_FEATURES
 
     def _vehicles(self):
@@ -496,23 +498,31 @@ class IntersectionEnv(IcvAgentsEnv):
     def _ma_infos(self, agents, rows, parts) -> dict:
         if not len(rows):
             return {}
-        return self._info_dicts(agents, self._ma_info_columns(rows), parts)
+        keys, rewards = self._info_selection()
+        return self._info_dicts(agents, self._ma_info_columns(rows, keys), parts if rewards else None)
 
-    def _ma_info_columns(self, rows) -> dict:
-        """Per-agent info columns (lists aligned with ``rows``, non-empty)."""
+    def _ma_info_columns(self, rows, keys: tuple = INFO_KEYS) -> dict:
+        """Per-agent info columns (lists aligned with ``rows``, non-empty),
+        those named in ``keys`` (``config["info_keys"]``), in
+        :data:`INFO_KEYS` order."""
         f = self.world.fleet
-        rs = self.world.route()
         rows = np.asarray(rows, dtype=np.int64)
-        nodes = f.node[rows].tolist()
-        depth = self.expert.node_depth
-        cols = {
-            "speed": f.speed[rows].tolist(),
-            "movement": f.mv[rows].tolist(),
-            "distance": np.asarray(rs.dist)[rows].tolist(),
-            "node": nodes,
-            "tree_layer": [depth.get(nd, -1) for nd in nodes],
-            "crashed": [False] * len(rows),
-        }
+        cols = {}
+        if "speed" in keys:
+            cols["speed"] = f.speed[rows].tolist()
+        if "movement" in keys:
+            cols["movement"] = f.mv[rows].tolist()
+        if "distance" in keys:
+            cols["distance"] = np.asarray(self.world.route().dist)[rows].tolist()
+        if "node" in keys or "tree_layer" in keys:
+            nodes = f.node[rows].tolist()
+            if "node" in keys:
+                cols["node"] = nodes
+            if "tree_layer" in keys:
+                depth = self.expert.node_depth
+                cols["tree_layer"] = [depth.get(nd, -1) for nd in nodes]
+        if "crashed" in keys:
+            cols["crashed"] = [False] * len(rows)
         return cols
 
     # ------------------------------------------------------- gymnasium (ego)

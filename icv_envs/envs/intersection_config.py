@@ -22,6 +22,7 @@ from icv_envs.envs._config import (
     check_render,
     check_unused,
     flag,
+    info_keys,
     is_speed_pair,
     num as _num,
     section,
@@ -29,7 +30,7 @@ from icv_envs.envs._config import (
 )
 from icv_envs.platoon.geometry import LANE_USE_PRESETS
 
-__all__ = ["METHODS", "FCFS_TIGHT", "MAX_THROUGHPUT", "UNUSED_KEYS", "config_entries", "check_config"]
+__all__ = ["INFO_KEYS", "METHODS", "FCFS_TIGHT", "MAX_THROUGHPUT", "UNUSED_KEYS", "config_entries", "check_config"]
 
 METHODS = ("multi-vp", "single-vp", "fcfs", "fcfs-tight")
 #: FCFS reservation buffers of the method ``fcfs-tight`` (the buffers of the
@@ -38,6 +39,10 @@ METHODS = ("multi-vp", "single-vp", "fcfs", "fcfs-tight")
 #: so the effect of the margin is visible; ``fcfs`` uses ``_FCFS_DEFAULTS``
 FCFS_TIGHT = {"time_buffer": 5, "space_buffer": 0.5}
 MAX_THROUGHPUT = 20000.0  # veh/h: beyond any lane's capacity; a sanity bound for the config
+
+#: The per-step keys of an agent's info dict, in their order (``info_keys``
+#: selects among them; ``expert_action`` is switched by ``expert_in_info``)
+INFO_KEYS = ("speed", "movement", "distance", "node", "tree_layer", "crashed", "rewards")
 
 _REWARD_DEFAULTS = {"progress": 0.4, "safety": 1.0, "comfort": 0.1, "tracking": 0.5}
 #: Reservation parameters of ``fcfs``.  Buffers chosen so that FCFS's measured
@@ -97,6 +102,7 @@ def config_entries() -> dict:
         "reward": dict(_REWARD_DEFAULTS),
         "reward_speed_range": None,
         "expert_in_info": True,
+        "info_keys": None,
         "expert_driven_check": True,
         "missing_action": "error",
         "show_zones": True,
@@ -198,5 +204,6 @@ def check_config(c: dict, known: dict, validate_spaces, n_possible_agents) -> No
         raise ValueError(f"config['missing_action'] = {c['missing_action']!r}; allowed: 'error', 'expert'")
     for key in ("envelope_in_box", "vp_anticipation", "vp_zone_advisory", "expert_in_info", "expert_driven_check"):
         flag(c, key)
+    info_keys(c, INFO_KEYS)
     check_render(c, flags=("show_zones", "show_groups", "show_overlay"))
     check_possible_agents(n_possible_agents(), "throughput x (duration + warmup)")

@@ -210,6 +210,7 @@ the box minus the same distance at `desired_speed`), `envelope_box_binding`
 | `reward` | see Rewards | |
 | `reward_speed_range` | None | highway-env's key: `[lo, hi]` m/s, `0 <= lo < hi <= v_max`, maps the speed of the progress term linearly to [0, 1], clipped; None = speed / v_max |
 | `expert_in_info`, `expert_driven_check`, `missing_action` | True, True, `"error"` | as in `highway_formation_v0` |
+| `info_keys` | None | as in `highway_formation_v0`; the keys: `speed`, `movement`, `distance`, `node`, `tree_layer`, `crashed`, `rewards` (an agent's last info adds `wrong_exit`) |
 | `show_zones`, `show_groups` | True | rendering: zone circles; group lines and tree-layer labels |
 | `show_overlay` | True | rendering: title (method, demand, lane use), time, legend and a true-size inset of the box (docs/rendering.md) |
 | `scaling` | 0.54 | rendering: pixels per metre; 0.54 on 900 px shows the scene out to R3 = 800 m |

@@ -92,6 +92,9 @@ class _Track:
                              infos=infos)
 
 
+_INFO_NEEDED = ("speed", "crashed", "rewards")  # what _Track reads from an info
+
+
 def record_expert_dataset(env, episodes: int, out, seed: int = 0, config: dict | None = None,
                           dataset_id: str | None = None, progress: bool = False) -> dict:
     """Record ``episodes`` env episodes of the expert as a Minari dataset under
@@ -102,6 +105,14 @@ def record_expert_dataset(env, episodes: int, out, seed: int = 0, config: dict |
         raise ValueError(f"episodes = {episodes!r}; allowed: an integer >= 1")
     spec = resolve_env(env)
     cfg = dict(config or {})
+    # the recording reads the expert's label and these info keys every step
+    if cfg.get("expert_in_info", True) is not True:
+        raise ValueError(f"config['expert_in_info'] = {cfg['expert_in_info']!r}; the dataset records the expert's "
+                         f"actions from the infos: allowed: True (or leave it out)")
+    ik = cfg.get("info_keys")
+    if isinstance(ik, (list, tuple)) and not set(_INFO_NEEDED) <= set(ik):
+        raise ValueError(f"config['info_keys'] = {list(ik)!r}; the dataset records {list(_INFO_NEEDED)} from the "
+                         f"infos: allowed: None (all keys) or a list holding them")
     family = env_family(spec)
     dataset_id = dataset_id or DEFAULT_DATASET_ID.format(family=family)
     out = Path(out).resolve()
