@@ -6,7 +6,7 @@
     icv-envs run intersection --method multi-vp --throughput 1500 --lane-use paper --seconds 120 --seed 0 --out DIR [--video]
     icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
-    icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333] [--vs-sumo]
+    icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333] [--vs-sumo [--api dicts|lean|rows]]
     icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,...,5000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
     icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
@@ -72,6 +72,7 @@ def _progress() -> bool:
     """Show progress bars only on a terminal (they go to stderr)."""
     return sys.stderr.isatty()
 BENCHES = ("highway-formation", "highway-ramps", "train", "intersection")
+API_CHOICES = ("dicts", "lean", "rows")  # bench highway-ramps --vs-sumo --api
 COMPARES = ("highway-ramps", "intersection")
 
 
@@ -215,6 +216,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
     b.add_argument("--vs-sumo", dest="vs_sumo", action="store_true",
                    help="highway-ramps: time the last 100 s beside SUMO on the same ring, alternately (extra 'bench')")
+    b.add_argument("--api", type=_choice("api", API_CHOICES), default=None,
+                   help="highway-ramps --vs-sumo: how the agents are stepped: dicts (PettingZoo, full infos; "
+                        "default), lean (PettingZoo, info_keys=[], expert_in_info=False) or rows (step_rows: arrays)")
     b.add_argument("--out", default=None, help="also write the JSON to DIR/bench.json")
 
     from icv_envs.rl.evaluate import add_arguments as _eval_args
@@ -378,6 +382,8 @@ def _dispatch(args) -> int:
 
         if args.vs_sumo and args.target != "highway-ramps":
             raise ValueError(f"--vs-sumo is an option of 'bench highway-ramps', not of 'bench {args.target}'")
+        if args.api is not None and not args.vs_sumo:
+            raise ValueError(f"--api {args.api} is an option of 'bench highway-ramps --vs-sumo'")
         if args.target == "intersection":
             from icv_envs.experiments.intersection_bench import run_cli as bench_intersection_cli
 
@@ -392,7 +398,8 @@ def _dispatch(args) -> int:
             if args.vs_sumo:
                 from icv_envs.experiments.sumo_bench import ramps_vs_sumo
 
-                res = ramps_vs_sumo(args.seconds or 600.0, vgr=args.vgr, echo=lambda s: print(s, flush=True))
+                res = ramps_vs_sumo(args.seconds or 600.0, vgr=args.vgr, api=args.api or "dicts",
+                                    echo=lambda s: print(s, flush=True))
             else:
                 res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))
         else:

@@ -70,3 +70,46 @@ def test_highway_formation_bench_times_after_its_warmup():
     r = time_icv(12, seconds=0.4, warmup=0.2)
     assert r["sim_seconds"] == pytest.approx(0.4, abs=1e-6)
     assert r["wall_per_sim_s"] > 0 and r["collisions"] == 0
+
+
+def test_api_only_with_vs_sumo(capsys):
+    assert main(["bench", "highway-ramps", "--api", "rows"]) == 2
+    assert "--api rows is an option of 'bench highway-ramps --vs-sumo'" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:  # argparse's own error (exit 2) for an unknown choice
+        main(["bench", "highway-ramps", "--vs-sumo", "--api", "arrays"])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert "'arrays'" in err and "dicts" in err and "rows" in err, err
+
+
+def test_the_three_apis_drive_the_same_ring():
+    """``--api dicts``, ``lean`` and ``rows`` step the same trajectory (the
+    comparison with SUMO differs only in the API's cost)."""
+    import numpy as np
+
+    from icv_envs.envs.highway_ramps_v0 import parallel_env
+    from icv_envs.experiments.sumo_bench import APIS, _icv_steps
+
+    states = {}
+    for api, cfg in APIS.items():
+        env = parallel_env(vgr=1.0 / 3.0, duration=60.0, method="formation", **cfg)
+        env.reset(seed=1)
+        _icv_steps(env, 150, api)
+        tr = env.core.world.traffic
+        states[api] = (tr.vid.copy(), np.stack([tr.x, tr.y, tr.speed, tr.heading]), env.core.metrics())
+    ref = states["dicts"]
+    assert len(ref[0]) > 20
+    for api, s in states.items():
+        assert np.array_equal(s[0], ref[0]) and np.array_equal(s[1], ref[1]), api
+        assert s[2] == ref[2], api
+
+
+def test_ramps_vs_sumo_through_the_array_path():
+    pytest.importorskip("libsumo")
+    pytest.importorskip("sumo")
+    from icv_envs.experiments.sumo_bench import ramps_vs_sumo
+
+    res = ramps_vs_sumo(seconds=6.0, measure=2.0, chunks=2, sumo_warmup=1.0, api="rows", echo=lambda s: None)
+    assert res["api"] == "rows" and res["icv_vehicle_steps_per_cpu_s"] > 0
+    with pytest.raises(ValueError, match=r"api = 'x'; allowed: \['dicts', 'lean', 'rows'\]"):
+        ramps_vs_sumo(seconds=6.0, measure=2.0, api="x")

@@ -9,7 +9,11 @@ as many vehicles as the ring holds at that moment, warms up ``sumo_warmup``
 simulated seconds, and the last ``measure`` seconds are timed in
 ``chunks`` alternating slices, ours then SUMO's, so both see the same
 machine load. Vehicle-steps are physics steps of one vehicle (25 Hz both:
-ours steps the policy at 5 Hz with 5 physics sub-steps).
+ours steps the policy at 5 Hz with 5 physics sub-steps). ``api`` (``--api``)
+says how the agents are stepped: ``dicts`` (PettingZoo's dicts with every
+info key, the default and the issue's bar), ``lean`` (PettingZoo's dicts,
+``info_keys=[]``, no expert label in the infos) or ``rows`` (the array path,
+``step_rows``, no dicts); the three drive the same trajectory.
 
 Time base: process CPU time (libsumo runs in this process and thread, so
 both are charged the same way; on a shared machine wall time also counts
@@ -49,18 +53,35 @@ def _vehicle_steps(env) -> int:
     return int(motion.vehicle_steps) if motion is not None else int(w.stats["vehicle_steps"])
 
 
-def _icv_chunk(env, policy_steps: int) -> dict:
-    vs0 = _vehicle_steps(env)
-    c0, t0 = time.process_time(), time.perf_counter()
+#: how the ring's agents are stepped (``--api``): PettingZoo's dicts with
+#: every info key (the default), PettingZoo's dicts without per-step info keys
+#: (``info_keys=[]``, ``expert_in_info=False``: the loop reads the expert
+#: itself), or the array path (:meth:`~icv_envs.envs.parallel.CoreParallelEnv.step_rows`)
+APIS = {"dicts": {}, "lean": {"info_keys": [], "expert_in_info": False}, "rows": {"expert_in_info": False}}
+
+
+def _icv_steps(env, policy_steps: int, api: str = "dicts") -> None:
+    """``policy_steps`` steps of the formation expert driving every agent, through ``api``."""
+    if api == "rows":
+        core = env.core
+        for _ in range(policy_steps):
+            env.step_rows(core.expert_actions())
+        return
     for _ in range(policy_steps):
         ex = env.expert_actions()
         env.step({a: ex[a] for a in env.agents})
+
+
+def _icv_chunk(env, policy_steps: int, api: str = "dicts") -> dict:
+    vs0 = _vehicle_steps(env)
+    c0, t0 = time.process_time(), time.perf_counter()
+    _icv_steps(env, policy_steps, api)
     return {"cpu": time.process_time() - c0, "wall": time.perf_counter() - t0,
             "vehicle_steps": _vehicle_steps(env) - vs0}
 
 
 def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1.0 / 3.0, seed: int = 0,
-                  chunks: int = 10, sumo_warmup: float = 20.0, echo=print) -> dict:
+                  chunks: int = 10, sumo_warmup: float = 20.0, api: str = "dicts", echo=print) -> dict:
     from tqdm import tqdm
 
     from icv_envs.envs.highway_ramps_v0 import parallel_env
@@ -70,15 +91,17 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
         raise RuntimeError("--vs-sumo needs SUMO: pip install 'icv-envs[bench]' (eclipse-sumo, libsumo)")
     if not 0 < measure < seconds:
         raise ValueError(f"measure = {measure!r}; allowed: 0 < measure < seconds = {seconds}")
-    env = parallel_env(vgr=float(vgr), duration=float(seconds), method="formation")
+    if api not in APIS:
+        raise ValueError(f"api = {api!r}; allowed: {list(APIS)}")
+    env = parallel_env(vgr=float(vgr), duration=float(seconds), method="formation", **APIS[api])
     env.reset(seed=seed)
     pf = int(env.core.config["policy_frequency"])
     frames = int(env.core.config["simulation_frequency"]) // pf
     warm_steps = int(round((seconds - measure) * pf))
     c0 = time.process_time()
-    for _ in tqdm(range(warm_steps), desc="highway-ramps warm-up", mininterval=5.0, file=sys.stderr):
-        ex = env.expert_actions()
-        env.step({a: ex[a] for a in env.agents})
+    for _ in tqdm(range(warm_steps // 50), desc="highway-ramps warm-up (x50 steps)", mininterval=5.0, file=sys.stderr):
+        _icv_steps(env, 50, api)
+    _icv_steps(env, warm_steps % 50, api)
     warm_cpu = time.process_time() - c0
     rss_icv = _rss_mb()
     n = len(env.agents)
@@ -90,7 +113,7 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
     counts = []
     for _ in tqdm(range(chunks), desc="alternating slices", file=sys.stderr):
         counts.append(len(env.agents))
-        r = _icv_chunk(env, per_chunk)
+        r = _icv_chunk(env, per_chunk, api)
         for k in ours:
             ours[k] += r[k]
         r = ring.step(per_chunk * frames)
@@ -104,7 +127,7 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
     s_cpu = theirs["vehicle_steps"] / theirs["cpu"]
     res = {
         "bench": "highway-ramps-vs-sumo",
-        "vgr": float(vgr), "sim_seconds": float(seconds), "measured_seconds": float(measure),
+        "vgr": float(vgr), "sim_seconds": float(seconds), "measured_seconds": float(measure), "api": api,
         "icv_vehicles": [int(min(counts)), int(max(counts))], "sumo_vehicles": int(sumo_vehicles),
         "icv_vehicle_steps_per_cpu_s": o_cpu, "sumo_vehicle_steps_per_cpu_s": s_cpu, "ratio_cpu": o_cpu / s_cpu,
         "icv_vehicle_steps_per_wall_s": ours["vehicle_steps"] / ours["wall"],
@@ -115,7 +138,7 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
         "sumo": "SUMO 1.28 libsumo, Krauss + LC2013, dt 0.04 s",
         "python": f"{platform.python_implementation()} {platform.python_version()} numpy {np.__version__}",
     }
-    echo(f"highway-ramps VGR {vgr:.3g}, last {measure:g} s of {seconds:g}: icv_envs {o_cpu:,.0f} veh-steps/s "
+    echo(f"highway-ramps VGR {vgr:.3g} ({api}), last {measure:g} s of {seconds:g}: icv_envs {o_cpu:,.0f} veh-steps/s "
          f"({res['icv_vehicles'][0]}-{res['icv_vehicles'][1]} vehicles), SUMO {s_cpu:,.0f} veh-steps/s "
          f"({sumo_vehicles} vehicles): x{res['ratio_cpu']:.2f} (CPU time; wall x{res['ratio_wall']:.2f}); "
          f"peak RSS {rss_icv:.0f} MB")
