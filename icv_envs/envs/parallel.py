@@ -39,6 +39,25 @@ class CoreParallelEnv(ParallelEnv):
         self.action_spaces = {a: self._act_space for a in self.possible_agents}
         self.state_space = self.core.state_space_for(len(self.possible_agents))
 
+    @property
+    def agents(self) -> list[str]:
+        """The live agents (PettingZoo's attribute). After :meth:`step_rows`
+        the names are made from its ids when first read (a training loop
+        on arrays never asks for them: 459 names a step on the ring)."""
+        a = self._agents
+        if a is None:
+            a = self._agents = self.core._names(self._agents_vid.tolist())
+        return a
+
+    @agents.setter
+    def agents(self, value: list[str]) -> None:
+        self._agents = value
+
+    @property
+    def num_agents(self) -> int:
+        a = self._agents
+        return len(self._agents_vid) if a is None else len(a)
+
     def observation_space(self, agent):
         return self._obs_space
 
@@ -89,7 +108,7 @@ class CoreParallelEnv(ParallelEnv):
         if self._cycles_up:
             out = out._replace(truncated=~out.terminated)
         alive = ~(out.terminated | out.truncated)
-        self.agents = self.core._names(out.vid[alive].tolist())
+        self._agents, self._agents_vid = None, out.vid[alive]  # the names when asked (``agents``)
         return out
 
     @property

@@ -114,7 +114,7 @@ def episode_finished(env) -> bool:
     the highway-formation env; on the open roads, ramps and intersection,
     arrivals keep coming until the time is up). Envs without ``episode_over``
     end when ``agents`` is empty."""
-    if env.agents:
+    if env.num_agents:  # (PettingZoo's len(agents); ours counts without making the names)
         return False
     over = getattr(env, "episode_over", None)
     if over is None or over:

@@ -140,12 +140,13 @@ class Traffic:
         }
         ids = np.arange(self.next_vid, self.next_vid + k, dtype=np.int64)
         self.next_vid += k
+        # (np.full broadcasts a scalar or a (k,) array as broadcast_to did, without its Python overhead)
         for f in _FLOAT_FIELDS:
-            v = np.broadcast_to(np.asarray(vals[f], dtype=np.float64), (k,))
+            v = np.full(k, vals[f], dtype=np.float64)
             setattr(self, f, np.concatenate([getattr(self, f), v]))
         ivals = {"vid": ids, "exit": exit, "group": -1, "lc_lane": -1, "tgt_lane": -1}
         for f in _INT_FIELDS:
-            v = np.broadcast_to(np.asarray(ivals[f], dtype=np.int64), (k,))
+            v = np.full(k, ivals[f], dtype=np.int64)
             setattr(self, f, np.concatenate([getattr(self, f), v]))
         self.crashed = np.concatenate([self.crashed, np.zeros(k, dtype=bool)])
         return ids

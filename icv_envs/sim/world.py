@@ -323,7 +323,9 @@ class World:
         :meth:`lane_index` (:meth:`_reservations`)."""
         vids = np.asarray(vids)
         em = np.asarray(expert_mask, dtype=bool)
-        self._expert_vids = set(vids[em].tolist())
+        # None: every vehicle (the physics comes next and only removes vehicles, so ``vids`` covering the
+        # traffic covers every vehicle :meth:`classify_collisions` meets)
+        self._expert_vids = None if em.all() and len(vids) == self.traffic.n else set(vids[em].tolist())
         pm = em if plan_mask is None else em | np.asarray(plan_mask, dtype=bool)
         if pm.all() and len(vids) == self.traffic.n:
             self._plan_vids = None
