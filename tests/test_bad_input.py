@@ -93,6 +93,24 @@ def test_actions_for_unknown_agents():
         env.step(acts)
 
 
+@pytest.mark.parametrize("kind", ["dict", "defaultdict"])
+def test_an_unknown_agent_in_place_of_a_live_one_is_named(kind):
+    """As many keys as live agents, one of them unknown: the step's fast path
+    (one lookup per agent) must not take it, nor a defaultdict make up the
+    absent agent's action."""
+    import collections
+
+    env = make()
+    env.reset(seed=0)
+    acts = {a: np.zeros(2) for a in env.agents}
+    del acts[env.agents[2]]
+    acts["icv_99"] = np.zeros(2)
+    if kind == "defaultdict":
+        acts = collections.defaultdict(lambda: np.zeros(2), acts)
+    with pytest.raises(ValueError, match="not live.*icv_99"):
+        env.step(acts)
+
+
 def test_bad_actions_gym():
     env = gym.make("icv_envs/HighwayFormation-v0")
     env.reset(seed=0)

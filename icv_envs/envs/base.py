@@ -232,7 +232,15 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
         missing = []
-        if len(actions) != len(live) or actions.keys() != set(live):  # the usual case is one set comparison
+        values = None
+        if type(actions) is dict and len(actions) == len(live):
+            # the usual case: an action for every live agent and no other key (as many keys as agents)
+            # (a plain dict: a subclass's __missing__ could make up the value of an absent agent)
+            try:
+                values = [actions[a] for a in live]
+            except KeyError:
+                values = None
+        if values is None and (len(actions) != len(live) or actions.keys() != set(live)):
             live_set = set(live)
             unknown = [a for a in actions if a not in live_set]
             if unknown:
@@ -254,7 +262,8 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
             given, names = np.arange(veh.n), live
         if names:
             at = self._act_type
-            values = [actions[a] for a in names]
+            if values is None:
+                values = [actions[a] for a in names]
             if isinstance(at, ContinuousAction):
                 vals = self._check_actions(names, values)
             else:
