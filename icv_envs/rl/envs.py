@@ -114,7 +114,10 @@ def episode_finished(env) -> bool:
     the highway-formation env; on the open roads, ramps and intersection,
     arrivals keep coming until the time is up). Envs without ``episode_over``
     end when ``agents`` is empty."""
-    if env.num_agents:  # (PettingZoo's len(agents); ours counts without making the names)
+    n = getattr(env, "num_agents", None)  # (PettingZoo's len(agents); ours counts without making the names)
+    if n is None:  # (a wrapper without it)
+        n = len(env.agents)
+    if n:
         return False
     over = getattr(env, "episode_over", None)
     if over is None or over:
