@@ -234,6 +234,8 @@ class BatchedWorlds:
         self._slot_of_vid = np.full(max(ids) + 1 if ids else 0, -1, dtype=np.int64)
         self._slot_of_vid[ids] = np.arange(K)
         self._lut_dense = bool((self._slot_of_vid >= 0).all())  # (possible agents icv_0 .. icv_<K-1>: always)
+        # slot k holds vehicle k (possible agents icv_0 .. icv_<K-1> in order: always): ids are their slots
+        self._lut_identity = self._lut_dense and bool(np.array_equal(self._slot_of_vid, np.arange(K)))
         # continuous actions take the array path (ParallelEnv.step_rows: no per-agent dicts)
         self._rows = isinstance(self.envs[0].core._act_type, ContinuousAction)
         self.single_observation_space = self.envs[0].observation_space(self.possible_agents[0])
@@ -271,6 +273,8 @@ class BatchedWorlds:
             return np.zeros(0, dtype=np.int64)
         lo, hi = (int(vid[0]), int(vid[-1])) if ascending else (int(vid.min()), int(vid.max()))
         if hi < len(lut) and lo >= 0:
+            if self._lut_identity:  # (read only by the callers)
+                return vid
             k = lut[vid]
             if self._lut_dense:  # every id in the table has a slot
                 return k

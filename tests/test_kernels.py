@@ -1874,3 +1874,26 @@ def test_npy_mod_is_numpy_mod_bit_for_bit(a, b, near):
             want = np.mod(np.float64(x), np.float64(b))
         got = npy_mod(float(x), float(b))
         assert np.float64(got).tobytes() == want.tobytes() or (np.isnan(got) and np.isnan(want)), (x, b, got, want)
+
+
+_ACTION_VALUES = st.one_of(st.floats(-3.0, 3.0, allow_nan=False, width=64),
+                           st.sampled_from([-1.0, 1.0, -0.0, 0.0, np.nextafter(1.0, 2.0), np.nextafter(-1.0, -2.0),
+                                            5e-324, -5e-324, float("nan"), float("inf"), float("-inf")]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(rows=st.lists(st.tuples(_ACTION_VALUES, _ACTION_VALUES), max_size=12),
+       a_min=st.sampled_from([-6.0, -20.0, -0.5]), a_max=st.sampled_from([3.0, 20.0, 0.5]),
+       steer=st.sampled_from([np.radians(30.0), np.radians(5.0), 1.0]))
+def test_controls_rows_is_action_to_controls_bit_for_bit(rows, a_min, a_max, steer):
+    """The compiled action -> control map (the envs' ``_controls``) against
+    :func:`icv_envs.envs.actions.action_to_controls`, the array code it
+    replaced: clip ties, signed zeros, the branch at 0, subnormals, NaN/inf."""
+    from icv_envs.envs.actions import action_to_controls
+    from icv_envs.sim._kernels import controls_rows
+
+    acts = np.array(rows, dtype=np.float64).reshape(-1, 2)
+    want_a, want_phi = action_to_controls(acts, a_min, a_max, steer)
+    got_a, got_phi = controls_rows(acts, a_min, a_max, steer)
+    assert got_a.tobytes() == np.asarray(want_a, dtype=np.float64).tobytes()
+    assert got_phi.tobytes() == np.asarray(want_phi, dtype=np.float64).tobytes()

@@ -33,11 +33,11 @@ import numpy as np
 from gymnasium import spaces
 from highway_env.envs.common.abstract import AbstractEnv
 
-from icv_envs.envs.actions import ContinuousAction, action_factory, action_to_controls, check_actions
+from icv_envs.envs.actions import ContinuousAction, action_factory, check_actions
 from icv_envs.envs.dict_edge import DictEdge
 from icv_envs.envs.ego import EgoEnv
 from icv_envs.envs.observations import observation_factory
-from icv_envs._ufuncs import clip as uclip
+from icv_envs.sim._kernels import controls_rows
 
 __all__ = ["IcvAgentsEnv", "check_actions"]
 
@@ -301,10 +301,11 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         fused = getattr(self, "viewer", None) is None and callable(getattr(w, "substeps", None))
         frame = 0
         while frame < frames:
-            veh = self._vehicles()
-            if veh.n != len(vids) or not np.array_equal(veh.vid, vids):
-                keep = np.isin(vids, veh.vid)
-                vids, a, phi = vids[keep], a[keep], phi[keep]
+            if frame:  # (before the first frame ``vids`` are the vehicles)
+                veh = self._vehicles()
+                if veh.n != len(vids) or not np.array_equal(veh.vid, vids):
+                    keep = np.isin(vids, veh.vid)
+                    vids, a, phi = vids[keep], a[keep], phi[keep]
             if fused:
                 frame += w.substeps(a, phi, frames - frame, events)
             else:
@@ -322,8 +323,10 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         """Normalised actions -> (acceleration, steering angle) within the
         configured limits (:func:`~icv_envs.envs.actions.action_to_controls`)."""
         c = self.config
-        return action_to_controls(acts, c["acceleration_range"][0], c["acceleration_range"][1],
-                                  math.radians(c["max_steering_deg"]))
+        # compiled (icv_envs.sim._kernels.controls_rows: action_to_controls' operations, one pass)
+        return controls_rows(np.ascontiguousarray(acts, dtype=np.float64).reshape(-1, 2),
+                             float(c["acceleration_range"][0]), float(c["acceleration_range"][1]),
+                             math.radians(c["max_steering_deg"]))
 
     def _after_frames(self) -> None:
         """Hook: after the physics frames of a policy step."""
@@ -420,9 +423,13 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         trunc = self._truncations(truncated_all, crashed_now)
         # agents that left during the step report their last observation
         # (their state just before they left), reward 0
-        departed = sorted(self._departed(events).items())
-        gone_vid = np.fromiter((v for v, _ in departed), dtype=np.int64, count=len(departed))
-        gone_obs = self._last_obs_of(gone_vid)
+        departed = self._departed(events)
+        if departed:
+            departed = sorted(departed.items())
+            gone_vid = np.fromiter((v for v, _ in departed), dtype=np.int64, count=len(departed))
+            gone_obs = self._last_obs_of(gone_vid)
+        else:  # (most steps: nobody left; the rows below are concatenated only when someone left or arrived)
+            departed, gone_vid, gone_obs = [], None, ()
         if arrays:
             infos = None
             rew = np.array(rew, dtype=np.float64)
@@ -471,11 +478,14 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
                     truncs[a] = bool(truncated_all)
                     extra.append((a, inf2[a]))
         # every agent reported this step as rows, in the dicts' key order
-        if np.ndim(trunc) == 0:
+        if isinstance(trunc, (bool, np.bool_)):
             trunc_rows = np.full(len(step_vid), bool(trunc))
         else:
             trunc_rows = np.array(trunc, dtype=bool)
         if departed or late:
+            if not departed:
+                gone_vid = np.zeros(0, dtype=np.int64)
+                gone_obs = np.zeros((0,) + self.observation_space.shape, dtype=np.float32)
             out = StepRows(
                 np.concatenate([step_vid, gone_vid, late_vid]),
                 np.concatenate([obs, gone_obs, late_obs]),
@@ -535,15 +545,12 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         arr = np.asarray(actions, dtype=np.float64)
         if arr.shape != (n, 2):
             raise ValueError(f"actions have shape {arr.shape}; allowed: ({n}, 2), one row per live agent")
-        finite = np.isfinite(arr).all(axis=1)
-        if not finite.all():
-            i = int(np.flatnonzero(~finite)[0])
+        if not np.isfinite(arr).all():
+            i = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
             raise ValueError(f"action of icv_{int(self._vehicles().vid[i])} = {arr[i].tolist()} holds NaN or inf; "
                              f"allowed: finite values in [-1, 1]")
-        acts = np.zeros((n, 2), dtype=np.float64)
-        if n:
-            rows = np.arange(n)
-            acts[rows] = at.controls(rows, uclip(arr, -1.0, 1.0))
+        # (the action type clips to [-1, 1] itself; a fresh array either way)
+        acts = np.asarray(at.controls(np.arange(n), arr), dtype=np.float64) if n else np.zeros((0, 2))
         return self._ma_advance(acts, arrays=True)
 
     # ------------------------------------------------------------------ expert

@@ -121,6 +121,8 @@ class World:
         tr = self.traffic
         if self._plan_vids is None:
             return tr.lc_lane
+        if not self._plan_vids:  # nobody carries out the plan (every vehicle learned-driven)
+            return np.full(tr.n, -1, dtype=np.int64)
         keep = np.fromiter((v in self._plan_vids for v in tr.vid.tolist()), dtype=bool, count=tr.n)
         return np.where(keep, tr.lc_lane, -1)
 

@@ -76,11 +76,13 @@ from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs,
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_reward_terms,
                                                intersection_feature_rows, intersection_reward_pre,
                                                intersection_reward_rows, kinematics_rows, nearest_along_road)
-from icv_envs.sim._kernels.physics import npy_mod, kinematic_substep, road_check, interval_ends, lanes_available
+from icv_envs.sim._kernels.physics import (controls_rows, npy_mod, kinematic_substep, road_check, interval_ends,
+                                           lanes_available)
 from icv_envs.sim._kernels.stats import pairwise_sum, motion_record, headway_record, pet_transitions
 
 __all__ = [
     "npy_mod",
+    "controls_rows",
     "kinematic_substep",
     "road_check",
     "interval_ends",

@@ -10,7 +10,9 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["npy_mod", "lane_of1", "kinematic_substep", "road_check", "interval_ends", "interval_ends_at",
+from icv_envs.formation._kernels import clip1
+
+__all__ = ["npy_mod", "lane_of1", "controls_rows", "kinematic_substep", "road_check", "interval_ends", "interval_ends_at",
            "lanes_available"]
 
 
@@ -30,6 +32,25 @@ def npy_mod(a, b):
     else:
         m = math.copysign(0.0, b)
     return m
+
+
+@nb.njit(cache=True)
+def controls_rows(acts, a_min, a_max, steer_max):
+    """:func:`icv_envs.envs.actions.action_to_controls` of ``(n, 2)``
+    normalised actions in one pass (paper Sec. 2.2 limits): each clipped to
+    ``[-1, 1]`` as numpy's clip does, the acceleration ``u_a a_max`` for
+    ``u_a >= 0`` and ``-u_a a_min`` below, the steering angle ``u_s
+    steer_max``; the same operations on the same values as the array code
+    (``tests/test_kernels.py``). Returns ``(a, phi)``."""
+    n = acts.shape[0]
+    a = np.empty(n)
+    phi = np.empty(n)
+    for i in range(n):
+        ua = clip1(acts[i, 0], -1.0, 1.0)
+        us = clip1(acts[i, 1], -1.0, 1.0)
+        a[i] = ua * a_max if ua >= 0 else -ua * a_min
+        phi[i] = us * steer_max
+    return a, phi
 
 
 @nb.njit(cache=True)
