@@ -6,7 +6,13 @@ per step, and ``time.perf_counter`` totals of the main parts (wrapped
 methods; a part nested in another is counted in both).
 
     PYTHONPATH=<tree> python scripts/bench_ring_parts.py [--warmup 300] [--steps 250]
+    PYTHONPATH=<tree> python scripts/bench_ring_parts.py --case ring-rows [--steps 250]
     PYTHONPATH=<tree> python scripts/bench_ring_parts.py --case batched [--steps 300]
+
+``--case ring-rows``: the same ring through the array API
+(``step_rows``, the expert's action array fed back, ``expert_in_info``
+off; what ``icv-envs bench highway-ramps --vs-sumo --api rows`` times),
+with the parts of the core it reaches (part names ``Class.method``).
 
 ``--case batched``: :class:`icv_envs.vector.BatchedWorlds`, 16
 HighwayFormation worlds of 20 agents, zero actions, no expert (the
@@ -52,6 +58,23 @@ BATCHED_PARTS = [
 ]
 
 
+# the ring's parts through the array API (--case ring-rows)
+RING_ROWS_PARTS = [
+    ("icv_envs.envs.base", "IcvAgentsEnv", "_ma_advance"), ("icv_envs.envs.base", "IcvAgentsEnv", "_advance"),
+    ("icv_envs.envs.base", "IcvAgentsEnv", "_controls"), ("icv_envs.envs.base", "IcvAgentsEnv", "_before_physics"),
+    ("icv_envs.envs.highway_ramps", "HighwayRampsEnv", "_spawn_due"),
+    ("icv_envs.sim.world", "World", "substeps"), ("icv_envs.sim.world", "World", "record_min_gap"),
+    ("icv_envs.sim.formations", "FormationManager", "update"),
+    ("icv_envs.sim.formations", "FormationManager", "_reform"),
+    ("icv_envs.policies.formation_expert", "FormationExpert", "compute"),
+    ("icv_envs.envs.base", "IcvAgentsEnv", "_observe_rows"),
+    ("icv_envs.envs.highway_formation", "HighwayFormationEnv", "_features"),
+    ("icv_envs.envs.highway_formation", "HighwayFormationEnv", "_rewards_rows"),
+    ("icv_envs.envs.highway_formation", "HighwayFormationEnv", "_neighbours"),
+    ("icv_envs.sim.world", "World", "lane_index"),
+]
+
+
 def wrap_parts(parts, acc: dict, qualified: bool = False) -> None:
     """Wrap each ``(module, class, method)`` of ``parts`` so that its
     ``time.perf_counter`` total accumulates in ``acc`` under the method's
@@ -77,11 +100,13 @@ def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--warmup", type=float, default=300.0, help="simulated seconds before timing")
     p.add_argument("--steps", type=int, default=250, help="policy steps timed")
-    p.add_argument("--case", choices=("ring", "batched"), default="ring")
+    p.add_argument("--case", choices=("ring", "ring-rows", "batched"), default="ring")
     a = p.parse_args()
     acc: dict[str, float] = {}
     if a.case == "batched":
         return batched(a.steps, acc)
+    if a.case == "ring-rows":
+        return ring_rows(a.warmup, a.steps, acc)
     wrap_parts(PARTS, acc)
     from icv_envs.envs import highway_ramps_v0
 
@@ -99,6 +124,26 @@ def main() -> None:
     print(f"step {total * 1e3 / a.steps:.2f} ms CPU ({len(env.agents)} vehicles at the end)")
     for k, v in sorted(acc.items(), key=lambda kv: -kv[1]):
         print(f"  {k:16s} {v * 1e3 / a.steps:7.3f} ms")
+
+
+def ring_rows(warmup: float, steps: int, acc: dict) -> None:
+    """``--case ring-rows`` (module docstring)."""
+    wrap_parts(RING_ROWS_PARTS, acc, qualified=True)
+    from icv_envs.envs import highway_ramps_v0
+
+    env = highway_ramps_v0.parallel_env(vgr=1 / 3, duration=warmup + steps / 5.0 + 10.0, expert_in_info=False)
+    env.reset(seed=0)
+    core = env.core
+    for _ in range(int(warmup * 5)):
+        env.step_rows(core.expert_actions())
+    acc.clear()
+    t0 = time.process_time()
+    for _ in range(steps):
+        env.step_rows(core.expert_actions())
+    total = time.process_time() - t0
+    print(f"step {total * 1e3 / steps:.3f} ms CPU ({core.world.traffic.n} vehicles at the end)")
+    for k, v in sorted(acc.items(), key=lambda kv: -kv[1]):
+        print(f"  {k:36s} {v * 1e3 / steps:7.3f} ms")
 
 
 def batched(steps: int, acc: dict) -> None:
