@@ -197,3 +197,27 @@ def test_an_agent_that_crashes_reports_it(keys):
             assert info["crashed"] == (term[a] and "exited" not in info)
             crashed += info["crashed"]
     assert crashed == 12
+
+
+@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("max_cycles", [None, 7])
+def test_agents_are_the_observed_agents_still_live(name, max_cycles):
+    """``env.agents`` after a step (made from the core's rows) is exactly
+    PettingZoo's definition: the agents of the step's dicts neither
+    terminated nor truncated, in their order; empty once ``max_cycles``
+    steps are taken."""
+    mod, base, steps = CASES[name]
+    # the episode runs out (every agent truncated at time-up: none left live though their vehicles are on the road)
+    cfg = dict(base, duration={"highway_formation": 8.0, "highway_ramps": 6.0, "intersection": 8.0}[name])
+    env = mod.parallel_env(**cfg, max_cycles=max_cycles)
+    env.reset(seed=5)
+    rng = np.random.default_rng(0)
+    for t in range(200):
+        if env.episode_over:
+            break
+        ex = env.expert_actions()
+        acts = {a: (rng.uniform(-1, 1, 2).astype(np.float32) if rng.random() < 0.3 else ex[a]) for a in env.agents}
+        obs, _, term, trunc, _ = env.step(acts)
+        assert env.agents == [a for a in obs if not (term[a] or trunc[a])], t
+        assert env.num_agents == len(env.agents)
+    assert env.episode_over and env.agents == []
