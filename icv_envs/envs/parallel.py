@@ -91,11 +91,7 @@ class CoreParallelEnv(ParallelEnv):
         self._cycles += 1
         if self._cycles_up:
             trunc = {a: not term[a] for a in obs}
-            self.agents = []
-        else:
-            # the agents of ``obs`` neither terminated nor truncated, in its order: the rows the core kept
-            # as the live ones' last observations (names made when read, as after step_rows)
-            self._agents, self._agents_vid = None, self.core._last_obs[0]
+        self.agents = [a for a in obs if not (term[a] or trunc[a])]
         return obs, rew, term, trunc, infos
 
     def step_rows(self, actions):
