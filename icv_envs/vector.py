@@ -308,7 +308,7 @@ class BatchedWorlds:
             return
         env = self.envs[b]
         self.expert_actions[b] = 0.0
-        if env.agents:
+        if env.num_agents:  # (the count, without making the names after step_rows)
             ex = env.core.expert_actions()
             self.expert_actions[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)] = ex
 

@@ -133,6 +133,8 @@ class FormationExpert:
         # limit tan(steer_max) / L: D >= sqrt(BEZIER_PEAK * W * L / tan(steer_max))
         self._lc_length_min = float(np.sqrt(BEZIER_PEAK * self.p.lane_width * self.p.wheelbase
                                             / np.tan(self.p.steer_max)))
+        # the IDM's 2 sqrt(a_max b) (the parameters are fixed once checked, as above)
+        self._idm_root = float(2.0 * np.sqrt(self.p.a_max * self.p.idm_b))
 
     def _check_params(self) -> None:
         """The parameter checks the paper's functions make on every call,
@@ -204,7 +206,7 @@ class FormationExpert:
             road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, road._merge_iv, road._diverge_iv,
             bool(road.has_ramp_lane), float(road.lane_width), float(p.lc_duration), float(p.lc_min_length),
             float(p.lc_max_length), float(self._lc_length_min), float(self._lc_time_min), float(p.idm_s0),
-            float(p.member_time_gap), float(p.idm_T), float(p.a_max), float(2.0 * np.sqrt(p.a_max * p.idm_b)),
+            float(p.member_time_gap), float(p.idm_T), float(p.a_max), self._idm_root,
             float(p.b_safe), float(p.lc_min_gap))
 
     def _safety_cap(self, world, index, acc, lane, desired, member, exiting, bounds=None) -> np.ndarray:
@@ -231,7 +233,7 @@ class FormationExpert:
                           float(road.length) if road.periodic else -1.0, int(road.n_lanes), road.lane_ends,
                           road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, float(p.lc_min_length),
                           float(p.member_time_gap), float(p.idm_T), float(p.a_max), float(p.idm_s0),
-                          float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(a_min), float(a_max))
+                          self._idm_root, float(a_min), float(a_max))
 
     def _normalise(self, a: np.ndarray, phi: np.ndarray) -> np.ndarray:
         # compiled (policies/_kernels/laws.py::normalised_actions: the arithmetic
