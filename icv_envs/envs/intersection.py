@@ -44,6 +44,8 @@ from icv_envs.envs.intersection_config import (  # noqa: F401  (METHODS, FCFS_TI
     check_config,
     config_entries,
 )
+from icv_envs.envs.intersection_render import IntersectionRendering
+from icv_envs.envs.intersection_report import IntersectionReport
 from icv_envs.envs.observations import merge_observation_config
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon.conflicts import required_layer_gap
@@ -81,7 +83,7 @@ STATE_FEATURES = OBS_FEATURES
 #: the leader's (0 when there is none)
 OBS_EXTRA_FEATURES = ("lead_gap", "lead_dv")
 
-class IntersectionEnv(IcvAgentsEnv):
+class IntersectionEnv(IntersectionReport, IntersectionRendering, IcvAgentsEnv):
     """Four-leg, three-lane unsignalized intersection with the paper's coordination methods.
 
     See :mod:`icv_envs.envs.intersection_v0` for the full documentation.
@@ -525,140 +527,9 @@ class IntersectionEnv(IcvAgentsEnv):
             cols["crashed"] = [False] * len(rows)
         return cols
 
-    # ------------------------------------------------------- gymnasium (ego)
-
-    # --------------------------------------------------------------- metrics
-    def _served(self, cleared: int, sim: float) -> dict:
-        lay = self.layout
-        lag = (lay.R3 + lay.box_half) / float(self.expert.p.v0)  # free flow from R3 to clearing the box
-        due = int(np.count_nonzero((self._due >= -lag) & (self._due < sim - lag)))
-        return {"realised_demand": due * 3600.0 / sim, "served_share": cleared / due if due else None}
-
-    def metrics(self, **kwargs) -> dict:
-        """Run totals; the speed, fluctuation, PET and jam figures are defined
-        in :mod:`icv_envs.sim.intersection_metrics`. ``achieved_throughput``
-        = vehicles/h that cleared the box over the statistics window;
-        ``mean_delay`` = mean over the vehicles that cleared the box of their
-        travel time from R3 minus that distance at the free speed (``v_free``); ``lost`` = spawned
-        - removed - left_road - remaining - crashed_removed: a bookkeeping
-        check that must be 0."""
-        w = self.world
-        st = w.stats
-        remaining = int(w.fleet.n)
-        queued = int(sum(len(q) for q in self._queues.values()))
-        sim = max(w.time, 1e-9)
-        ex = self.expert.stats
-        m = {
-            "method": self.config["method"],
-            "lane_use": self.layout.lane_use_name,
-            "throughput": float(self.config["throughput"]),
-            "collisions": int(st["collisions"]),
-            # during the warm-up (not in the statistics above, never hidden)
-            "warmup_collisions": int(self.warmup_collisions),
-            "warmup_jammed": int(self.warmup_jammed),
-            "spawned": int(st["spawned"]),
-            "cleared": int(st["cleared"]),
-            "exited": int(st["removed"]),
-            "remaining": remaining,
-            "queued": queued,
-            "not_spawned": int(self._not_spawned),
-            "crashed_removed": int(st["crashed_removed"]),
-            "left_road": int(st["left_road"]),
-            "wrong_exits": int(st["wrong_exits"]),
-            "rerouted": int(st["rerouted"]),
-            "lost": int(st["spawned"] - st["removed"] - st["left_road"] - remaining - st["crashed_removed"]),
-            "achieved_throughput": st["cleared"] * 3600.0 / sim,
-            # the demand that actually arrived (the arrival process draws around the
-            # nominal ``throughput``) and the share of it served: arrivals due at R3
-            # in the window shifted back by the free-flow time from R3 to clearing
-            # the box at v0 (what a method serving at free flow clears during the
-            # statistics), against the vehicles that did clear
-            **self._served(st["cleared"], sim),
-            **w.motion.summary(),
-            **w.pet.summary(),
-            **w.jams.summary(),
-            **w.faults.summary(),
-            "mean_delay": st["delay_sum"] / st["cleared"] if st["cleared"] else None,
-            "mean_travel_time": st["travel_time_sum"] / st["cleared"] if st["cleared"] else None,
-            "sim_seconds": float(w.time),
-            "vehicle_steps": int(st["vehicle_steps"]),
-            "envelope_box_binding": int(ex.get("envelope_box_binding", 0)),
-            "envelope_box_binding_member": int(ex.get("envelope_box_binding_member", 0)),
-            "virtual_cap_binding": int(ex.get("virtual_cap_binding", 0)),
-            "nodes": int(ex.get("nodes", 0)),
-            "merges": int(ex.get("merges", 0)),
-            "lane_changes": int(ex.get("lane_changes", 0)),
-        }
-        if self.config["method"] in ("fcfs", "fcfs-tight"):
-            m.update({k: ex[k] for k in ("requests", "granted", "rejected", "cancelled", "max_plan_error")})
-        return m
-
-    # -------------------------------------------------------------- rendering
-    def _sync_render_road(self, force: bool = False) -> None:
-        """Refresh highway-env objects (road network, vehicle views) from the arrays."""
-        from highway_env.road.road import Road
-
-        from icv_envs.sim.vehicle import ICVVehicle
-
-        w = self.world
-        if force or self.road is None or getattr(self, "_road_world", None) is not w:
-            self.road = Road(network=self.layout.to_network(), np_random=self.np_random, record_history=False)
-            self._road_world = w
-            self._proxies = {}
-        f = w.fleet
-        rs = w.route()
-        alive = set(int(v) for v in f.vid)
-        for vid in list(self._proxies):
-            if vid not in alive:
-                del self._proxies[vid]
-        colours = self._colours()
-        vehicles = []
-        for i, vid in enumerate(f.vid.tolist()):
-            p = self._proxies.get(vid)
-            if p is None:
-                p = object.__new__(ICVVehicle)
-                p.road = self.road
-                p.vid = vid
-                p.history = []
-                p.LENGTH = float(f.length[i])
-                p.WIDTH = float(f.width[i])
-                p.lane_index = None
-                p.lane = None
-                p.impact = None
-                self._proxies[vid] = p
-            p.position = np.array([rs.cx[i], -rs.cy[i]])  # highway-env's screen frame: y down
-            p.heading = float(-f.heading[i])
-            p.speed = float(f.speed[i])
-            p.crashed = bool(f.crashed[i])
-            p.action = {"steering": float(-f.steer[i]), "acceleration": float(f.accel[i])}
-            p.color = colours[i]
-            vehicles.append(p)
-        self.road.vehicles = vehicles
-        ego = self._proxies.get(self._ego_vid)
-        self.controlled_vehicles = [ego] if ego is not None else []
-
-    #: colours of tree-layers 1, 2, ... (cycled)
-    LAYER_COLOURS = [(255, 200, 0), (0, 190, 255), (255, 90, 200), (120, 230, 90), (255, 140, 40), (170, 120, 255)]
-
-    def _colours(self) -> list:
-        f = self.world.fleet
-        cols = [(200, 200, 200)] * f.n
-        stage = getattr(f, "stage", np.zeros(f.n, dtype=np.int64))
-        node = getattr(f, "node", np.full(f.n, -1))
-        depth = self.expert.node_depth if self.expert is not None else {}
-        reserved = set(getattr(self.expert, "plans", {}))
-        for i in range(f.n):
-            if f.crashed[i]:
-                cols[i] = (255, 60, 60)
-            elif not self._ma_mode and int(f.vid[i]) == self._ego_vid:
-                cols[i] = (50, 200, 0)
-            elif int(f.vid[i]) in reserved:
-                cols[i] = (120, 230, 90)
-            elif node[i] >= 0 and depth.get(int(node[i]), 0) > 0:
-                cols[i] = self.LAYER_COLOURS[(depth[int(node[i])] - 1) % len(self.LAYER_COLOURS)]
-            elif stage[i] >= 1 and not f.cleared[i]:
-                cols[i] = (150, 200, 255)
-        return cols
+    # --------------------------------------------- metrics, rendering (mixins)
+    # metrics(): envs/intersection_report.py; _sync_render_road(), _colours():
+    # envs/intersection_render.py
 
     def describe(self) -> dict:
         """Geometry summary: legs, lanes, movements with their allowed lanes, radii, D_t."""
