@@ -466,17 +466,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         for i, vid in enumerate(tr.vid.tolist()):
             p = self._proxies.get(vid)
             if p is None:
-                p = object.__new__(ICVVehicle)
-                p.road = self.road
-                p.vid = vid
-                p.history = []
-                p.action = {"steering": 0.0, "acceleration": 0.0}
-                p.LENGTH = float(tr.length[i])
-                p.WIDTH = float(tr.width[i])
-                p.lane_index = None
-                p.lane = None
-                p.impact = None
-                self._proxies[vid] = p
+                p = self._proxies[vid] = ICVVehicle.proxy(self.road, vid, tr.length[i], tr.width[i])
             p.position = np.array([cx[i], cy[i]])
             p.heading = float(tr.heading[i])
             p.speed = float(tr.speed[i])

@@ -36,16 +36,7 @@ class IntersectionRendering:
         for i, vid in enumerate(f.vid.tolist()):
             p = self._proxies.get(vid)
             if p is None:
-                p = object.__new__(ICVVehicle)
-                p.road = self.road
-                p.vid = vid
-                p.history = []
-                p.LENGTH = float(f.length[i])
-                p.WIDTH = float(f.width[i])
-                p.lane_index = None
-                p.lane = None
-                p.impact = None
-                self._proxies[vid] = p
+                p = self._proxies[vid] = ICVVehicle.proxy(self.road, vid, f.length[i], f.width[i])
             p.position = np.array([rs.cx[i], -rs.cy[i]])  # highway-env's screen frame: y down
             p.heading = float(-f.heading[i])
             p.speed = float(f.speed[i])

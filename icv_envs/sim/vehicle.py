@@ -57,3 +57,21 @@ class ICVVehicle(Vehicle):
         self.speed = float(speed)
         self.position = np.array([rx + h * np.cos(self.heading), ry + h * np.sin(self.heading)])
         self.on_state_update()
+
+    @classmethod
+    def proxy(cls, road, vid: int, length: float, width: float) -> "ICVVehicle":
+        """A view of vehicle ``vid`` for highway-env's renderer, made without
+        ``__init__`` (its state is the env's arrays; the env sets
+        ``position``, ``heading``, ``speed``, ``crashed``, ``action`` and
+        ``color`` before each frame): road, id, an empty history, the body's
+        length and width, no lane."""
+        p = object.__new__(cls)
+        p.road = road
+        p.vid = vid
+        p.history = []
+        p.LENGTH = float(length)
+        p.WIDTH = float(width)
+        p.lane_index = None
+        p.lane = None
+        p.impact = None
+        return p
