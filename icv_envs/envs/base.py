@@ -380,6 +380,20 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
             return self.INFO_KEYS, True
         return tuple(x for x in self.INFO_KEYS if x in k and x != "rewards"), "rewards" in k
 
+    def _ma_infos(self, agents, rows, parts) -> dict:
+        """Info dicts of ``agents`` (vehicle ``rows``): the env's selected
+        columns (``_ma_info_columns``, ``config["info_keys"]``) and, when
+        selected, the reward components ``parts``."""
+        if not len(rows):
+            return {}
+        keys, rewards = self._info_selection()
+        return self._info_dicts(agents, self._ma_info_columns(rows, keys), parts if rewards else None)
+
+    def _ma_info_columns(self, rows, keys: tuple) -> dict:
+        """Hook: the per-agent info columns named in ``keys`` (lists aligned
+        with the non-empty ``rows``), in ``INFO_KEYS`` order."""
+        raise NotImplementedError
+
     def _on_step_end(self, events) -> None:
         """Hook for subclasses (recorders); called once per policy step."""
 
@@ -423,13 +437,9 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         trunc = self._truncations(truncated_all, crashed_now)
         # agents that left during the step report their last observation
         # (their state just before they left), reward 0
-        departed = self._departed(events)
-        if departed:
-            departed = sorted(departed.items())
-            gone_vid = np.fromiter((v for v, _ in departed), dtype=np.int64, count=len(departed))
-            gone_obs = self._last_obs_of(gone_vid)
-        else:  # (most steps: nobody left; the rows below are concatenated only when someone left or arrived)
-            departed, gone_vid, gone_obs = [], None, ()
+        departed = sorted(self._departed(events).items())
+        gone_vid = np.fromiter((v for v, _ in departed), dtype=np.int64, count=len(departed))
+        gone_obs = self._last_obs_of(gone_vid)
         if arrays:
             infos = None
             rew = np.array(rew, dtype=np.float64)
@@ -483,9 +493,6 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         else:
             trunc_rows = np.array(trunc, dtype=bool)
         if departed or late:
-            if not departed:
-                gone_vid = np.zeros(0, dtype=np.int64)
-                gone_obs = np.zeros((0,) + self.observation_space.shape, dtype=np.float32)
             out = StepRows(
                 np.concatenate([step_vid, gone_vid, late_vid]),
                 np.concatenate([obs, gone_obs, late_obs]),

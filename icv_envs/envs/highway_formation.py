@@ -405,11 +405,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
     def _spawn_late(self) -> list:
         return self._spawn_due()
 
-    def _ma_infos(self, agents, rows, parts) -> dict:
-        keys, rewards = self._info_selection()
-        return self._info_dicts(agents, self._ma_info_columns(rows, keys), parts if rewards else None)
-
-    def _ma_info_columns(self, rows, keys: tuple = INFO_KEYS) -> dict:
+    def _ma_info_columns(self, rows, keys: tuple) -> dict:
         """Per-agent info columns (lists aligned with ``rows``), those named
         in ``keys`` (``config["info_keys"]``), in :data:`INFO_KEYS` order."""
         tr = self.world.traffic

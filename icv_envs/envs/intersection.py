@@ -497,13 +497,7 @@ class IntersectionEnv(IntersectionReport, IntersectionRendering, IcvAgentsEnv):
     def _after_removal(self) -> None:
         self.expert.update(self.world)
 
-    def _ma_infos(self, agents, rows, parts) -> dict:
-        if not len(rows):
-            return {}
-        keys, rewards = self._info_selection()
-        return self._info_dicts(agents, self._ma_info_columns(rows, keys), parts if rewards else None)
-
-    def _ma_info_columns(self, rows, keys: tuple = INFO_KEYS) -> dict:
+    def _ma_info_columns(self, rows, keys: tuple) -> dict:
         """Per-agent info columns (lists aligned with ``rows``, non-empty),
         those named in ``keys`` (``config["info_keys"]``), in
         :data:`INFO_KEYS` order."""
