@@ -45,6 +45,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from icv_envs.envs._kernels import scatter_expert_rows, scatter_world_rows
 from icv_envs.envs.actions import ContinuousAction
 from icv_envs.rl.envs import episode_finished
 
@@ -248,6 +249,7 @@ class BatchedWorlds:
         self._seeds = np.random.SeedSequence(int(seed)).spawn(B)
         self._episode = np.zeros(B, dtype=np.int64)
         self.obs = np.zeros((B, K) + obs_shape, dtype=np.float32)
+        self._obs_flat = self.obs.reshape(B, K, -1)  # (a view: each slot's observation flattened, for the scatter)
         self.mask = np.zeros((B, K), dtype=bool)
         self.rewards = np.zeros((B, K), dtype=np.float64)
         self.terminated = np.zeros((B, K), dtype=bool)
@@ -307,10 +309,12 @@ class BatchedWorlds:
         if not self.expert:
             return
         env = self.envs[b]
-        self.expert_actions[b] = 0.0
         if env.num_agents:  # (the count, without making the names after step_rows)
             ex = env.core.expert_actions()
-            self.expert_actions[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)] = ex
+            scatter_expert_rows(self.expert_actions, b, self._slots_of_vid(env.core._vehicles().vid, ascending=True),
+                                ex)
+        else:
+            self.expert_actions[b] = 0.0
 
     def _out(self, a):
         return a.copy() if self.copy else a
@@ -340,15 +344,11 @@ class BatchedWorlds:
         for b, env in enumerate(self.envs):
             if self._rows:  # arrays through (the same agents and values as the dicts)
                 out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
-                self.obs[b] = 0.0
-                self.mask[b] = False
-                if len(out.vid):
-                    k = self._slots_of_vid(out.vid)
-                    self.obs[b, k] = out.obs
-                    self.rewards[b, k] = out.rewards
-                    self.terminated[b, k] = out.terminated
-                    self.truncated[b, k] = out.truncated
-                    self.mask[b, k[~(out.terminated | out.truncated)]] = True
+                n = len(out.vid)
+                # (compiled: envs/_kernels.scatter_world_rows, the slot assignments in one call)
+                scatter_world_rows(self._obs_flat, self.mask, self.rewards, self.terminated, self.truncated, b,
+                                   self._slots_of_vid(out.vid), out.obs.reshape(n, self._obs_flat.shape[2]), out.rewards,
+                                   out.terminated, out.truncated)
             else:
                 self._step_dicts(b, env, acts)
             if episode_finished(env):

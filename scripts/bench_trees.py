@@ -18,7 +18,10 @@ fresh process (``PYTHONPATH=<tree>``), and times ``--steps`` policy steps
 * ``batched`` / ``batched-expert`` (default ``--steps 100``):
   :class:`icv_envs.vector.BatchedWorlds`, 16 HighwayFormation worlds of 20
   agents, zero actions / the expert's action for every agent (as the batched
-  part of ``icv-envs bench train``); agent-steps per CPU s.
+  part of ``icv-envs bench train``); agent-steps per CPU s of the second
+  of two identical runs (the first loads the kernels from numba's cache:
+  before stop 38 the only run was timed, and the load at the first
+  collision, step 102 of 103, fell inside it).
 
 Prints each pair's ratio (test / reference) and their median; a shared
 machine moves single figures by 20% or more, the pairs' median much less.
@@ -73,18 +76,22 @@ import json, sys, time
 import numpy as np
 from icv_envs.vector import BatchedWorlds
 steps, expert = int(sys.argv[1]), sys.argv[2] == "1"
-bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=expert)
-bw.reset()
-acts = np.zeros((16, bw.K, 2), dtype=np.float32)
-for _ in range(3):
-    bw.step(bw.expert_actions if expert else acts)
-c0, n = time.process_time(), 0
-for _ in range(steps):
-    if expert:
-        acts = bw.expert_actions
-    n += int(bw.mask.sum())
-    bw.step(acts)
-print(json.dumps({"cpu": time.process_time() - c0, "agent_steps": n}))
+# the same run twice, the second timed: the first loads every kernel the run
+# reaches from numba's cache (at the first step, and at the first collision)
+for timed in (False, True):
+    bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=expert)
+    bw.reset()
+    acts = np.zeros((16, bw.K, 2), dtype=np.float32)
+    for _ in range(3):
+        bw.step(bw.expert_actions if expert else acts)
+    c0, n = time.process_time(), 0
+    for _ in range(steps):
+        if expert:
+            acts = bw.expert_actions
+        n += int(bw.mask.sum())
+        bw.step(acts)
+    cpu = time.process_time() - c0
+print(json.dumps({"cpu": cpu, "agent_steps": n}))
 """
 
 # case -> (child code, default steps, unit, the child's arguments after the step count; ``{tp}``: --throughput)
