@@ -1897,3 +1897,72 @@ def test_controls_rows_is_action_to_controls_bit_for_bit(rows, a_min, a_max, ste
     got_a, got_phi = controls_rows(acts, a_min, a_max, steer)
     assert got_a.tobytes() == np.asarray(want_a, dtype=np.float64).tobytes()
     assert got_phi.tobytes() == np.asarray(want_phi, dtype=np.float64).tobytes()
+
+
+@settings(max_examples=300, deadline=None)
+@given(rows=st.lists(st.tuples(_ACTION_VALUES, _ACTION_VALUES), max_size=12), data=st.data())
+def test_expert_match_rows_is_the_array_test(rows, data):
+    """The compiled expert-driven test (``IcvAgentsEnv._before_physics``)
+    against the numpy expression it replaced, on actions equal to the
+    expert's float32 labels, within and beyond the tolerance by an ulp, and
+    NaN/inf on either side."""
+    from icv_envs.envs._kernels import expert_match_rows
+
+    acts = np.array(rows, dtype=np.float64).reshape(-1, 2)
+    how = data.draw(st.lists(st.sampled_from(["same", "tol", "beyond", "other"]), min_size=len(acts),
+                             max_size=len(acts)))
+    ex = np.empty((len(acts), 2), dtype=np.float32)
+    for i, h in enumerate(how):
+        base = acts[i].astype(np.float32)
+        if h == "tol":
+            base = (acts[i] + 1e-6).astype(np.float32)
+        elif h == "beyond":
+            base = np.nextafter((acts[i] + 1e-6).astype(np.float32), np.float32(np.inf))
+        elif h == "other":
+            base = np.array(data.draw(st.tuples(_ACTION_VALUES, _ACTION_VALUES)), dtype=np.float32)
+        ex[i] = base
+    with np.errstate(invalid="ignore"):
+        want = np.all(np.abs(acts - ex) <= 1e-6, axis=1)
+    assert np.array_equal(expert_match_rows(acts, ex, 1e-6), want)
+
+
+@settings(max_examples=100, deadline=None)
+@given(K=st.integers(1, 6), B=st.integers(1, 3), data=st.data())
+def test_scatter_world_rows_is_the_slot_assignments(K, B, data):
+    """``BatchedWorlds``' compiled scatter against the numpy assignments it
+    replaced: world ``b`` cleared, its rows written to their (distinct)
+    slots, the mask set where the agent neither terminated nor truncated;
+    the other worlds untouched."""
+    from icv_envs.envs._kernels import scatter_expert_rows, scatter_world_rows
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    b = data.draw(st.integers(0, B - 1))
+    k = np.array(data.draw(st.permutations(range(K)))[:data.draw(st.integers(0, K))], dtype=np.int64)
+    n = len(k)
+    shape = (3, 2)
+    o_obs = rng.normal(size=(n,) + shape).astype(np.float32)
+    o_rew, o_term, o_trunc = rng.normal(size=n), rng.random(n) < 0.3, rng.random(n) < 0.3
+    start = (rng.normal(size=(B, K) + shape).astype(np.float32), rng.random((B, K)) < 0.5, rng.normal(size=(B, K)),
+             rng.random((B, K)) < 0.5, rng.random((B, K)) < 0.5)
+    want = [a.copy() for a in start]
+    obs, mask, rew, term, trunc = want
+    obs[b] = 0.0
+    mask[b] = False
+    obs[b, k] = o_obs
+    rew[b, k] = o_rew
+    term[b, k] = o_term
+    trunc[b, k] = o_trunc
+    mask[b, k[~(o_term | o_trunc)]] = True
+    got = [a.copy() for a in start]
+    scatter_world_rows(got[0].reshape(B, K, -1), got[1], got[2], got[3], got[4], b, k, o_obs.reshape(n, 6), o_rew,
+                       o_term, o_trunc)
+    for g, w in zip(got, want):
+        assert g.tobytes() == w.tobytes()
+    ex_start = rng.normal(size=(B, K, 2)).astype(np.float32)
+    ex = rng.normal(size=(n, 2)).astype(np.float32)
+    want_ex = ex_start.copy()
+    want_ex[b] = 0.0
+    want_ex[b, k] = ex
+    got_ex = ex_start.copy()
+    scatter_expert_rows(got_ex, b, k, ex)
+    assert got_ex.tobytes() == want_ex.tobytes()

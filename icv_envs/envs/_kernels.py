@@ -1,12 +1,31 @@
-"""Compiled loops of the env layer's batch edge (the rules every kernel
-follows: :mod:`icv_envs.sim._kernels`): one world's step written into the
-fixed-K slot arrays of :class:`icv_envs.vector.BatchedWorlds`."""
+"""Compiled loops of the env layer (the rules every kernel follows:
+:mod:`icv_envs.sim._kernels`): which actions are the expert's, and one
+world's step written into the fixed-K slot arrays of
+:class:`icv_envs.vector.BatchedWorlds`."""
 
 from __future__ import annotations
 
 import numba as nb
+import numpy as np
 
-__all__ = ["scatter_world_rows", "scatter_expert_rows"]
+__all__ = ["expert_match_rows", "scatter_world_rows", "scatter_expert_rows"]
+
+
+@nb.njit(cache=True)
+def expert_match_rows(acts, ex, tol):
+    """Per row, whether both components of ``acts`` (float64) are within
+    ``tol`` of the expert's ``ex`` (float32, widened exactly):
+    ``np.all(np.abs(acts - ex) <= tol, axis=1)`` in one pass (a NaN
+    difference is no match, as there)."""
+    n = acts.shape[0]
+    out = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        ok = True
+        for k in range(acts.shape[1]):
+            if not abs(acts[i, k] - np.float64(ex[i, k])) <= tol:
+                ok = False
+        out[i] = ok
+    return out
 
 
 @nb.njit(cache=True)

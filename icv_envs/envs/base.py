@@ -33,6 +33,7 @@ import numpy as np
 from gymnasium import spaces
 from highway_env.envs.common.abstract import AbstractEnv
 
+from icv_envs.envs._kernels import expert_match_rows
 from icv_envs.envs.actions import ContinuousAction, action_factory, check_actions
 from icv_envs.envs.dict_edge import DictEdge
 from icv_envs.envs.ego import EgoEnv
@@ -340,7 +341,11 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         False no vehicle is expert-driven and the expert is not computed."""
         if len(vids):
             if self.config["expert_driven_check"]:
-                em = np.all(np.abs(acts - self.expert_actions()) <= 1e-6, axis=1)
+                ex = self.expert_actions()
+                if ex.shape != acts.shape:  # (one row per vehicle on both sides; the kernel does not check)
+                    raise RuntimeError(f"expert actions {ex.shape} and actions {acts.shape} do not align")
+                # (compiled: envs/_kernels.expert_match_rows, np.all(np.abs(acts - ex) <= 1e-6, axis=1))
+                em = expert_match_rows(acts, ex, 1e-6)
             else:  # every vehicle policy-driven; the expert is not computed (config docs)
                 em = np.zeros(len(vids), dtype=bool)
             carries = bool(getattr(self.action_type, "carries_expert_plan", False))
