@@ -1966,3 +1966,17 @@ def test_scatter_world_rows_is_the_slot_assignments(K, B, data):
     got_ex = ex_start.copy()
     scatter_expert_rows(got_ex, b, k, ex)
     assert got_ex.tobytes() == want_ex.tobytes()
+
+
+@settings(max_examples=200, deadline=None)
+@given(a=st.lists(st.integers(-2**63, 2**63 - 1), max_size=8), b=st.lists(st.integers(-2**63, 2**63 - 1), max_size=8),
+       same=st.booleans())
+def test_same_ids_is_array_equal_for_id_arrays(a, b, same):
+    """``dict_edge.same_ids`` (the step's nobody-came-or-went test) gives
+    ``np.array_equal``'s answer on int64 id arrays, and False across dtypes."""
+    from icv_envs.envs.dict_edge import same_ids
+
+    x = np.array(a, dtype=np.int64)
+    y = x.copy() if same else np.array(b, dtype=np.int64)
+    assert same_ids(x, y) == np.array_equal(x, y)
+    assert not same_ids(x, y.astype(np.int32))  # another dtype: never the same

@@ -35,7 +35,7 @@ from highway_env.envs.common.abstract import AbstractEnv
 
 from icv_envs.envs._kernels import expert_match_rows
 from icv_envs.envs.actions import ContinuousAction, action_factory, check_actions
-from icv_envs.envs.dict_edge import DictEdge
+from icv_envs.envs.dict_edge import DictEdge, same_ids
 from icv_envs.envs.ego import EgoEnv
 from icv_envs.envs.observations import observation_factory
 from icv_envs.sim._kernels import controls_rows
@@ -304,7 +304,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         while frame < frames:
             if frame:  # (before the first frame ``vids`` are the vehicles)
                 veh = self._vehicles()
-                if veh.n != len(vids) or not np.array_equal(veh.vid, vids):
+                if not same_ids(veh.vid, vids):
                     keep = np.isin(vids, veh.vid)
                     vids, a, phi = vids[keep], a[keep], phi[keep]
             if fused:

@@ -16,7 +16,15 @@ import numpy as np
 
 from icv_envs._ufuncs import clip as uclip
 
-__all__ = ["DictEdge"]
+__all__ = ["DictEdge", "same_ids"]
+
+
+def same_ids(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two id arrays hold the same ids in the same order: their
+    bytes compared (``np.array_equal``'s answer for two arrays of one
+    integer dtype, at a tenth of its cost on a 20-vehicle world); arrays
+    of different dtypes are not the same."""
+    return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
 class DictEdge:
@@ -90,7 +98,7 @@ class DictEdge:
         """``values`` (rows aligned with the sorted ids ``before_vid``) moved
         to the rows of the sorted ids ``vid``; zeros for ids not in
         ``before_vid`` (vehicles that appeared since)."""
-        if len(before_vid) == len(vid) and np.array_equal(before_vid, vid):  # nobody left or appeared
+        if same_ids(before_vid, vid):  # nobody left or appeared
             return values.copy()
         out = np.zeros((len(vid),) + values.shape[1:], dtype=values.dtype)
         if len(before_vid) and len(vid):
@@ -122,7 +130,7 @@ class DictEdge:
         ex = self.expert_actions() if veh.n else np.zeros((0, 2), dtype=np.float32)
         rows = np.array(ex, dtype=np.float32, copy=True)
         aligned = DictEdge._realign_rows(veh.vid, rows, agents_vid)
-        if len(veh.vid) == len(agents_vid) and np.array_equal(veh.vid, agents_vid):  # nobody came or went
+        if same_ids(veh.vid, agents_vid):  # nobody came or went
             return aligned, veh.vid[:0], rows[:0]
         late = ~np.isin(veh.vid, agents_vid)
         return aligned, veh.vid[late], rows[late]
