@@ -1261,6 +1261,141 @@ def test_formation_features_and_rewards_equal_the_array_code(module, config, ran
         assert seen["lane_end"] > 0
 
 
+@pytest.mark.parametrize("config, random_share", [
+    ({"vehicles_count": 20}, 0.5),  # collisions, off-road, free vehicles
+    ({"scenario": "lane-drop"}, 0.2),  # lane ends
+    ({"vehicles_count": 8, "obstacle": {"lane": 1, "position": 300.0}}, 0.3),
+    ({"vehicles_count": 12, "observation": {"type": "Kinematics", "vehicles_count": 1}}, 0.3),  # no neighbours
+    ({"vehicles_count": 12, "observation": {"type": "Kinematics", "absolute": True, "normalize": False,
+                                            "features": ["presence", "x", "vx", "target_dx"]}}, 0.3),
+    ({"vehicles_count": 12, "observation": {"type": "Kinematics", "clip": False, "perception_distance": 40.0},
+      "reward": {"progress": 0.3, "safety": 2.0, "comfort": 0.05, "formation": 0.7}}, 0.3),
+])
+def test_formation_post_rows_equal_the_separate_calls(config, random_share):
+    """The highway env's one-pass ``_post_rows`` (features, rewards and
+    ``Kinematics`` observations in one compiled call) gives the separate
+    methods' rewards, reward components and observations bit for bit, step
+    after step, on roads without exits (where it is taken: counted), with
+    crashes, lane ends and other observation and reward settings."""
+    import icv_envs.envs.highway_formation as hf
+    from icv_envs.envs.base import IcvAgentsEnv
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+
+    env = parallel_env(**config)
+    env.reset(seed=5)
+    core = env.core
+    rng = np.random.default_rng(5)
+    fused = hf.HighwayFormationEnv._post_rows
+    seen = {"steps": 0, "crashed": 0, "fused": 0}
+    kernel = hf.formation_post_rows
+
+    def counted(*args):
+        seen["fused"] += 1
+        return kernel(*args)
+
+    def checked(self, rows, crashed_now):
+        got = fused(self, rows, crashed_now)
+        want = IcvAgentsEnv._post_rows(self, rows, crashed_now)
+        assert got[0].tobytes() == np.asarray(want[0], dtype=np.float64).tobytes()
+        assert list(got[1]) == list(want[1])
+        for k in want[1]:
+            assert got[1][k].tobytes() == np.asarray(want[1][k], dtype=np.float64).tobytes()
+        assert got[2].dtype == want[2].dtype and got[2].tobytes() == want[2].tobytes()
+        seen["steps"] += 1
+        seen["crashed"] += int(np.sum(crashed_now))
+        return got
+
+    hf.formation_post_rows = counted
+    try:
+        core._post_rows = checked.__get__(core)
+        for _ in range(120):
+            if not env.agents:
+                break
+            ex = env.expert_actions()
+            env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
+    finally:
+        hf.formation_post_rows = kernel
+    assert seen["steps"] > 20 and seen["fused"] == seen["steps"]
+    if random_share >= 0.5:
+        assert seen["crashed"] > 0
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_formation_post_rows_kernel_on_a_ring(seed):
+    """The one-pass kernel against the four kernels it calls, on random
+    states of a ring (``periodic``: the neighbour search and the
+    observation's dx folded round it, the features' wrap), which no env
+    reaches through it (every ring has exits)."""
+    from icv_envs.sim._kernels import (formation_feature_rows, formation_post_rows, formation_reward_terms,
+                                       kinematics_rows, nearest_along_road)
+
+    rng = np.random.default_rng(seed)
+    n, L, W, lanes = int(rng.integers(1, 30)), 1000.0, 4.0, 4
+    cx, cy = rng.uniform(0, L, n), rng.integers(0, lanes, n) * W + rng.normal(0, 0.3, n)
+    v, h = rng.uniform(0, 30, n), rng.normal(0, 0.05, n)
+    member = rng.random(n) < 0.6
+    x_ref = np.where(member, rng.uniform(0, L, n), np.nan)
+    lane_ref = np.where(member, rng.integers(0, lanes, n), -1).astype(np.int64)
+    v_ref = np.where(member, rng.uniform(20, 30, n), np.nan)
+    road = (float(W), lanes, L, lanes, np.full(lanes, np.inf), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0),
+            np.zeros((0, 2)))
+    rows = np.arange(n, dtype=np.int64)
+    gap, crashed, ua = rng.uniform(0, 80, n), rng.random(n) < 0.1, rng.uniform(-1, 1, (n, 2))
+    idx = np.arange(13, dtype=np.int64)
+    V, pd = int(rng.integers(1, 9)), 150.0
+    s_abs, s_rel = rng.uniform(1, 100, 13), rng.uniform(1, 100, 13)
+    flags = (bool(rng.random() < 0.3), bool(rng.random() < 0.7), bool(rng.random() < 0.7))
+    ch, sh = np.cos(h), np.sin(h)
+    got = formation_post_rows(cx, cy, v, ch, sh, x_ref, lane_ref, v_ref, member, *road[:2], L, *road[3:], rows, 30.0,
+                              gap, crashed, ua, 20.0, 0.4, 1.0, 0.1, idx, V, pd, True, L, s_abs, s_rel, *flags)
+    F = formation_feature_rows(cx, cy, v, ch, sh, x_ref, lane_ref, v_ref, member, *road[:2], L, *road[3:])
+    want = formation_reward_terms(rows, v, 30.0, gap, crashed, ua, F, 20.0, W, 0.4, 1.0, 0.1)
+    if V > 1 and n > 1:
+        sel, present = nearest_along_road(np.ascontiguousarray(F[:, 1]), rows, V - 1, pd, True, L)
+    else:
+        sel, present = np.zeros((n, 0), dtype=np.int64), np.zeros((n, 0), dtype=bool)
+    obs = kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, *flags, L)
+    for g, w in zip(got, tuple(want) + (obs,)):
+        assert g.dtype == w.dtype and g.tobytes() == w.tobytes()
+
+
+def test_formation_post_rows_not_taken_where_it_does_not_apply():
+    """The one-pass path is left for the separate calls on a road with exits,
+    with another observation type and when a hook is overridden (on a
+    subclass or on the instance): none of them reaches the kernel."""
+    import icv_envs.envs.highway_formation as hf
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+
+    calls = []
+    kernel = hf.formation_post_rows
+    hf.formation_post_rows = lambda *a: calls.append(1) or kernel(*a)
+    try:
+        for cfg in ({"scenario": "off-ramp"}, {"vehicles_count": 6, "observation": {"type": "OccupancyGrid"}}):
+            env = parallel_env(**cfg)
+            env.reset(seed=0)
+            for _ in range(3):
+                env.step({a: env.expert_actions()[a] for a in env.agents})
+        env = parallel_env(vehicles_count=6)
+        env.reset(seed=0)
+        env.core._rewards_rows = type(env.core)._rewards_rows.__get__(env.core)  # an instance override
+        env.step({a: env.expert_actions()[a] for a in env.agents})
+
+        class Sub(hf.HighwayFormationEnv):
+            def _features(self):
+                return super()._features()
+
+        sub = Sub(config={"vehicles_count": 6})
+        sub.ma_reset(seed=0)
+        sub.ma_step({f"icv_{v}": a for v, a in zip(sub.world.traffic.vid.tolist(), sub.expert_actions())})
+        assert calls == []
+        env = parallel_env(vehicles_count=6)  # the control: the plain env takes it
+        env.reset(seed=0)
+        env.step({a: env.expert_actions()[a] for a in env.agents})
+        assert calls == [1]
+    finally:
+        hf.formation_post_rows = kernel
+
+
 def _drive_patched(env, rng, steps, random_share, **patches):
     """``steps`` policy steps of ``env`` with ``FormationExpert``'s methods
     replaced by ``patches`` (restored afterwards); each agent takes a random

@@ -203,6 +203,17 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         path)."""
         return -1.0 if type(self)._wrap_dx is IcvAgentsEnv._wrap_dx else None
 
+    def _post_rows(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
+        """The step's rewards, their components and observations of every
+        vehicle (``rows``: all of them, in order) from the state after the
+        physics and the world's reaction: the feature rows once
+        (:meth:`_features`), then :meth:`_rewards_rows` and
+        :meth:`_observe_rows` over them. An env may compute the three in one
+        pass when its hooks are its own (``HighwayFormationEnv``)."""
+        F = self._features() if len(rows) else np.zeros((0, len(self.OBS_FEATURES)))
+        rew, parts = self._rewards_rows(rows, crashed_now, F)
+        return rew, parts, self._observe_rows(rows, F)
+
     def _observe_rows(self, rows: np.ndarray, F: np.ndarray | None = None) -> np.ndarray:
         """Observations of the vehicles at traffic ``rows`` (the observation type's layout)."""
         rows = np.asarray(rows, dtype=np.int64)
@@ -435,9 +446,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         self._last_actions = self._realign_rows(before, acts, veh.vid)
         rows = np.arange(veh.n)
         step_vid = veh.vid.copy()
-        F = self._features() if veh.n else np.zeros((0, len(self.OBS_FEATURES)))  # once, for rewards and observations
-        rew, parts = self._rewards_rows(rows, crashed_now, F)
-        obs = self._observe_rows(rows, F)
+        rew, parts, obs = self._post_rows(rows, crashed_now)
         truncated_all = w.time >= float(c["duration"]) - 1e-9
         trunc = self._truncations(truncated_all, crashed_now)
         # agents that left during the step report their last observation

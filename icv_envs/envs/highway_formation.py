@@ -22,11 +22,12 @@ from highway_env.envs.common.abstract import AbstractEnv
 from icv_envs.envs.actions import action_to_controls, controls_to_action  # noqa: F401  (re-exported)
 from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.highway_config import INFO_KEYS, UNUSED_KEYS, check_config, config_entries
-from icv_envs.envs.observations import merge_observation_config
+from icv_envs.envs.observations import Kinematics, merge_observation_config
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
-from icv_envs.sim._kernels import formation_feature_rows, formation_reward_terms, nearest_along_road
+from icv_envs.sim._kernels import (formation_feature_rows, formation_post_rows, formation_reward_terms,
+                                   nearest_along_road)
 from icv_envs._ufuncs import clip as uclip
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.road import Obstacle, OffRamp, OnRamp, RoadLayout
@@ -357,6 +358,58 @@ class HighwayFormationEnv(IcvAgentsEnv):
         total = partial + wts["formation"] * form
         parts = {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
         return total, parts
+
+    # the hooks the one-pass _post_rows stands for: used only while they are this class's own
+    _POST_HOOKS = ("_features", "_rewards_rows", "_observe_rows", "_neighbours", "_wrap_dx", "_wrap_period",
+                   "_obs_scales")
+
+    def _post_rows(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
+        """:meth:`IcvAgentsEnv._post_rows` in one compiled call
+        (:func:`icv_envs.sim._kernels.formation_post_rows`: the kernels of
+        :meth:`_features`, :meth:`_rewards_rows` and the ``Kinematics``
+        observation with the arrays those methods give them; the ``exp`` of
+        the formation term from NumPy, as there), the same numbers bit for
+        bit (``tests/test_kernels.py``). Taken when the observation is
+        ``Kinematics``, the road has no exits (their column is written
+        between the features and the observation) and none of
+        :attr:`_POST_HOOKS` is overridden (by a subclass or on the
+        instance); otherwise the separate calls."""
+        w = self.world
+        tr = w.traffic
+        road = w.road
+        obs_type = self._obs_type
+        if (not len(rows) or road.n_exits or type(obs_type) is not Kinematics or not self._own_post_hooks()):
+            return super()._post_rows(rows, crashed_now)
+        c = self.config
+        wts = c["reward"]
+        cx, cy = tr.center()
+        x_ref, lane_ref, v_ref, member = w.manager.references(tr)
+        period = float(road.length) if road.periodic else -1.0
+        gap, _ = w.own_lane_gaps()
+        ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
+        s_abs, s_rel = self._obs_scales()
+        progress, safety, comfort, expo, member_q, partial, obs = formation_post_rows(
+            cx, cy, tr.speed, np.cos(tr.heading), np.sin(tr.heading), x_ref, lane_ref, v_ref, member,
+            float(road.lane_width), int(road.total_lanes), period, road.n_lanes, road.lane_ends, road._ob_lane,
+            road._ob_lo, road._ob_hi, road._ramp_iv, np.asarray(rows, dtype=np.int64), float(c["speed_range"][1]),
+            gap, np.asarray(crashed_now, dtype=bool), np.ascontiguousarray(ua, dtype=np.float64),
+            float(c["formation"]["spacing"]), float(wts["progress"]), float(wts["safety"]), float(wts["comfort"]),
+            obs_type.idx, obs_type.V, float(obs_type.pd), bool(road.periodic), float(road.length),
+            np.asarray(s_abs, dtype=np.float64), np.asarray(s_rel, dtype=np.float64), obs_type.absolute,
+            obs_type.normalize, obs_type.clip)
+        form = np.where(member_q, np.exp(expo), 0.0)
+        total = partial + wts["formation"] * form
+        return total, {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}, obs
+
+    def _own_post_hooks(self) -> bool:
+        """Whether every hook of :attr:`_POST_HOOKS` is this class's own, on
+        the class (checked once per class) and on the instance."""
+        cls = type(self)
+        own = cls.__dict__.get("_post_hooks_own")
+        if own is None:
+            own = all(getattr(cls, m) is getattr(HighwayFormationEnv, m) for m in self._POST_HOOKS)
+            setattr(cls, "_post_hooks_own", own)
+        return own and self.__dict__.keys().isdisjoint(self._POST_HOOKS)
 
     def global_state(self, slots: list[str]) -> np.ndarray:
         """Fixed-size global state: one row per possible agent (slot order),

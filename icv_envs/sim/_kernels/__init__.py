@@ -73,7 +73,7 @@ from icv_envs.sim._kernels.formation_step import (hold_pass, membership_pass, of
 from icv_envs.sim._kernels.frames import intersection_frames, quiet_substeps
 from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs, build_lane_index, leader_entries,
                                               leader_rows, own_lane_gap_rows)
-from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_reward_terms,
+from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_post_rows, formation_reward_terms,
                                                intersection_feature_rows, intersection_reward_pre,
                                                intersection_reward_rows, kinematics_rows, nearest_along_road)
 from icv_envs.sim._kernels.physics import (controls_rows, npy_mod, kinematic_substep, road_check, interval_ends,
@@ -99,6 +99,7 @@ __all__ = [
     "intersection_reward_rows",
     "kinematics_rows",
     "formation_feature_rows",
+    "formation_post_rows",
     "formation_reward_terms",
     "pairwise_sum",
     "motion_record",

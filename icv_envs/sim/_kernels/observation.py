@@ -12,7 +12,7 @@ from icv_envs.formation._kernels import clip1
 from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lane_of1, npy_mod
 
-__all__ = ["nearest_along_road", "kinematics_rows", "formation_feature_rows", "formation_reward_terms",
+__all__ = ["nearest_along_road", "kinematics_rows", "formation_feature_rows", "formation_reward_terms", "formation_post_rows",
            "intersection_feature_rows", "intersection_reward_pre", "intersection_reward_rows"]
 
 
@@ -216,6 +216,37 @@ def formation_reward_terms(rows, speed, v_max, gap, crashed_now, ua, F, spacing,
         member[q] = F[r, 10] > 0
         partial[q] = w_progress * progress[q] + w_safety * safety[q] + w_comfort * comfort[q]
     return progress, safety, comfort, expo, member, partial
+
+
+@nb.njit(cache=True)
+def formation_post_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
+                        n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, rows, v_max, gap, crashed_now, ua, spacing,
+                        w_progress, w_safety, w_comfort, idx, V, pd, periodic, road_length, s_abs, s_rel, absolute, normalize,
+                        clip):
+    """What the highway env's step builds from the state after its
+    physics, in one call: the feature rows (:func:`formation_feature_rows`),
+    the reward terms of ``rows`` (:func:`formation_reward_terms`) and their
+    ``Kinematics`` observations (the ``V - 1`` nearest along the road,
+    :func:`nearest_along_road`, then :func:`kinematics_rows`), each kernel
+    called with the arrays the separate calls get (the neighbour search on
+    a contiguous copy of the x column, ``periodic`` and ``road_length``
+    as the road's; ``period`` is the ring's length or -1, for both the
+    features and the observation's fold). For
+    ``HighwayFormationEnv._post_rows`` on roads without exits (the exits'
+    column is written in Python between the features and the observation).
+    Returns ``(progress, safety, comfort, exponent, member, partial, obs)``."""
+    F = formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
+                               n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
+    progress, safety, comfort, expo, member_q, partial = formation_reward_terms(
+        rows, speed, v_max, gap, crashed_now, ua, F, spacing, lane_width, w_progress, w_safety, w_comfort)
+    n = cx.shape[0]
+    if V > 1 and n > 1:
+        sel, present = nearest_along_road(F[:, 1].copy(), rows, V - 1, pd, periodic, road_length)
+    else:
+        sel = np.zeros((rows.shape[0], 0), dtype=np.int64)
+        present = np.zeros((rows.shape[0], 0), dtype=np.bool_)
+    obs = kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, normalize, clip, period)
+    return progress, safety, comfort, expo, member_q, partial, obs
 
 
 @nb.njit(cache=True)
