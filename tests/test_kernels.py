@@ -2115,3 +2115,27 @@ def test_same_ids_is_array_equal_for_id_arrays(a, b, same):
     y = x.copy() if same else np.array(b, dtype=np.int64)
     assert same_ids(x, y) == np.array_equal(x, y)
     assert not same_ids(x, y.astype(np.int32))  # another dtype: never the same
+
+
+@settings(max_examples=200, deadline=None)
+@given(k=st.integers(0, 6), n=st.integers(0, 500), dt=st.sampled_from([0.04, 0.1, 1.0 / 15.0, 0.02]),
+       start=st.tuples(st.integers(0, 10**9), st.floats(0, 1e9), st.floats(0, 1e9), st.floats(0, 1e9),
+                       st.integers(0, 10**9)), seed=st.integers(0, 2**32 - 1))
+def test_motion_add_sums_is_add_row_by_row(k, n, dt, start, seed):
+    """``MotionStats.add_sums`` (the compiled substeps' sums in one call)
+    leaves the accumulators :meth:`MotionStats.add` row by row leaves, bit
+    for bit."""
+    from icv_envs.sim.metrics import MotionStats
+
+    rng = np.random.default_rng(seed)
+    sums = rng.uniform(0, 1e4, (k, 3)) * rng.choice([1.0, 1e-9, 1e9], (k, 3))
+    stopped = rng.integers(0, n + 1, k)
+    a, b = MotionStats(), MotionStats()
+    for m in (a, b):
+        (m.vehicle_steps, m.speed_sum, m.realised_abs_accel_sum, m.commanded_abs_accel_sum, m.stopped_steps) = start
+    for (sv, sdv, sa), ns in zip(sums.tolist(), stopped.tolist()):
+        a.add(n, sv, sdv, sa, ns, dt)
+    b.add_sums(n, sums, stopped, dt)
+    for name in ("vehicle_steps", "speed_sum", "realised_abs_accel_sum", "commanded_abs_accel_sum", "stopped_steps"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert type(x) is type(y) and np.float64(x).tobytes() == np.float64(y).tobytes(), name

@@ -64,7 +64,7 @@ import math
 
 import numpy as np
 
-from icv_envs.sim._kernels import headway_record, motion_record
+from icv_envs.sim._kernels import headway_record, motion_record, motion_sums_add
 
 __all__ = [
     "STOPPED_SPEED",
@@ -147,6 +147,15 @@ class MotionStats:
         self.realised_abs_accel_sum += sdv / float(dt)
         self.commanded_abs_accel_sum += sa
         self.stopped_steps += stopped
+
+    def add_sums(self, n: int, sums: np.ndarray, stopped: np.ndarray, dt: float) -> None:
+        """:meth:`add` of each row of ``sums (k, 3)`` and ``stopped (k,)``
+        (the compiled substeps' per-substep sums, ``n`` vehicles each), in
+        order, in one compiled call (:func:`icv_envs.sim._kernels.motion_sums_add`)."""
+        (self.vehicle_steps, self.speed_sum, self.realised_abs_accel_sum, self.commanded_abs_accel_sum,
+         self.stopped_steps) = motion_sums_add(
+            int(len(sums)), int(n), sums, stopped, float(dt), int(self.vehicle_steps), float(self.speed_sum),
+            float(self.realised_abs_accel_sum), float(self.commanded_abs_accel_sum), int(self.stopped_steps))
 
     def reserve(self, size: int) -> None:
         """Room for the per-vehicle moments of ids ``< size``."""

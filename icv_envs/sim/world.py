@@ -213,11 +213,11 @@ class World:
             road._ramp_iv, EDGE_MARGIN, np.inf if road.periodic else road.length, exit_id, ex_x, de,
             road.ramp_lane, cx0)
         # the clock and the run statistics, substep by substep as substep()
-        # adds them (the sums as Python floats: the same doubles)
-        motion, dt = self.motion, self.dt
-        for (sv, sdv, sa), ns in zip(sums[:k].tolist(), stopped[:k].tolist()):
+        # adds them (the statistics compiled: the same additions of the same doubles)
+        dt = self.dt
+        for _ in range(k):
             self.time += dt
-            motion.add(nv, sv, sdv, sa, ns, dt)
+        self.motion.add_sums(nv, sums, stopped, dt)  # (quiet_substeps returns the k substeps' rows)
         self.stats["missed_exits"] += int(missed)
         self._index = None
         cx, cy = tr.set_center(cx, cy)

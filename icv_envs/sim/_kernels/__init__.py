@@ -78,7 +78,7 @@ from icv_envs.sim._kernels.observation import (formation_feature_rows, formation
                                                intersection_reward_rows, kinematics_rows, nearest_along_road)
 from icv_envs.sim._kernels.physics import (controls_rows, npy_mod, kinematic_substep, road_check, interval_ends,
                                            lanes_available)
-from icv_envs.sim._kernels.stats import pairwise_sum, motion_record, headway_record, pet_transitions
+from icv_envs.sim._kernels.stats import pairwise_sum, motion_record, motion_sums_add, headway_record, pet_transitions
 
 __all__ = [
     "npy_mod",
@@ -103,6 +103,7 @@ __all__ = [
     "formation_reward_terms",
     "pairwise_sum",
     "motion_record",
+    "motion_sums_add",
     "headway_record",
     "pet_transitions",
     "drivable_lane_bits",

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["pairwise_sum", "motion_record", "headway_record", "pet_transitions"]
+__all__ = ["pairwise_sum", "motion_record", "motion_sums_add", "headway_record", "pet_transitions"]
 
 
 @nb.njit(cache=True)
@@ -90,6 +90,24 @@ def pairwise_sum(a, lo, n):
             if sp == 0:
                 return v
             sp -= 1
+
+
+@nb.njit(cache=True)
+def motion_sums_add(k, n, sums, stopped, dt, vehicle_steps, speed_sum, realised, commanded, stopped_steps):
+    """``k`` substeps' sums of :func:`motion_record` (``sums (k, 3)``:
+    speeds, ``|dv|``, ``|commanded|``; ``stopped (k,)``; ``n`` vehicles
+    each) added to the run's accumulators in substep order, as
+    :meth:`icv_envs.sim.metrics.MotionStats.add` adds one substep's
+    (``|dv| / dt``): the same additions of the same doubles. Returns the
+    accumulators ``(vehicle_steps, speed_sum, realised, commanded,
+    stopped_steps)``."""
+    for f in range(k):
+        vehicle_steps += n
+        speed_sum += sums[f, 0]
+        realised += sums[f, 1] / dt
+        commanded += sums[f, 2]
+        stopped_steps += stopped[f]
+    return vehicle_steps, speed_sum, realised, commanded, stopped_steps
 
 
 @nb.njit(cache=True)
