@@ -2139,3 +2139,61 @@ def test_motion_add_sums_is_add_row_by_row(k, n, dt, start, seed):
     for name in ("vehicle_steps", "speed_sum", "realised_abs_accel_sum", "commanded_abs_accel_sum", "stopped_steps"):
         x, y = getattr(a, name), getattr(b, name)
         assert type(x) is type(y) and np.float64(x).tobytes() == np.float64(y).tobytes(), name
+
+
+@pytest.mark.parametrize("module, config, random_share", [
+    ("highway_formation_v0", {"vehicles_count": 20}, 0.3),  # collisions, free vehicles
+    ("highway_formation_v0", {"scenario": "off-ramp"}, 0.1),  # exits
+    ("highway_formation_v0", {"scenario": "on-ramp"}, 0.1),  # a ramp lane
+    ("highway_formation_v0", {"scenario": "lane-drop"}, 0.1),  # lane ends
+    ("highway_ramps_v0", {"vgr": 0.5, "duration": 60.0}, 0.1),  # the ring: lane speed table, exits
+])
+def test_formation_expert_one_call_runs_equal_the_separate_calls(module, config, random_share):
+    """``FormationExpert.compute``'s one-call runs (desired lanes; lane
+    speeds and the free term's base; longitudinal law, safety envelope and
+    normalised actions) give the separate hooks' actions bit for bit: two
+    envs of one seed in lockstep, one forced onto the separate calls by
+    hooks set on its expert (which the one-call path must notice), the same
+    actions fed to both; the fused kernels are counted on the other."""
+    import importlib
+
+    import icv_envs.policies.formation_expert as fe
+
+    mod = importlib.import_module(f"icv_envs.envs.{module}")
+    a, b = mod.parallel_env(**config), mod.parallel_env(**config)
+    a.reset(seed=11)
+    b.reset(seed=11)
+    ex_b = b.core.expert
+    for name in ("_exit_lanes", "_safety_cap"):  # one hook of each run, set on the instance
+        setattr(ex_b, name, getattr(type(ex_b), name).__get__(ex_b))
+    # the one-call kernels (env a) and the separate ones (env b: called from Python only there)
+    calls = {"desired_lane_rows": 0, "expert_control_rows": 0, "free_speed_ratio_rows": 0, "exit_lanes": 0,
+             "safety_cap": 0, "expert_lane_speeds": 0}
+    saved = {k: getattr(fe, k) for k in calls}
+
+    def counting(k):
+        def f(*args):
+            calls[k] += 1
+            return saved[k](*args)
+        return f
+
+    rng = np.random.default_rng(11)
+    steps = 0
+    try:
+        for k in calls:
+            setattr(fe, k, counting(k))
+        for _ in range(150):
+            if not a.agents:
+                break
+            ea, eb = a.core.expert_actions(), b.core.expert_actions()
+            assert a.agents == b.agents and ea.tobytes() == eb.tobytes()
+            ex = a.expert_actions()
+            acts = {g: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[g]) for g in a.agents}
+            oa, *_ = a.step(acts)
+            ob, *_ = b.step(dict(acts))
+            assert all(oa[g].tobytes() == ob[g].tobytes() for g in oa)
+            steps += 1
+    finally:
+        for k, f in saved.items():
+            setattr(fe, k, f)
+    assert steps > 30 and all(c >= steps for c in calls.values()), calls  # (one expert step per policy step, at least)

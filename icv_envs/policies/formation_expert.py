@@ -50,10 +50,13 @@ from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV
 from icv_envs._ufuncs import clip as uclip, flatnonzero
 from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies._kernels import (
+    desired_lane_rows,
     exit_lanes,
     expert_accelerations,
+    expert_control_rows,
     expert_lane_speeds,
     free_speed_ratio,
+    free_speed_ratio_rows,
     lane_change_starts,
     lane_changes_ended,
     lane_end_escape,
@@ -243,6 +246,15 @@ class FormationExpert:
         return normalised_actions(np.asarray(a, dtype=np.float64), np.asarray(phi, dtype=np.float64),
                                   float(p.a_max), float(p.a_min), float(p.steer_max))
 
+    def _own_hooks(self, hooks: dict) -> bool:
+        """Whether the hooks ``hooks`` (name -> this class's function) are
+        this class's own on the instance's class and not set on the
+        instance: :meth:`compute` then runs the kernels they call in one
+        call each (the same kernels, the same arrays); a subclass or a test
+        that replaces one gets the separate calls."""
+        cls = type(self)
+        return all(getattr(cls, k) is f for k, f in hooks.items()) and self.__dict__.keys().isdisjoint(hooks)
+
     def compute(self, world) -> np.ndarray:
         p = self.p
         tr, road = world.traffic, world.road
@@ -260,9 +272,17 @@ class FormationExpert:
         # (compiled: policies/_kernels.exit_lanes and lane_end_escape, which
         # document the rules; the array code they replaced is their
         # reference in tests/test_kernels.py)
-        desired, exiting = self._exit_lanes(world, lane, lane_ref, member)
-        desired = self._desired_lanes(world, desired, lane, member, exiting, cx, v, index)
-        desired = self._lane_end_escape(world, desired, lane, member, exiting)
+        if self._own_hooks(_HEAD_HOOKS):  # the three in one call (policies/_kernels.desired_lane_rows)
+            desired, exiting = desired_lane_rows(
+                np.asarray(member, dtype=bool), np.asarray(lane_ref, dtype=np.int64), lane, tr.exit, cx,
+                bool(road.has_ramp_lane), int(road.n_exits), int(road.n_lanes), road._diverge_iv, road._exit_x,
+                float(road.length) if road.periodic else -1.0, float(p.exit_lookahead),
+                float(p.exit_lookahead_per_lane), road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi,
+                road._ramp_iv, float(p.lc_max_length))
+        else:
+            desired, exiting = self._exit_lanes(world, lane, lane_ref, member)
+            desired = self._desired_lanes(world, desired, lane, member, exiting, cx, v, index)
+            desired = self._lane_end_escape(world, desired, lane, member, exiting)
 
         # --------------------------------------------- lane-change plan state
         # a lane change ends once past the curve AND settled on the new lane
@@ -311,10 +331,12 @@ class FormationExpert:
         # it within seconds and opens the gap (at lane speed -
         # blocked_slowdown the vehicles heading for the same exit stay side
         # by side for hundreds of metres and one misses the exit)
-        lane_speed = expert_lane_speeds(np.asarray(self._lane_speeds(road, lane), dtype=np.float64), lane,
-                                        np.asarray(exiting, dtype=bool), np.asarray(blocked, dtype=bool),
-                                        np.asarray(member, dtype=bool), int(road.n_lanes), float(p.exit_speed),
-                                        float(p.blocked_slowdown), float(p.v_min))
+        tail = self._own_hooks(_TAIL_HOOKS)
+        if not tail:
+            lane_speed = expert_lane_speeds(np.asarray(self._lane_speeds(road, lane), dtype=np.float64), lane,
+                                            np.asarray(exiting, dtype=bool), np.asarray(blocked, dtype=bool),
+                                            np.asarray(member, dtype=bool), int(road.n_lanes), float(p.exit_speed),
+                                            float(p.blocked_slowdown), float(p.v_min))
         # free vehicles: the IDM without a leader (its power from numpy, as
         # traffic.idm_acceleration takes it); members: the feedback law on the
         # reference, which starts where the member joined and moves to its
@@ -324,8 +346,30 @@ class FormationExpert:
         # below still wins). Compiled: policies/_kernels.expert_accelerations.
         free_rows = flatnonzero(~member)
         m = flatnonzero(member)
-        free_pow = free_speed_ratio(free_rows, v, lane_speed) ** 4.0
         a_ref = world.manager.reference_accel(tr)  # (cached with references() above)
+        if tail:
+            # the lane speeds and the free term's base, then (after numpy's power) the
+            # longitudinal law, the safety envelope and the normalised actions, each run
+            # in one call (policies/_kernels.free_speed_ratio_rows, expert_control_rows)
+            table = np.asarray(p.lane_speeds if p.lane_speeds is not None else (), dtype=np.float64)
+            free_pow = free_speed_ratio_rows(
+                p.lane_speeds is not None, table, lane, int(road.n_lanes), bool(road.has_ramp_lane),
+                float(p.ramp_speed), float(p.desired_speed), np.asarray(exiting, dtype=bool),
+                np.asarray(blocked, dtype=bool), np.asarray(member, dtype=bool), float(p.exit_speed),
+                float(p.blocked_slowdown), float(p.v_min), free_rows, v) ** 4.0
+            period = float(road.length) if road.periodic else -1.0
+            return expert_control_rows(
+                n, free_rows, free_pow, v, float(p.a_max), float(p.idm_b), float(p.idm_T), float(p.idm_s0), m, cx,
+                np.asarray(x_ref, dtype=np.float64), np.asarray(v_ref, dtype=np.float64),
+                np.asarray(a_ref, dtype=np.float64), period, float(p.kp), float(p.kv),
+                float(max(p.a_min, p.comfort_accel[0])), float(min(p.a_max, p.comfort_accel[1])), float(p.v_min),
+                index.keys, index.rows, index.lanes, index.x, float(index.offset), np.asarray(tr.length, dtype=np.float64),
+                tr.lc_lane, lane, np.asarray(desired, dtype=np.int64), np.asarray(member, dtype=bool),
+                np.asarray(exiting, dtype=bool), int(road.n_lanes), road.lane_ends, road._ob_lane, road._ob_lo,
+                road._ob_hi, road._ramp_iv, float(p.lc_min_length), float(p.member_time_gap), float(p.idm_T),
+                float(p.idm_s0), self._idm_root, float(p.a_min), float(p.a_max), np.asarray(phi, dtype=np.float64),
+                float(p.a_min), float(p.steer_max))
+        free_pow = free_speed_ratio(free_rows, v, lane_speed) ** 4.0
         acc = expert_accelerations(n, free_rows, free_pow, v, float(p.a_max), float(p.idm_b), float(p.idm_T),
                                    float(p.idm_s0), m, cx, np.asarray(x_ref, dtype=np.float64),
                                    np.asarray(v_ref, dtype=np.float64), np.asarray(a_ref, dtype=np.float64),
@@ -335,3 +379,9 @@ class FormationExpert:
         # safety envelope: leaders in the lanes the vehicle occupies or enters
         acc = self._safety_cap(world, index, acc, lane, desired, member, exiting)
         return self._normalise(acc, phi)
+
+
+# the hooks whose kernels FormationExpert.compute runs in one call while they are its own
+# (FormationExpert._own_hooks): the desired lanes, and the longitudinal tail
+_HEAD_HOOKS = {k: FormationExpert.__dict__[k] for k in ("_exit_lanes", "_desired_lanes", "_lane_end_escape")}
+_TAIL_HOOKS = {k: FormationExpert.__dict__[k] for k in ("_lane_speeds", "_safety_cap", "_normalise")}

@@ -33,10 +33,13 @@ Kernels added from stop 36 that divide use ``error_model="numpy"`` (IEEE
 
 from icv_envs.policies._kernels.corridors import corridor_index, corridor_neighbours
 from icv_envs.policies._kernels.formation_expert import (
+    desired_lane_rows,
     exit_lanes,
     expert_accelerations,
+    expert_control_rows,
     expert_lane_speeds,
     free_speed_ratio,
+    free_speed_ratio_rows,
     lane_change_starts,
     lane_changes_ended,
     lane_end_escape,
@@ -55,8 +58,9 @@ from icv_envs.policies._kernels.virtual_platoon import (
     virtual_caps,
 )
 
-__all__ = ["anticipated_references", "box_steering", "corridor_index", "corridor_neighbours", "envelope_pairs",
-           "exit_lanes", "expert_accelerations", "expert_lane_speeds", "follow_references", "free_speed_ratio",
+__all__ = ["anticipated_references", "box_steering", "corridor_index", "corridor_neighbours", "desired_lane_rows",
+           "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
+           "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
            "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
            "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "stop_flags", "tree_layers",
            "tree_references", "virtual_caps"]
