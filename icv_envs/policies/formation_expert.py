@@ -41,6 +41,7 @@ the vehicle), so the expert can always be queried for any vehicle.
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass
 
 import numpy as np
@@ -246,14 +247,14 @@ class FormationExpert:
         return normalised_actions(np.asarray(a, dtype=np.float64), np.asarray(phi, dtype=np.float64),
                                   float(p.a_max), float(p.a_min), float(p.steer_max))
 
-    def _own_hooks(self, hooks: dict) -> bool:
-        """Whether the hooks ``hooks`` (name -> this class's function) are
+    def _own_hooks(self, hooks: tuple) -> bool:
+        """Whether the hooks ``hooks`` (:func:`_hooks`: names, this class's functions) are
         this class's own on the instance's class and not set on the
         instance: :meth:`compute` then runs the kernels they call in one
         call each (the same kernels, the same arrays); a subclass or a test
         that replaces one gets the separate calls."""
-        cls = type(self)
-        return all(getattr(cls, k) is f for k, f in hooks.items()) and self.__dict__.keys().isdisjoint(hooks)
+        names, funcs, get = hooks
+        return get(type(self)) == funcs and self.__dict__.keys().isdisjoint(names)  # (functions compare by identity)
 
     def compute(self, world) -> np.ndarray:
         p = self.p
@@ -383,5 +384,12 @@ class FormationExpert:
 
 # the hooks whose kernels FormationExpert.compute runs in one call while they are its own
 # (FormationExpert._own_hooks): the desired lanes, and the longitudinal tail
-_HEAD_HOOKS = {k: FormationExpert.__dict__[k] for k in ("_exit_lanes", "_desired_lanes", "_lane_end_escape")}
-_TAIL_HOOKS = {k: FormationExpert.__dict__[k] for k in ("_lane_speeds", "_safety_cap", "_normalise")}
+# ((names), (functions), a getter of the names' values on a class: one C call)
+
+
+def _hooks(*names: str) -> tuple:
+    return names, tuple(FormationExpert.__dict__[k] for k in names), operator.attrgetter(*names)
+
+
+_HEAD_HOOKS = _hooks("_exit_lanes", "_desired_lanes", "_lane_end_escape")
+_TAIL_HOOKS = _hooks("_lane_speeds", "_safety_cap", "_normalise")

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.sim._kernels import build_lane_index, collision_pairs, leader_rows
+from icv_envs.sim._kernels import build_lane_index, build_lane_index_pair, collision_pairs, leader_rows
 
 __all__ = [
     "Traffic",
@@ -283,7 +283,7 @@ def occupied_lanes(cy, width, lane_width, n_lanes, margin=0.0, length=None, head
 
 
 def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool = False, ghost: float = 1000.0,
-               reserved_lane=None, length=None, heading=None) -> LaneIndex:
+               reserved_lane=None, length=None, heading=None, pair: bool = False):
     """Build the lane-sorted index. On a ring (``periodic``), vehicles within
     ``ghost`` metres of the seam are listed a second time one lap further
     (``x + length`` and ``x - length``) so that searches see round the seam;
@@ -293,7 +293,9 @@ def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool =
     that has started a lane change holds its target lane before its body
     reaches it (a turn signal), so two vehicles do not move into one gap.
     ``length`` and ``heading`` give each vehicle's footprint (see
-    :func:`occupied_lanes`)."""
+    :func:`occupied_lanes`). With ``pair`` (and ``reserved_lane``) both
+    views at once, the body-only one first, each as its own call builds it
+    (:func:`icv_envs.sim._kernels.build_lane_index_pair`)."""
     f = np.float64
     n = len(cx)
     footprint = length is not None and heading is not None
@@ -305,10 +307,15 @@ def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool =
     width = vec(width)
     length = vec(length if footprint else 0.0)
     heading = vec(heading if footprint else 0.0)
+    args = (np.asarray(cx, dtype=f), np.asarray(cy, dtype=f), width, length, heading, footprint, float(lane_width),
+            int(n_lanes))
+    tail = (bool(periodic), float(road_length), float(ghost))
+    if pair:
+        k0, r0, l0, x0, k1, r1, l1, x1, offset = build_lane_index_pair(
+            *args, np.asarray(reserved_lane, dtype=np.int64), *tail)
+        return LaneIndex(k0, r0, l0, x0, offset), LaneIndex(k1, r1, l1, x1, offset)
     res = np.zeros(0, dtype=np.int64) if reserved_lane is None else np.asarray(reserved_lane, dtype=np.int64)
-    keys, rows, lanes, xs, offset = build_lane_index(
-        np.asarray(cx, dtype=f), np.asarray(cy, dtype=f), width, length, heading, footprint, float(lane_width),
-        int(n_lanes), res, bool(periodic), float(road_length), float(ghost))
+    keys, rows, lanes, xs, offset = build_lane_index(*args, res, *tail)
     return LaneIndex(keys, rows, lanes, xs, offset)
 
 

@@ -97,17 +97,22 @@ class World:
             self._gaps = None
         k = 0 if reserved else 1
         if self._index[k] is None:
-            other = self._index[1 - k]
-            # the reservations: for the reserved view, or to see whether the view already built serves
-            res = self._reservations() if reserved or other is not None else None
-            if other is not None and not (res >= 0).any():
-                # nobody holds a reservation: the two views are the same index
-                self._index[k] = other
-                return other
+            # both views at once: one index when nobody holds a reservation
+            # (the two views are the same), else the two in one call (a step
+            # that asks for one view asks for the other: the gaps and the
+            # controllers)
+            # (nobody carries out a plan: no reservation to look for)
+            res = None if self._plan_vids is not None and not self._plan_vids else self._reservations()
             cx, cy = self.traffic.center()
             args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
-            self._index[k] = lane_index(*args, periodic=self.road.periodic, reserved_lane=res if reserved else None,
-                                        length=self.traffic.length, heading=self.traffic.heading)
+            if res is not None and (res >= 0).any():
+                body, held = lane_index(*args, periodic=self.road.periodic, reserved_lane=res,
+                                        length=self.traffic.length, heading=self.traffic.heading, pair=True)
+                self._index = [held, body]
+            else:
+                one = lane_index(*args, periodic=self.road.periodic, length=self.traffic.length,
+                                 heading=self.traffic.heading)
+                self._index = [one, one]
         return self._index[k]
 
     def _reservations(self) -> np.ndarray:

@@ -71,7 +71,8 @@ from icv_envs.sim._kernels.formation import (drivable_lane_bits, drivable_lane_b
 from icv_envs.sim._kernels.formation_step import (hold_pass, membership_pass, off_reference_rows, reform_costs,
                                                   reform_slots)
 from icv_envs.sim._kernels.frames import intersection_frames, quiet_substeps
-from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs, build_lane_index, leader_entries,
+from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs, build_lane_index,
+                                              build_lane_index_pair, leader_entries,
                                               leader_rows, own_lane_gap_rows)
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_post_rows, formation_reward_terms,
                                                intersection_feature_rows, intersection_reward_pre,
@@ -90,6 +91,7 @@ __all__ = [
     "sweep_candidates",
     "collision_pairs",
     "build_lane_index",
+    "build_lane_index_pair",
     "leader_entries",
     "leader_rows",
     "own_lane_gap_rows",

@@ -11,8 +11,8 @@ import numpy as np
 
 from icv_envs.sim._kernels.physics import lane_of1
 
-__all__ = ["own_lane_gap_rows", "sweep_candidates", "collision_pairs", "build_lane_index", "leader_entries",
-           "leader_rows"]
+__all__ = ["own_lane_gap_rows", "sweep_candidates", "collision_pairs", "build_lane_index", "build_lane_index_pair",
+           "leader_entries", "leader_rows"]
 
 
 @nb.njit(cache=True)
@@ -246,6 +246,20 @@ def build_lane_index(cx, cy, width, length, heading, footprint, lane_width, n_la
         keys[q] = lanes_f[q] * offset + xs_f[q]
     order = np.argsort(keys, kind="mergesort")
     return keys[order], rows_f[order], lanes_f[order], xs_f[order], offset
+
+
+@nb.njit(cache=True)
+def build_lane_index_pair(cx, cy, width, length, heading, footprint, lane_width, n_lanes, reserved_lane, periodic,
+                          road_length, ghost):
+    """Both views of :func:`build_lane_index` in one call: the body-only
+    one (no reserved lanes) and the one with ``reserved_lane``, each
+    exactly as its own call builds it. Returns the two ``(keys, rows,
+    lanes, x)`` and the common ``offset``."""
+    k0, r0, l0, x0, offset = build_lane_index(cx, cy, width, length, heading, footprint, lane_width, n_lanes,
+                                              reserved_lane[:0], periodic, road_length, ghost)
+    k1, r1, l1, x1, _ = build_lane_index(cx, cy, width, length, heading, footprint, lane_width, n_lanes,
+                                         reserved_lane, periodic, road_length, ghost)
+    return k0, r0, l0, x0, k1, r1, l1, x1, offset
 
 
 @nb.njit(cache=True)
