@@ -4,8 +4,11 @@ module per room of the paper's method, as the policies that call them:
 * :mod:`.laws` -- the control laws both experts share (normalised actions,
   the IDM without a leader, the clipped feedback law, paper Sec. 2.2 eq. (law));
 * :mod:`.formation_expert` -- the highway formation expert (paper Sec. 2.2, 3.4):
-  safety envelope, lane-change starts, exit and lane-end lanes, and the
-  arithmetic of ``FormationExpert.compute`` around the numpy calls that stay;
+  safety envelope, exit and lane-end lanes, and the arithmetic of
+  ``FormationExpert.compute`` around the numpy calls that stay (its runs of
+  kernels in one call each);
+* :mod:`.lane_changes` -- that expert's lane-change decisions (Sec. 3.4):
+  which lane changes start, which end or re-plan;
 * :mod:`.corridors` -- the intersection's corridor index (read by Sec. 5's regrouping and Sec. 4.2);
 * :mod:`.virtual_platoon` -- the improved virtual platoon (Sec. 4.2):
   passing-order repair, the virtual lane's caps, anticipation, tree-layers,
@@ -40,12 +43,11 @@ from icv_envs.policies._kernels.formation_expert import (
     expert_lane_speeds,
     free_speed_ratio,
     free_speed_ratio_rows,
-    lane_change_starts,
-    lane_changes_ended,
     lane_end_escape,
     preview_points,
     safety_cap,
 )
+from icv_envs.policies._kernels.lane_changes import lane_change_starts, lane_changes_ended
 from icv_envs.policies._kernels.laws import normalised_actions
 from icv_envs.policies._kernels.platoon_control import box_steering, envelope_pairs, platoon_accelerations
 from icv_envs.policies._kernels.virtual_platoon import (
