@@ -20,4 +20,4 @@ done
 PYTHONPATH=$TEST /usr/bin/time -v python -m icv_envs.cli bench highway-ramps --seconds 600 > $OUT/rss_600.txt 2>&1
 PYTHONPATH=$TEST python -m icv_envs.cli bench highway-formation > $OUT/bench_highway_formation.txt 2>&1
 PYTHONPATH=$TEST python -m icv_envs.cli bench intersection > $OUT/bench_intersection.txt 2>&1
-echo done > $OUT/DONE
+
