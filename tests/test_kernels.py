@@ -1387,6 +1387,14 @@ def test_formation_post_rows_not_taken_where_it_does_not_apply():
         sub = Sub(config={"vehicles_count": 6})
         sub.ma_reset(seed=0)
         sub.ma_step({f"icv_{v}": a for v, a in zip(sub.world.traffic.vid.tolist(), sub.expert_actions())})
+        orig = hf.HighwayFormationEnv._neighbours  # a replacement on the class itself
+        env = parallel_env(vehicles_count=6)
+        env.reset(seed=0)
+        hf.HighwayFormationEnv._neighbours = lambda self, *a: orig(self, *a)
+        try:
+            env.step({a: env.expert_actions()[a] for a in env.agents})
+        finally:
+            hf.HighwayFormationEnv._neighbours = orig
         assert calls == []
         env = parallel_env(vehicles_count=6)  # the control: the plain env takes it
         env.reset(seed=0)

@@ -13,6 +13,7 @@ observations, actions, rewards and arguments.
 from __future__ import annotations
 
 import math
+import operator
 from typing import Any
 
 import numpy as np
@@ -359,10 +360,6 @@ class HighwayFormationEnv(IcvAgentsEnv):
         parts = {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
         return total, parts
 
-    # the hooks the one-pass _post_rows stands for: used only while they are this class's own
-    _POST_HOOKS = ("_features", "_rewards_rows", "_observe_rows", "_neighbours", "_wrap_dx", "_wrap_period",
-                   "_obs_scales")
-
     def _post_rows(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
         """:meth:`IcvAgentsEnv._post_rows` in one compiled call
         (:func:`icv_envs.sim._kernels.formation_post_rows`: the kernels of
@@ -371,14 +368,16 @@ class HighwayFormationEnv(IcvAgentsEnv):
         the formation term from NumPy, as there), the same numbers bit for
         bit (``tests/test_kernels.py``). Taken when the observation is
         ``Kinematics``, the road has no exits (their column is written
-        between the features and the observation) and none of
-        :attr:`_POST_HOOKS` is overridden (by a subclass or on the
-        instance); otherwise the separate calls."""
+        between the features and the observation) and none of the hooks
+        it stands for (``_POST_HOOKS``) is replaced, on a subclass, on the
+        class or on the instance; otherwise the separate calls."""
         w = self.world
         tr = w.traffic
         road = w.road
         obs_type = self._obs_type
-        if (not len(rows) or road.n_exits or type(obs_type) is not Kinematics or not self._own_post_hooks()):
+        names, funcs, get = _POST_HOOKS
+        if (not len(rows) or road.n_exits or type(obs_type) is not Kinematics or get(type(self)) != funcs
+                or not self.__dict__.keys().isdisjoint(names)):
             return super()._post_rows(rows, crashed_now)
         c = self.config
         wts = c["reward"]
@@ -400,16 +399,6 @@ class HighwayFormationEnv(IcvAgentsEnv):
         form = np.where(member_q, np.exp(expo), 0.0)
         total = partial + wts["formation"] * form
         return total, {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}, obs
-
-    def _own_post_hooks(self) -> bool:
-        """Whether every hook of :attr:`_POST_HOOKS` is this class's own, on
-        the class (checked once per class) and on the instance."""
-        cls = type(self)
-        own = cls.__dict__.get("_post_hooks_own")
-        if own is None:
-            own = all(getattr(cls, m) is getattr(HighwayFormationEnv, m) for m in self._POST_HOOKS)
-            setattr(cls, "_post_hooks_own", own)
-        return own and self.__dict__.keys().isdisjoint(self._POST_HOOKS)
 
     def global_state(self, slots: list[str]) -> np.ndarray:
         """Fixed-size global state: one row per possible agent (slot order),
@@ -538,3 +527,9 @@ class HighwayFormationEnv(IcvAgentsEnv):
         self.controlled_vehicles = [ego] if ego is not None else []
 
 
+# the hooks HighwayFormationEnv._post_rows stands for, their functions and a
+# getter of their values on a class (one C call; functions compare by identity)
+_POST_HOOK_NAMES = ("_features", "_rewards_rows", "_observe_rows", "_neighbours", "_wrap_dx", "_wrap_period",
+                    "_obs_scales")
+_POST_HOOKS = (_POST_HOOK_NAMES, operator.attrgetter(*_POST_HOOK_NAMES)(HighwayFormationEnv),
+               operator.attrgetter(*_POST_HOOK_NAMES))

@@ -382,13 +382,15 @@ class FormationExpert:
         return self._normalise(acc, phi)
 
 
-# the hooks whose kernels FormationExpert.compute runs in one call while they are its own
-# (FormationExpert._own_hooks): the desired lanes, and the longitudinal tail
-# ((names), (functions), a getter of the names' values on a class: one C call)
-
-
 def _hooks(*names: str) -> tuple:
+    """``(names, FormationExpert's functions of those names, a getter of
+    the names' values on a class)`` for :meth:`FormationExpert._own_hooks`
+    (the getter reads all of them in one C call)."""
     return names, tuple(FormationExpert.__dict__[k] for k in names), operator.attrgetter(*names)
+
+
+# the hooks whose kernels compute() runs in one call while they are its own:
+# the desired lanes, and the longitudinal tail
 
 
 _HEAD_HOOKS = _hooks("_exit_lanes", "_desired_lanes", "_lane_end_escape")

@@ -98,10 +98,9 @@ class World:
         k = 0 if reserved else 1
         if self._index[k] is None:
             # both views at once: one index when nobody holds a reservation
-            # (the two views are the same), else the two in one call (a step
-            # that asks for one view asks for the other: the gaps and the
-            # controllers)
-            # (nobody carries out a plan: no reservation to look for)
+            # (the two views are the same; nobody carrying out a plan: none
+            # to look for), else the two in one call (a step that asks for
+            # one view asks for the other: the gaps and the controllers)
             res = None if self._plan_vids is not None and not self._plan_vids else self._reservations()
             cx, cy = self.traffic.center()
             args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
