@@ -2155,6 +2155,9 @@ def test_motion_add_sums_is_add_row_by_row(k, n, dt, start, seed):
     ("highway_formation_v0", {"scenario": "on-ramp"}, 0.1),  # a ramp lane
     ("highway_formation_v0", {"scenario": "lane-drop"}, 0.1),  # lane ends
     ("highway_ramps_v0", {"vgr": 0.5, "duration": 60.0}, 0.1),  # the ring: lane speed table, exits
+    ("highway_formation_v0", {"vehicles_count": 8, "spawns": [  # from standstill: the envelope's a_max clip binds
+        {"time": 1.0, "position": 30.0, "lane": 0, "speed": 0.0},
+        {"time": 2.0, "position": 60.0, "lane": 3, "speed": 1.0}]}, 0.0),
 ])
 def test_formation_expert_one_call_runs_equal_the_separate_calls(module, config, random_share):
     """``FormationExpert.compute``'s one-call runs (desired lanes; lane
