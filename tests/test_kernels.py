@@ -1346,8 +1346,9 @@ def test_formation_post_rows_kernel_on_a_ring(seed):
     s_abs, s_rel = rng.uniform(1, 100, 13), rng.uniform(1, 100, 13)
     flags = (bool(rng.random() < 0.3), bool(rng.random() < 0.7), bool(rng.random() < 0.7))
     ch, sh = np.cos(h), np.sin(h)
-    got = formation_post_rows(cx, cy, v, ch, sh, x_ref, lane_ref, v_ref, member, *road[:2], L, *road[3:], rows, 30.0,
-                              gap, crashed, ua, 20.0, 0.4, 1.0, 0.1, idx, V, pd, True, L, s_abs, s_rel, *flags)
+    got = formation_post_rows(cx, cy, v, ch, sh, x_ref, lane_ref, v_ref, member, *road[:2], L, *road[3:], rows, v,
+                              30.0, gap, crashed, ua, 20.0, W, 0.4, 1.0, 0.1, V - 1, pd, True, L, idx, V, s_abs, s_rel,
+                              *flags, L)
     F = formation_feature_rows(cx, cy, v, ch, sh, x_ref, lane_ref, v_ref, member, *road[:2], L, *road[3:])
     want = formation_reward_terms(rows, v, 30.0, gap, crashed, ua, F, 20.0, W, 0.4, 1.0, 0.1)
     if V > 1 and n > 1:

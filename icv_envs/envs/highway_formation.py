@@ -281,24 +281,34 @@ class HighwayFormationEnv(IcvAgentsEnv):
     def _features(self) -> np.ndarray:
         """Per-vehicle feature rows in absolute terms (n, F), before
         normalisation: x, y, vx, vy, cos, sin, target dx, dy, dv, member."""
-        w = self.world
-        tr = w.traffic
-        cx, cy = tr.center()
-        x_ref, lane_ref, v_ref, member = w.manager.references(tr)
-        road = w.road
+        tr = self.world.traffic
+        road = self.world.road
         # compiled, the same arithmetic as the array code it replaced
         # (icv_envs.sim._kernels.formation_feature_rows; tests/test_kernels.py)
-        period = float(road.length) if road.periodic else -1.0
-        F = formation_feature_rows(cx, cy, tr.speed, np.cos(tr.heading), np.sin(tr.heading), x_ref, lane_ref, v_ref,
-                                   member, float(road.lane_width), int(road.total_lanes), period, road.n_lanes,
-                                   road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv)
+        args = self._feature_args()
+        F = formation_feature_rows(*args)
         # exit_dx: metres to the own exit's diverge segment / 1000 (1 = no exit);
         # lane_end_dx (column 12): metres to the end of the current lane / 200 (1 = none near)
         if road.n_exits:
+            cx = args[0]
             has = tr.exit >= 0
             if has.any():
                 F[has, 11] = road.exit_ahead(tr.exit[has], cx[has]) / 1000.0
         return F
+
+    def _feature_args(self) -> tuple:
+        """The arguments of :func:`~icv_envs.sim._kernels.formation_feature_rows`
+        for the current state (the headings' ``cos``/``sin`` from NumPy), for
+        :meth:`_features` and :meth:`_post_rows`."""
+        w = self.world
+        tr = w.traffic
+        road = w.road
+        cx, cy = tr.center()
+        x_ref, lane_ref, v_ref, member = w.manager.references(tr)
+        period = float(road.length) if road.periodic else -1.0
+        return (cx, cy, tr.speed, np.cos(tr.heading), np.sin(tr.heading), x_ref, lane_ref, v_ref, member,
+                float(road.lane_width), int(road.total_lanes), period, road.n_lanes, road.lane_ends, road._ob_lane,
+                road._ob_lo, road._ob_hi, road._ramp_iv)
 
     def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
         """Feature scales (the module docstring's table): absolute (row 0) and relative (other rows)."""
@@ -329,10 +339,15 @@ class HighwayFormationEnv(IcvAgentsEnv):
     def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
         """The ``K`` nearest vehicles by longitudinal distance within ``pd``
         (round the ring each vehicle at most once), nearest first; ties: rear first."""
-        road = self.world.road
         # compiled (icv_envs.sim._kernels.nearest_along_road)
-        return nearest_along_road(np.ascontiguousarray(F[:, 1]), np.asarray(rows, dtype=np.int64), int(K), float(pd),
-                                  bool(road.periodic), float(road.length))
+        return nearest_along_road(np.ascontiguousarray(F[:, 1]), np.asarray(rows, dtype=np.int64),
+                                  *self._neighbour_args(K, pd))
+
+    def _neighbour_args(self, K: int, pd: float) -> tuple:
+        """:func:`~icv_envs.sim._kernels.nearest_along_road`'s arguments after
+        the x column and the rows (for :meth:`_neighbours` and :meth:`_post_rows`)."""
+        road = self.world.road
+        return int(K), float(pd), bool(road.periodic), float(road.length)
 
     def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
         """Per-agent reward: weighted sum of progress (speed / v_max), safety
@@ -342,23 +357,34 @@ class HighwayFormationEnv(IcvAgentsEnv):
         steering) and formation keeping (members:
         ``exp(-(dx / L_s)^2 - (dy / lane_width)^2)`` of the target error; free
         vehicles: 0)."""
+        # compiled but the exp (icv_envs.sim._kernels.formation_reward_terms; the
+        # array code it replaced is its reference in tests/test_kernels.py)
+        args = self._reward_args(rows, crashed_now)
+        return self._reward_total(formation_reward_terms(*args[:6], F, *args[6:]))
+
+    def _reward_args(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
+        """:func:`~icv_envs.sim._kernels.formation_reward_terms`' arguments but
+        the feature rows (which come after the sixth), for
+        :meth:`_rewards_rows` and :meth:`_post_rows`."""
         c = self.config
         w = self.world
         tr = w.traffic
         wts = c["reward"]
-        vmax = float(c["speed_range"][1])
         gap, _ = w.own_lane_gaps()
         ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
-        # compiled but the exp (icv_envs.sim._kernels.formation_reward_terms; the
-        # array code it replaced is its reference in tests/test_kernels.py)
-        progress, safety, comfort, expo, member, partial = formation_reward_terms(
-            np.asarray(rows, dtype=np.int64), tr.speed, vmax, gap, np.asarray(crashed_now, dtype=bool),
-            np.ascontiguousarray(ua, dtype=np.float64), F, float(c["formation"]["spacing"]),
-            float(w.road.lane_width), float(wts["progress"]), float(wts["safety"]), float(wts["comfort"]))
+        return (np.asarray(rows, dtype=np.int64), tr.speed, float(c["speed_range"][1]), gap,
+                np.asarray(crashed_now, dtype=bool), np.ascontiguousarray(ua, dtype=np.float64),
+                float(c["formation"]["spacing"]), float(w.road.lane_width), float(wts["progress"]),
+                float(wts["safety"]), float(wts["comfort"]))
+
+    def _reward_total(self, terms: tuple) -> tuple[np.ndarray, dict]:
+        """The reward and its components from the kernel's terms
+        ``(progress, safety, comfort, exponent, member, partial)``: the
+        formation term ``exp`` (NumPy's) for members, 0 for the others."""
+        progress, safety, comfort, expo, member, partial = terms
         form = np.where(member, np.exp(expo), 0.0)
-        total = partial + wts["formation"] * form
-        parts = {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
-        return total, parts
+        total = partial + self.config["reward"]["formation"] * form
+        return total, {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
 
     def _post_rows(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
         """:meth:`IcvAgentsEnv._post_rows` in one compiled call
@@ -371,34 +397,18 @@ class HighwayFormationEnv(IcvAgentsEnv):
         between the features and the observation) and none of the hooks
         it stands for (``_POST_HOOKS``) is replaced, on a subclass, on the
         class or on the instance; otherwise the separate calls."""
-        w = self.world
-        tr = w.traffic
-        road = w.road
+        road = self.world.road
         obs_type = self._obs_type
         names, funcs, get = _POST_HOOKS
         if (not len(rows) or road.n_exits or type(obs_type) is not Kinematics or get(type(self)) != funcs
                 or not self.__dict__.keys().isdisjoint(names)):
             return super()._post_rows(rows, crashed_now)
-        c = self.config
-        wts = c["reward"]
-        cx, cy = tr.center()
-        x_ref, lane_ref, v_ref, member = w.manager.references(tr)
-        period = float(road.length) if road.periodic else -1.0
-        gap, _ = w.own_lane_gaps()
-        ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
-        s_abs, s_rel = self._obs_scales()
-        progress, safety, comfort, expo, member_q, partial, obs = formation_post_rows(
-            cx, cy, tr.speed, np.cos(tr.heading), np.sin(tr.heading), x_ref, lane_ref, v_ref, member,
-            float(road.lane_width), int(road.total_lanes), period, road.n_lanes, road.lane_ends, road._ob_lane,
-            road._ob_lo, road._ob_hi, road._ramp_iv, np.asarray(rows, dtype=np.int64), float(c["speed_range"][1]),
-            gap, np.asarray(crashed_now, dtype=bool), np.ascontiguousarray(ua, dtype=np.float64),
-            float(c["formation"]["spacing"]), float(wts["progress"]), float(wts["safety"]), float(wts["comfort"]),
-            obs_type.idx, obs_type.V, float(obs_type.pd), bool(road.periodic), float(road.length),
-            np.asarray(s_abs, dtype=np.float64), np.asarray(s_rel, dtype=np.float64), obs_type.absolute,
-            obs_type.normalize, obs_type.clip)
-        form = np.where(member_q, np.exp(expo), 0.0)
-        total = partial + wts["formation"] * form
-        return total, {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}, obs
+        options = obs_type.kernel_options()  # (idx, V, s_abs, s_rel, absolute, normalize, clip)
+        *terms, obs = formation_post_rows(*self._feature_args(), *self._reward_args(rows, crashed_now),
+                                          *self._neighbour_args(options[1] - 1, obs_type.pd), *options,
+                                          float(self._wrap_period()))
+        total, parts = self._reward_total(terms)
+        return total, parts, obs
 
     def global_state(self, slots: list[str]) -> np.ndarray:
         """Fixed-size global state: one row per possible agent (slot order),

@@ -119,12 +119,23 @@ class Kinematics(ObservationType):
         bound = 1.0 if self.normalize and self.clip else np.inf
         self.space_ = spaces.Box(-bound, bound, (self.V, len(self.idx)), dtype=np.float32)
 
+    def kernel_options(self) -> tuple:
+        """:func:`~icv_envs.sim._kernels.kinematics_rows`' options: ``(idx, V,
+        s_abs, s_rel, absolute, normalize, clip)``, the env's feature scales
+        (absolute, relative) as float64 (for :meth:`observe_rows` and the
+        highway env's one-call step)."""
+        s_abs, s_rel = self.env._obs_scales()
+        f = np.float64
+        return (self.idx, self.V, np.asarray(s_abs, dtype=f), np.asarray(s_rel, dtype=f), self.absolute,
+                self.normalize, self.clip)
+
     def observe_rows(self, rows: np.ndarray, F: np.ndarray) -> np.ndarray:
         env = self.env
         V = self.V
         if not len(rows):
             return np.zeros((0, V, len(self.idx)), dtype=np.float32)
-        s_abs, s_rel = env._obs_scales()
+        options = self.kernel_options()
+        s_abs, s_rel = options[2], options[3]
         n = len(F)
         if V > 1 and n > 1:
             sel, present = env._neighbours(rows, F, V - 1, self.pd)
@@ -134,11 +145,9 @@ class Kinematics(ObservationType):
         if period is not None:
             # compiled (icv_envs.sim._kernels.kinematics_rows): the array
             # code below, one pass
-            f = np.float64
-            return kinematics_rows(np.ascontiguousarray(F, dtype=f), np.asarray(rows, dtype=np.int64),
-                                   np.asarray(sel, dtype=np.int64), np.asarray(present, dtype=bool), self.idx, V,
-                                   np.asarray(s_abs, dtype=f), np.asarray(s_rel, dtype=f), self.absolute,
-                                   self.normalize, self.clip, float(period))
+            return kinematics_rows(np.ascontiguousarray(F, dtype=np.float64), np.asarray(rows, dtype=np.int64),
+                                   np.asarray(sel, dtype=np.int64), np.asarray(present, dtype=bool), *options,
+                                   float(period))
         out = np.zeros((len(rows), V, len(self.idx)), dtype=np.float32)
         own = F[rows]
         if self.normalize:

@@ -220,32 +220,31 @@ def formation_reward_terms(rows, speed, v_max, gap, crashed_now, ua, F, spacing,
 
 @nb.njit(cache=True)
 def formation_post_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
-                        n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, rows, v_max, gap, crashed_now, ua, spacing,
-                        w_progress, w_safety, w_comfort, idx, V, pd, periodic, road_length, s_abs, s_rel, absolute, normalize,
-                        clip):
+                        n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, rows, r_speed, v_max, gap, crashed_now, ua,
+                        spacing, r_lane_width, w_progress, w_safety, w_comfort, K, pd, periodic, road_length, idx, V,
+                        s_abs, s_rel, absolute, normalize, clip, o_period):
     """What the highway env's step builds from the state after its
-    physics, in one call: the feature rows (:func:`formation_feature_rows`),
-    the reward terms of ``rows`` (:func:`formation_reward_terms`) and their
-    ``Kinematics`` observations (the ``V - 1`` nearest along the road,
-    :func:`nearest_along_road`, then :func:`kinematics_rows`), each kernel
-    called with the arrays the separate calls get (the neighbour search on
-    a contiguous copy of the x column, ``periodic`` and ``road_length``
-    as the road's; ``period`` is the ring's length or -1, for both the
-    features and the observation's fold). For
-    ``HighwayFormationEnv._post_rows`` on roads without exits (the exits'
-    column is written in Python between the features and the observation).
-    Returns ``(progress, safety, comfort, exponent, member, partial, obs)``."""
+    physics, in one call, each kernel with the arguments its separate call
+    gets, in their order: :func:`formation_feature_rows` (``cx`` ..
+    ``ramp_iv``), :func:`formation_reward_terms` of ``rows`` (``rows`` ..
+    ``w_comfort``, the feature rows after the sixth), and the ``Kinematics``
+    observations: when ``V > 1`` and there are two vehicles or more,
+    :func:`nearest_along_road` on a contiguous copy of the x column
+    (``K`` .. ``road_length``), then :func:`kinematics_rows` (``idx`` ..
+    ``o_period``). For ``HighwayFormationEnv._post_rows`` on roads without
+    exits (the exits' column is written in Python between the features and
+    the observation). Returns ``(progress, safety, comfort, exponent,
+    member, partial, obs)``."""
     F = formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
                                n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     progress, safety, comfort, expo, member_q, partial = formation_reward_terms(
-        rows, speed, v_max, gap, crashed_now, ua, F, spacing, lane_width, w_progress, w_safety, w_comfort)
-    n = cx.shape[0]
-    if V > 1 and n > 1:
-        sel, present = nearest_along_road(F[:, 1].copy(), rows, V - 1, pd, periodic, road_length)
+        rows, r_speed, v_max, gap, crashed_now, ua, F, spacing, r_lane_width, w_progress, w_safety, w_comfort)
+    if V > 1 and cx.shape[0] > 1:
+        sel, present = nearest_along_road(F[:, 1].copy(), rows, K, pd, periodic, road_length)
     else:
         sel = np.zeros((rows.shape[0], 0), dtype=np.int64)
         present = np.zeros((rows.shape[0], 0), dtype=np.bool_)
-    obs = kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, normalize, clip, period)
+    obs = kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, normalize, clip, o_period)
     return progress, safety, comfort, expo, member_q, partial, obs
 
 
