@@ -2209,3 +2209,28 @@ def test_formation_expert_one_call_runs_equal_the_separate_calls(module, config,
         for k, f in saved.items():
             setattr(fe, k, f)
     assert steps > 30 and all(c >= steps for c in calls.values()), calls  # (one expert step per policy step, at least)
+
+
+@settings(max_examples=200, deadline=None)
+@given(lanes=st.lists(st.integers(-3, 8), max_size=20), table=st.one_of(st.none(), st.lists(
+       st.floats(1.0, 40.0), min_size=1, max_size=6)), n_lanes=st.integers(1, 5), has_ramp=st.booleans())
+def test_lane_speeds_equal_the_array_code(lanes, table, n_lanes, has_ramp):
+    """``FormationExpert._lane_speeds`` (compiled: ``lane_speed_rows``, which
+    the one-call tail of ``compute`` also calls) against the numpy rule it
+    replaced: the table at the clipped lane, else the ramp speed in a ramp
+    lane and the desired speed elsewhere."""
+    from types import SimpleNamespace
+
+    from icv_envs._ufuncs import clip as uclip
+    from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
+
+    p = ExpertParams(lane_speeds=None if table is None else tuple(table))
+    road = SimpleNamespace(n_lanes=n_lanes, has_ramp_lane=has_ramp)
+    lane = np.array(lanes, dtype=np.int64)
+    if p.lane_speeds is not None:
+        t = np.asarray(p.lane_speeds, dtype=np.float64)
+        want = t[uclip(lane, 0, len(t) - 1)]
+    else:
+        want = np.where((lane == road.n_lanes) & road.has_ramp_lane, p.ramp_speed, p.desired_speed)
+    got = FormationExpert(p)._lane_speeds(road, lane)
+    assert got.tobytes() == np.asarray(want, dtype=np.float64).tobytes()

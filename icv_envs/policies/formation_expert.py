@@ -48,7 +48,7 @@ import numpy as np
 
 from icv_envs.formation.bezier import _lane_change_lateral_rows, _pure_pursuit_rows, lane_change_lateral
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV
-from icv_envs._ufuncs import clip as uclip, flatnonzero
+from icv_envs._ufuncs import flatnonzero
 from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies._kernels import (
     desired_lane_rows,
@@ -61,6 +61,7 @@ from icv_envs.policies._kernels import (
     lane_change_starts,
     lane_changes_ended,
     lane_end_escape,
+    lane_speed_rows,
     normalised_actions,
     preview_points,
     safety_cap,
@@ -156,12 +157,19 @@ class FormationExpert:
 
     # ------------------------------------------------------------------ hooks
     def _lane_speeds(self, road, lane) -> np.ndarray:
-        """Desired speed of a free vehicle in ``lane`` (vectorised)."""
+        """Desired speed of a free vehicle in ``lane`` (vectorised): the
+        ``lane_speeds`` table at the lane (clipped to the table), else
+        ``ramp_speed`` in a ramp lane and ``desired_speed`` elsewhere
+        (:func:`icv_envs.policies._kernels.lane_speed_rows`)."""
+        return lane_speed_rows(*self._lane_speed_args(road, lane))
+
+    def _lane_speed_args(self, road, lane) -> tuple:
+        """:func:`~icv_envs.policies._kernels.lane_speed_rows`' arguments (for
+        :meth:`_lane_speeds` and the one-call tail of :meth:`compute`)."""
         p = self.p
-        if p.lane_speeds is not None:
-            table = np.asarray(p.lane_speeds, dtype=np.float64)
-            return table[uclip(lane, 0, len(table) - 1)]
-        return np.where((lane == road.n_lanes) & road.has_ramp_lane, p.ramp_speed, p.desired_speed)
+        table = np.asarray(p.lane_speeds if p.lane_speeds is not None else (), dtype=np.float64)
+        return (p.lane_speeds is not None, table, np.asarray(lane, dtype=np.int64), int(road.n_lanes),
+                bool(road.has_ramp_lane), float(p.ramp_speed), float(p.desired_speed))
 
     def _desired_lanes(self, world, desired, lane, member, exiting, cx, v, index) -> np.ndarray:
         """Hook for subclasses: the lane each vehicle wants. The formation
@@ -175,24 +183,33 @@ class FormationExpert:
         """``(desired, exiting)`` before the ``_desired_lanes`` hook: targets
         of members, the ramp lane for exiting vehicles, the main road for
         free vehicles on a ramp (:func:`icv_envs.policies._kernels.exit_lanes`)."""
+        return exit_lanes(*self._exit_args(world, lane, lane_ref, member))
+
+    def _exit_args(self, world, lane, lane_ref, member) -> tuple:
+        """:func:`~icv_envs.policies._kernels.exit_lanes`' arguments (for
+        :meth:`_exit_lanes` and the one-call desired lanes of :meth:`compute`)."""
         p = self.p
         tr, road = world.traffic, world.road
         cx, _ = tr.center()
-        return exit_lanes(np.asarray(member, dtype=bool), np.asarray(lane_ref, dtype=np.int64),
-                          np.asarray(lane, dtype=np.int64), tr.exit, cx, bool(road.has_ramp_lane), int(road.n_exits),
-                          int(road.n_lanes), road._diverge_iv, road._exit_x,
-                          float(road.length) if road.periodic else -1.0, float(p.exit_lookahead),
-                          float(p.exit_lookahead_per_lane))
+        return (np.asarray(member, dtype=bool), np.asarray(lane_ref, dtype=np.int64), np.asarray(lane, dtype=np.int64),
+                tr.exit, cx, bool(road.has_ramp_lane), int(road.n_exits), int(road.n_lanes), road._diverge_iv,
+                road._exit_x, float(road.length) if road.periodic else -1.0, float(p.exit_lookahead),
+                float(p.exit_lookahead_per_lane))
 
     def _lane_end_escape(self, world, desired, lane, member, exiting):
         """``desired`` with free vehicles whose lane ends ahead sent to the
         nearest continuing main lane (:func:`icv_envs.policies._kernels.lane_end_escape`)."""
+        return lane_end_escape(np.asarray(desired, dtype=np.int64), np.asarray(lane, dtype=np.int64),
+                               np.asarray(member, dtype=bool), np.asarray(exiting, dtype=bool),
+                               *self._escape_args(world))
+
+    def _escape_args(self, world) -> tuple:
+        """:func:`~icv_envs.policies._kernels.lane_end_escape`'s arguments after
+        the desired lanes, lanes, members and exiting flags."""
         tr, road = world.traffic, world.road
         cx, _ = tr.center()
-        return lane_end_escape(np.asarray(desired, dtype=np.int64), np.asarray(lane, dtype=np.int64),
-                               np.asarray(member, dtype=bool), np.asarray(exiting, dtype=bool), cx,
-                               float(road.length) if road.periodic else -1.0, int(road.n_lanes), road.lane_ends,
-                               road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, float(self.p.lc_max_length))
+        return (cx, float(road.length) if road.periodic else -1.0, int(road.n_lanes), road.lane_ends, road._ob_lane,
+                road._ob_lo, road._ob_hi, road._ramp_iv, float(self.p.lc_max_length))
 
     def _lane_change_starts(self, world, index, active, lane, desired, member):
         """Which vehicles start a lane change now: ``(rows, target lanes,
@@ -226,26 +243,55 @@ class FormationExpert:
         replaced is its reference in ``tests/test_kernels.py``). ``bounds``:
         the clip range instead of ``(a_min, a_max)`` (the tests read the
         bare envelope with ``(-inf, inf)``)."""
+        head, tail = self._safety_args(world, index, lane, desired, member, exiting, bounds)
+        return safety_cap(*head, np.asarray(acc, dtype=np.float64), *tail)
+
+    def _safety_args(self, world, index, lane, desired, member, exiting, bounds=None) -> tuple[tuple, tuple]:
+        """:func:`~icv_envs.policies._kernels.safety_cap`'s arguments before and
+        after the accelerations (for :meth:`_safety_cap` and the one-call
+        tail of :meth:`compute`)."""
         p = self.p
         a_min, a_max = (p.a_min, p.a_max) if bounds is None else bounds
         tr, road = world.traffic, world.road
         cx, _ = tr.center()
-        return safety_cap(index.keys, index.rows, index.lanes, index.x, float(index.offset), cx, tr.speed,
-                          np.asarray(tr.length, dtype=np.float64), tr.lc_lane, np.asarray(lane, dtype=np.int64),
-                          np.asarray(desired, dtype=np.int64), np.asarray(member, dtype=bool),
-                          np.asarray(exiting, dtype=bool), np.asarray(acc, dtype=np.float64),
-                          float(road.length) if road.periodic else -1.0, int(road.n_lanes), road.lane_ends,
-                          road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, float(p.lc_min_length),
-                          float(p.member_time_gap), float(p.idm_T), float(p.a_max), float(p.idm_s0),
-                          self._idm_root, float(a_min), float(a_max))
+        head = (index.keys, index.rows, index.lanes, index.x, float(index.offset), cx, tr.speed,
+                np.asarray(tr.length, dtype=np.float64), tr.lc_lane, np.asarray(lane, dtype=np.int64),
+                np.asarray(desired, dtype=np.int64), np.asarray(member, dtype=bool), np.asarray(exiting, dtype=bool))
+        tail = (float(road.length) if road.periodic else -1.0, int(road.n_lanes), road.lane_ends, road._ob_lane,
+                road._ob_lo, road._ob_hi, road._ramp_iv, float(p.lc_min_length), float(p.member_time_gap),
+                float(p.idm_T), float(p.a_max), float(p.idm_s0), self._idm_root, float(a_min), float(a_max))
+        return head, tail
 
     def _normalise(self, a: np.ndarray, phi: np.ndarray) -> np.ndarray:
         # compiled (policies/_kernels/laws.py::normalised_actions: the arithmetic
         # of ``clip(stack([where(a >= 0, a / a_max, -a / a_min), phi /
         # steer_max], axis=1), -1, 1)``, element by element)
-        p = self.p
         return normalised_actions(np.asarray(a, dtype=np.float64), np.asarray(phi, dtype=np.float64),
-                                  float(p.a_max), float(p.a_min), float(p.steer_max))
+                                  *self._normalise_args())
+
+    def _normalise_args(self) -> tuple:
+        """``(a_max, a_min, steer_max)``, :func:`~icv_envs.policies._kernels.normalised_actions`' scales."""
+        p = self.p
+        return float(p.a_max), float(p.a_min), float(p.steer_max)
+
+    def _accel_args(self, world, n, free_rows, free_pow, m, x_ref, v_ref, a_ref) -> tuple:
+        """:func:`~icv_envs.policies._kernels.expert_accelerations`' arguments
+        (for both paths of :meth:`compute`)."""
+        p = self.p
+        tr, road = world.traffic, world.road
+        cx, _ = tr.center()
+        return (n, free_rows, free_pow, tr.speed, float(p.a_max), float(p.idm_b), float(p.idm_T), float(p.idm_s0), m,
+                cx, np.asarray(x_ref, dtype=np.float64), np.asarray(v_ref, dtype=np.float64),
+                np.asarray(a_ref, dtype=np.float64), float(road.length) if road.periodic else -1.0, float(p.kp),
+                float(p.kv), float(max(p.a_min, p.comfort_accel[0])), float(min(p.a_max, p.comfort_accel[1])),
+                float(p.v_min))
+
+    def _lane_target_args(self, road, exiting, blocked, member) -> tuple:
+        """:func:`~icv_envs.policies._kernels.expert_lane_speeds`' arguments after
+        the lane speeds and lanes."""
+        p = self.p
+        return (np.asarray(exiting, dtype=bool), np.asarray(blocked, dtype=bool), np.asarray(member, dtype=bool),
+                int(road.n_lanes), float(p.exit_speed), float(p.blocked_slowdown), float(p.v_min))
 
     def _own_hooks(self, hooks: tuple) -> bool:
         """Whether the hooks ``hooks`` (:func:`_hooks`: names, this class's functions) are
@@ -274,12 +320,8 @@ class FormationExpert:
         # document the rules; the array code they replaced is their
         # reference in tests/test_kernels.py)
         if self._own_hooks(_HEAD_HOOKS):  # the three in one call (policies/_kernels.desired_lane_rows)
-            desired, exiting = desired_lane_rows(
-                np.asarray(member, dtype=bool), np.asarray(lane_ref, dtype=np.int64), lane, tr.exit, cx,
-                bool(road.has_ramp_lane), int(road.n_exits), int(road.n_lanes), road._diverge_iv, road._exit_x,
-                float(road.length) if road.periodic else -1.0, float(p.exit_lookahead),
-                float(p.exit_lookahead_per_lane), road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi,
-                road._ramp_iv, float(p.lc_max_length))
+            desired, exiting = desired_lane_rows(*self._exit_args(world, lane, lane_ref, member),
+                                                 *self._escape_args(world))
         else:
             desired, exiting = self._exit_lanes(world, lane, lane_ref, member)
             desired = self._desired_lanes(world, desired, lane, member, exiting, cx, v, index)
@@ -333,11 +375,10 @@ class FormationExpert:
         # blocked_slowdown the vehicles heading for the same exit stay side
         # by side for hundreds of metres and one misses the exit)
         tail = self._own_hooks(_TAIL_HOOKS)
+        targets = self._lane_target_args(road, exiting, blocked, member)
         if not tail:
             lane_speed = expert_lane_speeds(np.asarray(self._lane_speeds(road, lane), dtype=np.float64), lane,
-                                            np.asarray(exiting, dtype=bool), np.asarray(blocked, dtype=bool),
-                                            np.asarray(member, dtype=bool), int(road.n_lanes), float(p.exit_speed),
-                                            float(p.blocked_slowdown), float(p.v_min))
+                                            *targets)
         # free vehicles: the IDM without a leader (its power from numpy, as
         # traffic.idm_acceleration takes it); members: the feedback law on the
         # reference, which starts where the member joined and moves to its
@@ -352,31 +393,12 @@ class FormationExpert:
             # the lane speeds and the free term's base, then (after numpy's power) the
             # longitudinal law, the safety envelope and the normalised actions, each run
             # in one call (policies/_kernels.free_speed_ratio_rows, expert_control_rows)
-            table = np.asarray(p.lane_speeds if p.lane_speeds is not None else (), dtype=np.float64)
-            free_pow = free_speed_ratio_rows(
-                p.lane_speeds is not None, table, lane, int(road.n_lanes), bool(road.has_ramp_lane),
-                float(p.ramp_speed), float(p.desired_speed), np.asarray(exiting, dtype=bool),
-                np.asarray(blocked, dtype=bool), np.asarray(member, dtype=bool), float(p.exit_speed),
-                float(p.blocked_slowdown), float(p.v_min), free_rows, v) ** 4.0
-            period = float(road.length) if road.periodic else -1.0
-            return expert_control_rows(
-                n, free_rows, free_pow, v, float(p.a_max), float(p.idm_b), float(p.idm_T), float(p.idm_s0), m, cx,
-                np.asarray(x_ref, dtype=np.float64), np.asarray(v_ref, dtype=np.float64),
-                np.asarray(a_ref, dtype=np.float64), period, float(p.kp), float(p.kv),
-                float(max(p.a_min, p.comfort_accel[0])), float(min(p.a_max, p.comfort_accel[1])), float(p.v_min),
-                index.keys, index.rows, index.lanes, index.x, float(index.offset), np.asarray(tr.length, dtype=np.float64),
-                tr.lc_lane, lane, np.asarray(desired, dtype=np.int64), np.asarray(member, dtype=bool),
-                np.asarray(exiting, dtype=bool), int(road.n_lanes), road.lane_ends, road._ob_lane, road._ob_lo,
-                road._ob_hi, road._ramp_iv, float(p.lc_min_length), float(p.member_time_gap), float(p.idm_T),
-                float(p.idm_s0), self._idm_root, float(p.a_min), float(p.a_max), np.asarray(phi, dtype=np.float64),
-                float(p.a_min), float(p.steer_max))
+            free_pow = free_speed_ratio_rows(*self._lane_speed_args(road, lane), *targets, free_rows, v) ** 4.0
+            head, tail_args = self._safety_args(world, index, lane, desired, member, exiting)
+            return expert_control_rows(*self._accel_args(world, n, free_rows, free_pow, m, x_ref, v_ref, a_ref), *head,
+                                       *tail_args, np.asarray(phi, dtype=np.float64), *self._normalise_args())
         free_pow = free_speed_ratio(free_rows, v, lane_speed) ** 4.0
-        acc = expert_accelerations(n, free_rows, free_pow, v, float(p.a_max), float(p.idm_b), float(p.idm_T),
-                                   float(p.idm_s0), m, cx, np.asarray(x_ref, dtype=np.float64),
-                                   np.asarray(v_ref, dtype=np.float64), np.asarray(a_ref, dtype=np.float64),
-                                   float(road.length) if road.periodic else -1.0, float(p.kp), float(p.kv),
-                                   float(max(p.a_min, p.comfort_accel[0])), float(min(p.a_max, p.comfort_accel[1])),
-                                   float(p.v_min))
+        acc = expert_accelerations(*self._accel_args(world, n, free_rows, free_pow, m, x_ref, v_ref, a_ref))
         # safety envelope: leaders in the lanes the vehicle occupies or enters
         acc = self._safety_cap(world, index, acc, lane, desired, member, exiting)
         return self._normalise(acc, phi)

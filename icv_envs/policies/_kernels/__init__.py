@@ -44,6 +44,7 @@ from icv_envs.policies._kernels.formation_expert import (
     free_speed_ratio,
     free_speed_ratio_rows,
     lane_end_escape,
+    lane_speed_rows,
     preview_points,
     safety_cap,
 )
@@ -63,6 +64,6 @@ from icv_envs.policies._kernels.virtual_platoon import (
 __all__ = ["anticipated_references", "box_steering", "corridor_index", "corridor_neighbours", "desired_lane_rows",
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
-           "lane_change_starts", "lane_changes_ended", "lane_end_escape", "normalised_actions",
+           "lane_change_starts", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "normalised_actions",
            "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "stop_flags", "tree_layers",
            "tree_references", "virtual_caps"]

@@ -5,13 +5,14 @@ and 3.4):
 before), :func:`exit_lanes` and :func:`lane_end_escape` the lanes it
 heads for (about thirty); then the arithmetic of ``compute``'s preview
 points and longitudinal law around the numpy calls that stay
-(:func:`preview_points`, :func:`expert_lane_speeds`,
+(:func:`preview_points`, :func:`lane_speed_rows`, :func:`expert_lane_speeds`,
 :func:`free_speed_ratio`, :func:`expert_accelerations`), and the runs of
 these kernels ``compute`` makes in one call (:func:`desired_lane_rows`,
 :func:`free_speed_ratio_rows`, :func:`expert_control_rows`). Its
 lane-change decisions are :mod:`.lane_changes`. Rules:
 :mod:`icv_envs.policies._kernels`.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,7 +26,8 @@ from icv_envs.sim._kernels.neighbours import leader_rows
 from icv_envs.sim._kernels.physics import interval_ends_at
 
 __all__ = ["desired_lane_rows", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
-           "free_speed_ratio", "free_speed_ratio_rows", "lane_end_escape", "preview_points", "safety_cap"]
+           "free_speed_ratio", "free_speed_ratio_rows", "lane_end_escape", "lane_speed_rows", "preview_points",
+           "safety_cap"]
 
 
 @nb.njit(cache=True)
@@ -292,35 +294,15 @@ def expert_accelerations(n, free_rows, free_pow, v, a_max, b, T, s0, m_rows, cx,
     return acc
 
 
-# ---------------------------------------------------------------------------
-# ``FormationExpert.compute``'s runs of kernels with no numpy call between
-# them, each run in one call (the separate calls' arguments passed through;
-# used while the expert's hooks are its own: FormationExpert._fused)
-
-
 @nb.njit(cache=True)
-def desired_lane_rows(member, lane_ref, lane, exit_id, cx, has_ramp, n_exits, n_lanes, diverge_iv, exit_x, period,
-                      exit_lookahead, per_lane, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, lc_max_length):
-    """:func:`exit_lanes` then :func:`lane_end_escape` on its answer (the
-    expert's ``_desired_lanes`` hook between them being the identity).
-    Returns ``(desired, exiting)``."""
-    desired, exiting = exit_lanes(member, lane_ref, lane, exit_id, cx, has_ramp, n_exits, n_lanes, diverge_iv, exit_x,
-                                  period, exit_lookahead, per_lane)
-    desired = lane_end_escape(desired, lane, member, exiting, cx, period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi,
-                              ramp_iv, lc_max_length)
-    return desired, exiting
-
-
-@nb.njit(cache=True, error_model="numpy")  # (free_speed_ratio's division, as there)
-def free_speed_ratio_rows(use_table, table, lane, n_lanes, has_ramp, ramp_speed, desired_speed, exiting, blocked, member,
-                          exit_speed, slowdown, v_min, free_rows, v):
-    """The lane speeds of ``FormationExpert._lane_speeds`` (``table`` at the
-    lane clipped to its range with ``use_table``, else ``ramp_speed`` in the
-    ramp lane of a road that has one and ``desired_speed`` elsewhere), then
-    :func:`expert_lane_speeds` and :func:`free_speed_ratio` of ``free_rows``
-    (the base of the IDM's free term, whose power the caller takes)."""
+def lane_speed_rows(use_table, table, lane, n_lanes, has_ramp, ramp_speed, desired_speed):
+    """``FormationExpert._lane_speeds``: the desired speed of a free vehicle
+    in each ``lane``, ``table`` at the lane clipped to the table's range
+    with ``use_table``, else ``ramp_speed`` in the ramp lane (``n_lanes``)
+    of a road that has one and ``desired_speed`` elsewhere (values copied,
+    never computed)."""
     n = lane.shape[0]
-    ls = np.empty(n)
+    out = np.empty(n)
     top = table.shape[0] - 1
     for i in range(n):
         if use_table:
@@ -329,25 +311,61 @@ def free_speed_ratio_rows(use_table, table, lane, n_lanes, has_ramp, ramp_speed,
                 j = 0
             elif j > top:
                 j = top
-            ls[i] = table[j]
+            out[i] = table[j]
         else:
-            ls[i] = ramp_speed if (lane[i] == n_lanes and has_ramp) else desired_speed
-    lane_speed = expert_lane_speeds(ls, lane, exiting, blocked, member, n_lanes, exit_speed, slowdown, v_min)
+            out[i] = ramp_speed if (lane[i] == n_lanes and has_ramp) else desired_speed
+    return out
+
+
+# ---------------------------------------------------------------------------
+# ``FormationExpert.compute``'s runs of kernels with no numpy call between
+# them, each run in one call, the arguments of each kernel's separate call
+# in its order (FormationExpert builds them with the same methods for both
+# paths; used while the expert's hooks are its own: FormationExpert._own_hooks)
+
+
+@nb.njit(cache=True)
+def desired_lane_rows(member, lane_ref, lane, exit_id, cx, has_ramp, n_exits, n_lanes, diverge_iv, exit_x, period,
+                      exit_lookahead, per_lane, e_cx, e_period, e_n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv,
+                      lc_max_length):
+    """:func:`exit_lanes` (``member`` .. ``per_lane``) then
+    :func:`lane_end_escape` on its answer (``e_cx`` .. ``lc_max_length``;
+    the expert's ``_desired_lanes`` hook between them being the identity).
+    Returns ``(desired, exiting)``."""
+    desired, exiting = exit_lanes(member, lane_ref, lane, exit_id, cx, has_ramp, n_exits, n_lanes, diverge_iv, exit_x,
+                                  period, exit_lookahead, per_lane)
+    desired = lane_end_escape(desired, lane, member, exiting, e_cx, e_period, e_n_lanes, lane_ends, ob_lane, ob_lo,
+                              ob_hi, ramp_iv, lc_max_length)
+    return desired, exiting
+
+
+@nb.njit(cache=True, error_model="numpy")  # (free_speed_ratio's division, as there)
+def free_speed_ratio_rows(use_table, table, lane, n_lanes, has_ramp, ramp_speed, desired_speed, exiting, blocked, member,
+                          t_n_lanes, exit_speed, slowdown, v_min, free_rows, v):
+    """:func:`lane_speed_rows` (``use_table`` .. ``desired_speed``), then
+    :func:`expert_lane_speeds` (``exiting`` .. ``v_min``) and
+    :func:`free_speed_ratio` of ``free_rows`` (the base of the IDM's free
+    term, whose power the caller takes)."""
+    ls = lane_speed_rows(use_table, table, lane, n_lanes, has_ramp, ramp_speed, desired_speed)
+    lane_speed = expert_lane_speeds(ls, lane, exiting, blocked, member, t_n_lanes, exit_speed, slowdown, v_min)
     return free_speed_ratio(free_rows, v, lane_speed)
 
 
 @nb.njit(cache=True)
 def expert_control_rows(n, free_rows, free_pow, v, a_max, b, T, s0, m_rows, cx, x_ref, v_ref, a_ref, period, kp, kv,
-                        lo, hi, v_min, keys, i_rows, i_lanes, i_x, offset, length, lc_lane, lane, desired, member,
-                        exiting, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, lc_min_length, member_time_gap,
-                        idm_T, idm_s0, idm_denom, clip_lo, clip_hi, phi, a_min, steer_max):
-    """:func:`expert_accelerations`, the safety envelope
-    (:func:`safety_cap`) on them, and the normalised actions
-    (:func:`~icv_envs.policies._kernels.laws.normalised_actions` with
-    ``phi``). Returns ``(n, 2)`` float64."""
+                        lo, hi, v_min, keys, i_rows, i_lanes, i_x, offset, s_cx, s_v, length, lc_lane, lane, desired,
+                        member, exiting, s_period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, lc_min_length,
+                        member_time_gap, idm_T, s_a_max, idm_s0, idm_denom, clip_lo, clip_hi, phi, n_a_max, n_a_min,
+                        steer_max):
+    """:func:`expert_accelerations` (``n`` .. ``v_min``), the safety
+    envelope on them (:func:`safety_cap`: ``keys`` .. ``exiting``, the
+    accelerations, ``s_period`` .. ``clip_hi``), and the normalised actions
+    (:func:`~icv_envs.policies._kernels.laws.normalised_actions` of
+    ``phi`` with ``n_a_max``, ``n_a_min``, ``steer_max``). Returns
+    ``(n, 2)`` float64."""
     acc = expert_accelerations(n, free_rows, free_pow, v, a_max, b, T, s0, m_rows, cx, x_ref, v_ref, a_ref, period,
                                kp, kv, lo, hi, v_min)
-    acc = safety_cap(keys, i_rows, i_lanes, i_x, offset, cx, v, length, lc_lane, lane, desired, member, exiting, acc,
-                     period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, lc_min_length, member_time_gap, idm_T,
-                     a_max, idm_s0, idm_denom, clip_lo, clip_hi)
-    return normalised_actions(acc, phi, a_max, a_min, steer_max)
+    acc = safety_cap(keys, i_rows, i_lanes, i_x, offset, s_cx, s_v, length, lc_lane, lane, desired, member, exiting,
+                     acc, s_period, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, lc_min_length, member_time_gap,
+                     idm_T, s_a_max, idm_s0, idm_denom, clip_lo, clip_hi)
+    return normalised_actions(acc, phi, n_a_max, n_a_min, steer_max)
