@@ -13,13 +13,13 @@ observations, actions, rewards and arguments.
 from __future__ import annotations
 
 import math
-import operator
 from typing import Any
 
 import numpy as np
 
 from highway_env.envs.common.abstract import AbstractEnv
 
+from icv_envs._hooks import hook_table, own_hooks
 from icv_envs.envs.actions import action_to_controls, controls_to_action  # noqa: F401  (re-exported)
 from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.highway_config import INFO_KEYS, UNUSED_KEYS, check_config, config_entries
@@ -399,9 +399,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         class or on the instance; otherwise the separate calls."""
         road = self.world.road
         obs_type = self._obs_type
-        names, funcs, get = _POST_HOOKS
-        if (not len(rows) or road.n_exits or type(obs_type) is not Kinematics or get(type(self)) != funcs
-                or not self.__dict__.keys().isdisjoint(names)):
+        if not len(rows) or road.n_exits or type(obs_type) is not Kinematics or not own_hooks(self, _POST_HOOKS):
             return super()._post_rows(rows, crashed_now)
         options = obs_type.kernel_options()  # (idx, V, s_abs, s_rel, absolute, normalize, clip)
         *terms, obs = formation_post_rows(*self._feature_args(), *self._reward_args(rows, crashed_now),
@@ -537,9 +535,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         self.controlled_vehicles = [ego] if ego is not None else []
 
 
-# the hooks HighwayFormationEnv._post_rows stands for, their functions and a
-# getter of their values on a class (one C call; functions compare by identity)
-_POST_HOOK_NAMES = ("_features", "_rewards_rows", "_observe_rows", "_neighbours", "_wrap_dx", "_wrap_period",
-                    "_obs_scales")
-_POST_HOOKS = (_POST_HOOK_NAMES, operator.attrgetter(*_POST_HOOK_NAMES)(HighwayFormationEnv),
-               operator.attrgetter(*_POST_HOOK_NAMES))
+
+# the hooks HighwayFormationEnv._post_rows stands for (icv_envs._hooks.own_hooks)
+_POST_HOOKS = hook_table(HighwayFormationEnv, "_features", "_rewards_rows", "_observe_rows", "_neighbours", "_wrap_dx",
+                         "_wrap_period", "_obs_scales")

@@ -41,13 +41,13 @@ the vehicle), so the expert can always be queried for any vehicle.
 
 from __future__ import annotations
 
-import operator
 from dataclasses import dataclass
 
 import numpy as np
 
 from icv_envs.formation.bezier import _lane_change_lateral_rows, _pure_pursuit_rows, lane_change_lateral
 from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV
+from icv_envs._hooks import hook_table, own_hooks
 from icv_envs._ufuncs import flatnonzero
 from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies._kernels import (
@@ -293,15 +293,6 @@ class FormationExpert:
         return (np.asarray(exiting, dtype=bool), np.asarray(blocked, dtype=bool), np.asarray(member, dtype=bool),
                 int(road.n_lanes), float(p.exit_speed), float(p.blocked_slowdown), float(p.v_min))
 
-    def _own_hooks(self, hooks: tuple) -> bool:
-        """Whether the hooks ``hooks`` (:func:`_hooks`: names, this class's functions) are
-        this class's own on the instance's class and not set on the
-        instance: :meth:`compute` then runs the kernels they call in one
-        call each (the same kernels, the same arrays); a subclass or a test
-        that replaces one gets the separate calls."""
-        names, funcs, get = hooks
-        return get(type(self)) == funcs and self.__dict__.keys().isdisjoint(names)  # (functions compare by identity)
-
     def compute(self, world) -> np.ndarray:
         p = self.p
         tr, road = world.traffic, world.road
@@ -319,7 +310,7 @@ class FormationExpert:
         # (compiled: policies/_kernels.exit_lanes and lane_end_escape, which
         # document the rules; the array code they replaced is their
         # reference in tests/test_kernels.py)
-        if self._own_hooks(_HEAD_HOOKS):  # the three in one call (policies/_kernels.desired_lane_rows)
+        if own_hooks(self, _HEAD_HOOKS):  # the three in one call (policies/_kernels.desired_lane_rows)
             desired, exiting = desired_lane_rows(*self._exit_args(world, lane, lane_ref, member),
                                                  *self._escape_args(world))
         else:
@@ -374,7 +365,7 @@ class FormationExpert:
         # it within seconds and opens the gap (at lane speed -
         # blocked_slowdown the vehicles heading for the same exit stay side
         # by side for hundreds of metres and one misses the exit)
-        tail = self._own_hooks(_TAIL_HOOKS)
+        tail = own_hooks(self, _TAIL_HOOKS)
         targets = self._lane_target_args(road, exiting, blocked, member)
         if not tail:
             lane_speed = expert_lane_speeds(np.asarray(self._lane_speeds(road, lane), dtype=np.float64), lane,
@@ -404,16 +395,8 @@ class FormationExpert:
         return self._normalise(acc, phi)
 
 
-def _hooks(*names: str) -> tuple:
-    """``(names, FormationExpert's functions of those names, a getter of
-    the names' values on a class)`` for :meth:`FormationExpert._own_hooks`
-    (the getter reads all of them in one C call)."""
-    return names, tuple(FormationExpert.__dict__[k] for k in names), operator.attrgetter(*names)
 
-
-# the hooks whose kernels compute() runs in one call while they are its own:
-# the desired lanes, and the longitudinal tail
-
-
-_HEAD_HOOKS = _hooks("_exit_lanes", "_desired_lanes", "_lane_end_escape")
-_TAIL_HOOKS = _hooks("_lane_speeds", "_safety_cap", "_normalise")
+# the hooks whose kernels compute() runs in one call while they are its own
+# (icv_envs._hooks.own_hooks): the desired lanes, and the longitudinal tail
+_HEAD_HOOKS = hook_table(FormationExpert, "_exit_lanes", "_desired_lanes", "_lane_end_escape")
+_TAIL_HOOKS = hook_table(FormationExpert, "_lane_speeds", "_safety_cap", "_normalise")

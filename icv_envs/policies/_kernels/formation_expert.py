@@ -321,7 +321,7 @@ def lane_speed_rows(use_table, table, lane, n_lanes, has_ramp, ramp_speed, desir
 # ``FormationExpert.compute``'s runs of kernels with no numpy call between
 # them, each run in one call, the arguments of each kernel's separate call
 # in its order (FormationExpert builds them with the same methods for both
-# paths; used while the expert's hooks are its own: FormationExpert._own_hooks)
+# paths; used while the expert's hooks are its own: icv_envs._hooks.own_hooks)
 
 
 @nb.njit(cache=True)
