@@ -2211,21 +2211,30 @@ def test_formation_expert_one_call_runs_equal_the_separate_calls(module, config,
     assert steps > 30 and all(c >= steps for c in calls.values()), calls  # (one expert step per policy step, at least)
 
 
+def _scenario_road(scenario: str):
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+
+    env = parallel_env(scenario=scenario)
+    env.reset(seed=0)
+    return env.core.world.road
+
+
+_ROADS = {}
+
+
 @settings(max_examples=200, deadline=None)
 @given(lanes=st.lists(st.integers(-3, 8), max_size=20), table=st.one_of(st.none(), st.lists(
-       st.floats(1.0, 40.0), min_size=1, max_size=6)), n_lanes=st.integers(1, 5), has_ramp=st.booleans())
-def test_lane_speeds_equal_the_array_code(lanes, table, n_lanes, has_ramp):
+       st.floats(1.0, 40.0), min_size=1, max_size=6)), scenario=st.sampled_from(["lane-change", "on-ramp"]))
+def test_lane_speeds_equal_the_array_code(lanes, table, scenario):
     """``FormationExpert._lane_speeds`` (compiled: ``lane_speed_rows``, which
     the one-call tail of ``compute`` also calls) against the numpy rule it
     replaced: the table at the clipped lane, else the ramp speed in a ramp
-    lane and the desired speed elsewhere."""
-    from types import SimpleNamespace
-
+    lane (the on-ramp road has one) and the desired speed elsewhere."""
     from icv_envs._ufuncs import clip as uclip
     from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
 
     p = ExpertParams(lane_speeds=None if table is None else tuple(table))
-    road = SimpleNamespace(n_lanes=n_lanes, has_ramp_lane=has_ramp)
+    road = _ROADS.get(scenario) or _ROADS.setdefault(scenario, _scenario_road(scenario))
     lane = np.array(lanes, dtype=np.int64)
     if p.lane_speeds is not None:
         t = np.asarray(p.lane_speeds, dtype=np.float64)

@@ -140,6 +140,37 @@ class FormationExpert:
                                             / np.tan(self.p.steer_max)))
         # the IDM's 2 sqrt(a_max b) (the parameters are fixed once checked, as above)
         self._idm_root = float(2.0 * np.sqrt(self.p.a_max * self.p.idm_b))
+        # normalised_actions' scales (a_max, a_min, steer_max)
+        self._normalise_scales = (float(self.p.a_max), float(self.p.a_min), float(self.p.steer_max))
+        self._consts = None  # (road, the kernels' arguments that depend on it and the parameters only)
+
+    def _road_consts(self, road) -> dict:
+        """The kernels' arguments that depend only on the road and the
+        parameters (fixed once checked, as the values above), made once per
+        road (a reset builds a new one), for the argument builders below."""
+        c = self._consts
+        if c is not None and c[0] is road:
+            return c[1]
+        p = self.p
+        period = float(road.length) if road.periodic else -1.0
+        n_lanes = int(road.n_lanes)
+        ends = (road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv)
+        d = {
+            "exit": (bool(road.has_ramp_lane), int(road.n_exits), n_lanes, road._diverge_iv, road._exit_x, period,
+                     float(p.exit_lookahead), float(p.exit_lookahead_per_lane)),
+            "escape": (period, n_lanes, *ends, float(p.lc_max_length)),
+            "speed_table": (p.lane_speeds is not None,
+                            np.asarray(p.lane_speeds if p.lane_speeds is not None else (), dtype=np.float64)),
+            "speed_rule": (n_lanes, bool(road.has_ramp_lane), float(p.ramp_speed), float(p.desired_speed)),
+            "targets": (n_lanes, float(p.exit_speed), float(p.blocked_slowdown), float(p.v_min)),
+            "idm": (float(p.a_max), float(p.idm_b), float(p.idm_T), float(p.idm_s0)),
+            "feedback": (period, float(p.kp), float(p.kv), float(max(p.a_min, p.comfort_accel[0])),
+                         float(min(p.a_max, p.comfort_accel[1])), float(p.v_min)),
+            "safety": (period, n_lanes, *ends, float(p.lc_min_length), float(p.member_time_gap), float(p.idm_T),
+                       float(p.a_max), float(p.idm_s0), self._idm_root, float(p.a_min), float(p.a_max)),
+        }
+        self._consts = (road, d)
+        return d
 
     def _check_params(self) -> None:
         """The parameter checks the paper's functions make on every call,
@@ -166,10 +197,8 @@ class FormationExpert:
     def _lane_speed_args(self, road, lane) -> tuple:
         """:func:`~icv_envs.policies._kernels.lane_speed_rows`' arguments (for
         :meth:`_lane_speeds` and the one-call tail of :meth:`compute`)."""
-        p = self.p
-        table = np.asarray(p.lane_speeds if p.lane_speeds is not None else (), dtype=np.float64)
-        return (p.lane_speeds is not None, table, np.asarray(lane, dtype=np.int64), int(road.n_lanes),
-                bool(road.has_ramp_lane), float(p.ramp_speed), float(p.desired_speed))
+        c = self._road_consts(road)
+        return (*c["speed_table"], np.asarray(lane, dtype=np.int64), *c["speed_rule"])
 
     def _desired_lanes(self, world, desired, lane, member, exiting, cx, v, index) -> np.ndarray:
         """Hook for subclasses: the lane each vehicle wants. The formation
@@ -188,13 +217,10 @@ class FormationExpert:
     def _exit_args(self, world, lane, lane_ref, member) -> tuple:
         """:func:`~icv_envs.policies._kernels.exit_lanes`' arguments (for
         :meth:`_exit_lanes` and the one-call desired lanes of :meth:`compute`)."""
-        p = self.p
-        tr, road = world.traffic, world.road
+        tr = world.traffic
         cx, _ = tr.center()
         return (np.asarray(member, dtype=bool), np.asarray(lane_ref, dtype=np.int64), np.asarray(lane, dtype=np.int64),
-                tr.exit, cx, bool(road.has_ramp_lane), int(road.n_exits), int(road.n_lanes), road._diverge_iv,
-                road._exit_x, float(road.length) if road.periodic else -1.0, float(p.exit_lookahead),
-                float(p.exit_lookahead_per_lane))
+                tr.exit, cx, *self._road_consts(world.road)["exit"])
 
     def _lane_end_escape(self, world, desired, lane, member, exiting):
         """``desired`` with free vehicles whose lane ends ahead sent to the
@@ -206,10 +232,8 @@ class FormationExpert:
     def _escape_args(self, world) -> tuple:
         """:func:`~icv_envs.policies._kernels.lane_end_escape`'s arguments after
         the desired lanes, lanes, members and exiting flags."""
-        tr, road = world.traffic, world.road
-        cx, _ = tr.center()
-        return (cx, float(road.length) if road.periodic else -1.0, int(road.n_lanes), road.lane_ends, road._ob_lane,
-                road._ob_lo, road._ob_hi, road._ramp_iv, float(self.p.lc_max_length))
+        cx, _ = world.traffic.center()
+        return (cx, *self._road_consts(world.road)["escape"])
 
     def _lane_change_starts(self, world, index, active, lane, desired, member):
         """Which vehicles start a lane change now: ``(rows, target lanes,
@@ -250,16 +274,14 @@ class FormationExpert:
         """:func:`~icv_envs.policies._kernels.safety_cap`'s arguments before and
         after the accelerations (for :meth:`_safety_cap` and the one-call
         tail of :meth:`compute`)."""
-        p = self.p
-        a_min, a_max = (p.a_min, p.a_max) if bounds is None else bounds
-        tr, road = world.traffic, world.road
+        tr = world.traffic
         cx, _ = tr.center()
         head = (index.keys, index.rows, index.lanes, index.x, float(index.offset), cx, tr.speed,
                 np.asarray(tr.length, dtype=np.float64), tr.lc_lane, np.asarray(lane, dtype=np.int64),
                 np.asarray(desired, dtype=np.int64), np.asarray(member, dtype=bool), np.asarray(exiting, dtype=bool))
-        tail = (float(road.length) if road.periodic else -1.0, int(road.n_lanes), road.lane_ends, road._ob_lane,
-                road._ob_lo, road._ob_hi, road._ramp_iv, float(p.lc_min_length), float(p.member_time_gap),
-                float(p.idm_T), float(p.a_max), float(p.idm_s0), self._idm_root, float(a_min), float(a_max))
+        tail = self._road_consts(world.road)["safety"]  # (clipped to [a_min, a_max], its last two)
+        if bounds is not None:
+            tail = tail[:-2] + (float(bounds[0]), float(bounds[1]))
         return head, tail
 
     def _normalise(self, a: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -271,27 +293,22 @@ class FormationExpert:
 
     def _normalise_args(self) -> tuple:
         """``(a_max, a_min, steer_max)``, :func:`~icv_envs.policies._kernels.normalised_actions`' scales."""
-        p = self.p
-        return float(p.a_max), float(p.a_min), float(p.steer_max)
+        return self._normalise_scales
 
     def _accel_args(self, world, n, free_rows, free_pow, m, x_ref, v_ref, a_ref) -> tuple:
         """:func:`~icv_envs.policies._kernels.expert_accelerations`' arguments
         (for both paths of :meth:`compute`)."""
-        p = self.p
-        tr, road = world.traffic, world.road
+        tr = world.traffic
         cx, _ = tr.center()
-        return (n, free_rows, free_pow, tr.speed, float(p.a_max), float(p.idm_b), float(p.idm_T), float(p.idm_s0), m,
-                cx, np.asarray(x_ref, dtype=np.float64), np.asarray(v_ref, dtype=np.float64),
-                np.asarray(a_ref, dtype=np.float64), float(road.length) if road.periodic else -1.0, float(p.kp),
-                float(p.kv), float(max(p.a_min, p.comfort_accel[0])), float(min(p.a_max, p.comfort_accel[1])),
-                float(p.v_min))
+        c = self._road_consts(world.road)
+        return (n, free_rows, free_pow, tr.speed, *c["idm"], m, cx, np.asarray(x_ref, dtype=np.float64),
+                np.asarray(v_ref, dtype=np.float64), np.asarray(a_ref, dtype=np.float64), *c["feedback"])
 
     def _lane_target_args(self, road, exiting, blocked, member) -> tuple:
         """:func:`~icv_envs.policies._kernels.expert_lane_speeds`' arguments after
         the lane speeds and lanes."""
-        p = self.p
         return (np.asarray(exiting, dtype=bool), np.asarray(blocked, dtype=bool), np.asarray(member, dtype=bool),
-                int(road.n_lanes), float(p.exit_speed), float(p.blocked_slowdown), float(p.v_min))
+                *self._road_consts(road)["targets"])
 
     def compute(self, world) -> np.ndarray:
         p = self.p
