@@ -333,7 +333,7 @@ class BatchedWorlds:
         if acts.shape != (self.num_worlds, self.K, 2):
             raise ValueError(f"actions have shape {acts.shape}; allowed: ({self.num_worlds}, {self.K}, 2)")
         bad = ~np.isfinite(acts).all(axis=-1) & self.mask
-        if bad.any():
+        if np.count_nonzero(bad):
             b, k = np.argwhere(bad)[0]
             raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k].tolist()} "
                              f"holds NaN or inf; allowed: finite values in [-1, 1]")

@@ -468,7 +468,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
             # and of late spawns, in this order (``extra``)
             info_keys, info_rewards = self._info_selection()
             cols = self._ma_info_columns(rows, info_keys) if len(rows) else None
-            if cols is not None and "crashed" in cols and crashed_now.any():
+            if cols is not None and "crashed" in cols and np.count_nonzero(crashed_now):
                 crashed_col = cols["crashed"]
                 for i in np.flatnonzero(crashed_now).tolist():
                     crashed_col[i] = True
@@ -483,7 +483,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
                 truncs[a] = bool(info["left_road"])
                 extra.append((a, info))
         # crashed vehicles leave the road after reporting
-        if crashed_now.any():
+        if np.count_nonzero(crashed_now):
             w.remove_crashed_vehicles()
             self._after_removal()
         late = self._spawn_late()
@@ -566,7 +566,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         arr = np.asarray(actions, dtype=np.float64)
         if arr.shape != (n, 2):
             raise ValueError(f"actions have shape {arr.shape}; allowed: ({n}, 2), one row per live agent")
-        if not np.isfinite(arr).all():
+        if np.count_nonzero(np.isfinite(arr)) != arr.size:
             i = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
             raise ValueError(f"action of icv_{int(self._vehicles().vid[i])} = {arr[i].tolist()} holds NaN or inf; "
                              f"allowed: finite values in [-1, 1]")

@@ -345,7 +345,7 @@ class FormationExpert:
         # policies/_kernels.lane_changes_ended; every argument is a finite
         # float64 state array, every length > 0)
         active = tr.lc_lane >= 0
-        if active.any():
+        if np.count_nonzero(active):
             a_rows = flatnonzero(active)
             y_plan, _ = _lane_change_lateral_rows(a_rows, tr.x, tr.lc_x0, tr.lc_y0, tr.lc_y1, tr.lc_len)
             lane_changes_ended(a_rows, y_plan, tr.x, tr.y, cy, v, tr.lc_x0, tr.lc_len, tr.lc_y1, tr.lc_lane,
@@ -369,7 +369,7 @@ class FormationExpert:
         # arithmetic around numpy's transcendental calls, the same numbers as
         # the array code bit for bit; tests/test_expert_kernels.py)
         px, py = preview_points(tr.x, v, lane, float(W), float(p.preview_min), float(p.preview_time))
-        if active.any():
+        if np.count_nonzero(active):
             a_rows = flatnonzero(active)
             py[a_rows] = _lane_change_lateral_rows(a_rows, px, tr.lc_x0, tr.lc_y0, tr.lc_y1, tr.lc_len)[0]
         phi = _pure_pursuit_rows(tr.x, tr.y, tr.heading, px, py, float(p.wheelbase), float(p.steer_max))

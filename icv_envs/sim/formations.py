@@ -396,7 +396,7 @@ class FormationManager:
         n = traffic.n
         length = float(road.length) if road.periodic else -1.0
         if n:
-            self._plans.grow(int(traffic.vid.max()) + 1)
+            self._plans.grow(int(traffic.vid[-1]) + 1)  # (rows sorted by id)
         self._reserve(self.next_gid + n + 1)  # room for one new formation per vehicle (step 5 below)
         # front targets, leaving members, member counts, joins, new
         # formations and the room ahead of each formation, compiled in one
@@ -496,7 +496,7 @@ class FormationManager:
             return c[1]
         out = self._references(traffic)
         for arr in out[0] + (out[1],):
-            arr.flags.writeable = False
+            arr.setflags(write=False)
         self._refs_cache = (key, out)
         return out
 

@@ -144,7 +144,7 @@ class JoinPlans:
         else:
             out = self._eval(vid, time)
         for arr in out:
-            arr.flags.writeable = False
+            arr.setflags(write=False)
         self._cache = (key, self.count, out)
         return out
 

@@ -182,7 +182,7 @@ class Traffic:
         """Record ``(cx, cy)`` as the body centres of the current state (the
         compiled substep computes them with the new state)."""
         for arr in (cx, cy, self.x, self.y, self.heading):
-            arr.flags.writeable = False
+            arr.setflags(write=False)
         self._center = (self.x, self.y, self.heading, cx, cy)
         return cx, cy
 

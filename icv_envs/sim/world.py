@@ -104,7 +104,7 @@ class World:
             res = None if self._plan_vids is not None and not self._plan_vids else self._reservations()
             cx, cy = self.traffic.center()
             args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
-            if res is not None and (res >= 0).any():
+            if res is not None and np.count_nonzero(res >= 0):
                 body, held = lane_index(*args, periodic=self.road.periodic, reserved_lane=res,
                                         length=self.traffic.length, heading=self.traffic.heading, pair=True)
                 self._index = [held, body]
@@ -201,7 +201,7 @@ class World:
             return 1
         nv = tr.n
         cx0 = tr.center()[0]
-        self.motion.reserve(int(tr.vid.max()) + 1)
+        self.motion.reserve(int(tr.vid[-1]) + 1)  # (rows sorted by id)
         marks = self._exit_marks()
         if marks is None:
             exit_id, ex_x, de = self._no_exits(nv)
@@ -248,7 +248,7 @@ class World:
         if not road.n_exits:
             return None
         has = tr.exit >= 0
-        if not has.any():
+        if not np.count_nonzero(has):
             return None
         ex_x = np.full(tr.n, np.inf)
         ex_x[has] = road.exit_position(tr.exit[has])
@@ -331,9 +331,11 @@ class World:
         em = np.asarray(expert_mask, dtype=bool)
         # None: every vehicle (the physics comes next and only removes vehicles, so ``vids`` covering the
         # traffic covers every vehicle :meth:`classify_collisions` meets)
-        self._expert_vids = None if em.all() and len(vids) == self.traffic.n else set(vids[em].tolist())
+        # (np.count_nonzero(m) == m.size: m.all() without a ufunc reduction)
+        every = np.count_nonzero(em) == em.size and len(vids) == self.traffic.n
+        self._expert_vids = None if every else set(vids[em].tolist())
         pm = em if plan_mask is None else em | np.asarray(plan_mask, dtype=bool)
-        if pm.all() and len(vids) == self.traffic.n:
+        if np.count_nonzero(pm) == pm.size and len(vids) == self.traffic.n:
             self._plan_vids = None
         else:
             self._plan_vids = set(vids[pm].tolist())
@@ -403,7 +405,7 @@ class World:
             self.headways.record(gap, self.traffic.speed)
         if tr.n:
             long_stop = tr.stopped_for > JAM_STOP_TIME
-            if long_stop.any():
+            if np.count_nonzero(long_stop):
                 rows = np.flatnonzero(long_stop)
                 gap = self.own_lane_gaps()[0][rows] if tr.n > 1 else np.full(len(rows), np.inf)
                 cx, cy = tr.center()
