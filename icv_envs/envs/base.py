@@ -360,7 +360,8 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
             else:  # every vehicle policy-driven; the expert is not computed (config docs)
                 em = np.zeros(len(vids), dtype=bool)
             carries = bool(getattr(self.action_type, "carries_expert_plan", False))
-            self._drivers(vids, em, em | carries)
+            # (the plan mask em | carries; em itself when the action type carries no plan)
+            self._drivers(vids, em, np.ones(len(em), dtype=bool) if carries else em)
 
     def _drivers(self, vids: np.ndarray, expert_mask: np.ndarray, plan_mask: np.ndarray) -> None:
         """Hook: who drives in the coming step (see :meth:`_before_physics`)."""
@@ -502,8 +503,8 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
                     truncs[a] = bool(truncated_all)
                     extra.append((a, inf2[a]))
         # every agent reported this step as rows, in the dicts' key order
-        if isinstance(trunc, (bool, np.bool_)):
-            trunc_rows = np.full(len(step_vid), bool(trunc))
+        if isinstance(trunc, (bool, np.bool_)):  # (np.ones / np.zeros: np.full's Python wrapper costs ~1 us)
+            trunc_rows = np.ones(len(step_vid), dtype=bool) if trunc else np.zeros(len(step_vid), dtype=bool)
         else:
             trunc_rows = np.array(trunc, dtype=bool)
         if departed or late:
@@ -527,8 +528,11 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
                 infos[a] = info
             if lab is not None:
                 self._label_rest(infos, lab[1], lab[2], len(agents))
-        keep = ~(out.terminated | out.truncated)
-        self._last_obs = (out.vid[keep], out.obs[keep])
+        if np.count_nonzero(out.terminated) or np.count_nonzero(out.truncated):
+            keep = ~(out.terminated | out.truncated)
+            self._last_obs = (out.vid[keep], out.obs[keep])
+        else:  # everyone stays (copies, as the selection makes)
+            self._last_obs = (out.vid.copy(), out.obs.copy())
         self._on_step_end(events)
         if self.render_mode == "human":
             self.render()

@@ -166,6 +166,11 @@ class FormationExpert:
             "idm": (float(p.a_max), float(p.idm_b), float(p.idm_T), float(p.idm_s0)),
             "feedback": (period, float(p.kp), float(p.kv), float(max(p.a_min, p.comfort_accel[0])),
                          float(min(p.a_max, p.comfort_accel[1])), float(p.v_min)),
+            "starts": (period, n_lanes, int(road.total_lanes), *ends, road._merge_iv, road._diverge_iv,
+                       bool(road.has_ramp_lane), float(road.lane_width), float(p.lc_duration), float(p.lc_min_length),
+                       float(p.lc_max_length), float(self._lc_length_min), float(self._lc_time_min), float(p.idm_s0),
+                       float(p.member_time_gap), float(p.idm_T), float(p.a_max), self._idm_root, float(p.b_safe),
+                       float(p.lc_min_gap)),
             "safety": (period, n_lanes, *ends, float(p.lc_min_length), float(p.member_time_gap), float(p.idm_T),
                        float(p.a_max), float(p.idm_s0), self._idm_root, float(p.a_min), float(p.a_max)),
         }
@@ -240,19 +245,13 @@ class FormationExpert:
         curve lengths, blocked)``, ``blocked`` marking those whose
         manoeuvre was allowed but refused by the gaps (the rules:
         :func:`icv_envs.policies._kernels.lane_change_starts`)."""
-        p = self.p
-        tr, road = world.traffic, world.road
+        tr = world.traffic
         cx, cy = tr.center()
         return lane_change_starts(
             np.asarray(active, dtype=bool), cx, cy, tr.speed, np.asarray(tr.length, dtype=np.float64),
             np.asarray(lane, dtype=np.int64), np.asarray(desired, dtype=np.int64), np.asarray(member, dtype=bool),
             index.keys, index.rows, index.lanes, index.x, float(index.offset),
-            float(road.length) if road.periodic else -1.0, int(road.n_lanes), int(road.total_lanes), road.lane_ends,
-            road._ob_lane, road._ob_lo, road._ob_hi, road._ramp_iv, road._merge_iv, road._diverge_iv,
-            bool(road.has_ramp_lane), float(road.lane_width), float(p.lc_duration), float(p.lc_min_length),
-            float(p.lc_max_length), float(self._lc_length_min), float(self._lc_time_min), float(p.idm_s0),
-            float(p.member_time_gap), float(p.idm_T), float(p.a_max), self._idm_root,
-            float(p.b_safe), float(p.lc_min_gap))
+            *self._road_consts(world.road)["starts"])
 
     def _safety_cap(self, world, index, acc, lane, desired, member, exiting, bounds=None) -> np.ndarray:
         """The safety envelope on top of the longitudinal law, clipped to

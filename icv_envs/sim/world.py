@@ -332,13 +332,15 @@ class World:
         # None: every vehicle (the physics comes next and only removes vehicles, so ``vids`` covering the
         # traffic covers every vehicle :meth:`classify_collisions` meets)
         # (np.count_nonzero(m) == m.size: m.all() without a ufunc reduction)
-        every = np.count_nonzero(em) == em.size and len(vids) == self.traffic.n
+        covers = len(vids) == self.traffic.n
+        every = np.count_nonzero(em) == em.size and covers
         self._expert_vids = None if every else set(vids[em].tolist())
-        pm = em if plan_mask is None else em | np.asarray(plan_mask, dtype=bool)
-        if np.count_nonzero(pm) == pm.size and len(vids) == self.traffic.n:
-            self._plan_vids = None
+        if plan_mask is None or plan_mask is expert_mask:  # (the plan mask is the expert mask)
+            pm, every_plan = em, every
         else:
-            self._plan_vids = set(vids[pm].tolist())
+            pm = em | np.asarray(plan_mask, dtype=bool)
+            every_plan = np.count_nonzero(pm) == pm.size and covers
+        self._plan_vids = None if every_plan else set(vids[pm].tolist())
         self._index = None
 
     def classify_collisions(self, i, j, road_rows, new_crash, cx, cy) -> None:
