@@ -45,7 +45,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from icv_envs.envs._kernels import scatter_expert_rows, scatter_world_rows
+from icv_envs.envs._kernels import id_range, scatter_expert_rows, scatter_world_rows
 from icv_envs.envs.actions import ContinuousAction
 from icv_envs.rl.envs import episode_finished
 
@@ -273,7 +273,7 @@ class BatchedWorlds:
         lut = self._slot_of_vid
         if not len(vid):
             return np.zeros(0, dtype=np.int64)
-        lo, hi = (int(vid[0]), int(vid[-1])) if ascending else (int(vid.min()), int(vid.max()))
+        lo, hi = (int(vid[0]), int(vid[-1])) if ascending else id_range(np.asarray(vid, dtype=np.int64))
         if hi < len(lut) and lo >= 0:
             if self._lut_identity:  # (read only by the callers)
                 return vid

@@ -2243,3 +2243,55 @@ def test_lane_speeds_equal_the_array_code(lanes, table, scenario):
         want = np.where((lane == road.n_lanes) & road.has_ramp_lane, p.ramp_speed, p.desired_speed)
     got = FormationExpert(p)._lane_speeds(road, lane)
     assert got.tobytes() == np.asarray(want, dtype=np.float64).tobytes()
+
+
+@settings(max_examples=200, deadline=None)
+@given(lanes=st.integers(1, 7), width=st.sampled_from([3.5, 4.0, 3.75, 0.1]),
+       ys=st.lists(st.floats(-1e4, 1e4, allow_nan=False), max_size=40), halves=st.lists(st.integers(-3, 9), max_size=10))
+def test_lane_of_rows_is_lane_of(lanes, width, ys, halves):
+    """``RoadLayout.lane_of_rows`` (the expert's lanes of a state in one
+    call) gives ``lane_of``'s int64 lanes, on random positions, lane
+    centres' halves (``rint``'s ties to even) and beyond both edges."""
+    road = RoadLayout(lanes, 1_000.0, width, np.full(lanes, np.inf), [], [], [])
+    y = np.array(ys + [(h + 0.5) * width for h in halves] + [h * width for h in halves], dtype=np.float64)
+    got = road.lane_of_rows(y)
+    want = road.lane_of(y)
+    assert got.dtype == want.dtype == np.int64
+    np.testing.assert_array_equal(got, want)
+
+
+@settings(max_examples=200, deadline=None)
+@given(ids=st.lists(st.integers(-2**40, 2**40), min_size=1, max_size=60))
+def test_id_range_is_min_and_max(ids):
+    """``envs/_kernels.id_range`` (the slot lookup's bounds of a world's ids) is ``(min, max)``."""
+    from icv_envs.envs._kernels import id_range
+
+    vid = np.array(ids, dtype=np.int64)
+    assert id_range(vid) == (vid.min(), vid.max())
+
+
+def test_heading_cos_sin_is_numpys_kept_per_heading_array():
+    """``Traffic.heading_cos_sin``: NumPy's cos and sin of the headings,
+    the same arrays while ``heading`` is, new ones once it is replaced; the
+    headings read-only from the first call (an in-place write would leave
+    them stale); the expert's pure pursuit with them is the pursuit without."""
+    from icv_envs.formation.bezier import _pure_pursuit_rows
+    from icv_envs.sim.traffic import Traffic
+
+    rng = np.random.default_rng(3)
+    tr = Traffic()
+    tr.add(rng.uniform(0, 500, 12), rng.uniform(0, 12, 12), rng.uniform(10, 30, 12))
+    tr.heading = rng.uniform(-0.3, 0.3, tr.n)
+    c, s = tr.heading_cos_sin()
+    np.testing.assert_array_equal(c, np.cos(tr.heading))
+    np.testing.assert_array_equal(s, np.sin(tr.heading))
+    assert tr.heading_cos_sin()[0] is c
+    with pytest.raises(ValueError):
+        tr.heading[0] = 1.0
+    px, py = tr.x + 20.0, tr.y + rng.uniform(-2, 2, tr.n)
+    np.testing.assert_array_equal(_pure_pursuit_rows(tr.x, tr.y, tr.heading, px, py, 2.5, 0.5, (c, s)),
+                                  _pure_pursuit_rows(tr.x, tr.y, tr.heading, px, py, 2.5, 0.5))
+    tr.heading = tr.heading + 0.1
+    c2, _ = tr.heading_cos_sin()
+    assert c2 is not c
+    np.testing.assert_array_equal(c2, np.cos(tr.heading))

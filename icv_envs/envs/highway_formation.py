@@ -306,7 +306,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         cx, cy = tr.center()
         x_ref, lane_ref, v_ref, member = w.manager.references(tr)
         period = float(road.length) if road.periodic else -1.0
-        return (cx, cy, tr.speed, np.cos(tr.heading), np.sin(tr.heading), x_ref, lane_ref, v_ref, member,
+        return (cx, cy, tr.speed, *tr.heading_cos_sin(), x_ref, lane_ref, v_ref, member,
                 float(road.lane_width), int(road.total_lanes), period, road.n_lanes, road.lane_ends, road._ob_lane,
                 road._ob_lo, road._ob_hi, road._ramp_iv)
 

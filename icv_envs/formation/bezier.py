@@ -203,14 +203,16 @@ def _lane_change_lateral_rows(rows, x, x0, y0, y1, d) -> tuple[np.ndarray, np.nd
     return lateral_post(rows, s, sh, x, x0, y0, y1, d)
 
 
-def _pure_pursuit_rows(rx, ry, th, tx, ty, wb: float, ms: float) -> np.ndarray:
+def _pure_pursuit_rows(rx, ry, th, tx, ty, wb: float, ms: float, cos_sin=None) -> np.ndarray:
     """:func:`_pure_pursuit_steering` for 1-D float64 arrays of one length
     (finite; ``wb > 0``, ``0 < ms < pi/2``): the same numbers bit for bit,
     with the arithmetic compiled (:func:`icv_envs.formation._kernels.pursuit_pre`,
     :func:`~icv_envs.formation._kernels.pursuit_post`) and ``hypot``,
-    ``cos``, ``sin``, ``arctan`` from numpy as the array code takes them."""
+    ``cos``, ``sin``, ``arctan`` from numpy as the array code takes them.
+    ``cos_sin``: ``(np.cos(th), np.sin(th))`` when the caller has them."""
     dx, dy = pursuit_pre(rx, ry, tx, ty)
-    q = pursuit_post(dx, dy, np.hypot(dx, dy), np.cos(th), np.sin(th), wb)
+    c, s = (np.cos(th), np.sin(th)) if cos_sin is None else cos_sin
+    q = pursuit_post(dx, dy, np.hypot(dx, dy), c, s, wb)
     return uclip(np.arctan(q), -ms, ms)
 
 

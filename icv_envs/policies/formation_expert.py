@@ -318,7 +318,7 @@ class FormationExpert:
         cx, cy = tr.center()
         v = tr.speed
         W = road.lane_width
-        lane = road.lane_of(cy)
+        lane = road.lane_of_rows(cy)
         index = world.lane_index()
         x_ref, lane_ref, v_ref, member = world.manager.references(tr)
 
@@ -371,7 +371,8 @@ class FormationExpert:
         if np.count_nonzero(active):
             a_rows = flatnonzero(active)
             py[a_rows] = _lane_change_lateral_rows(a_rows, px, tr.lc_x0, tr.lc_y0, tr.lc_y1, tr.lc_len)[0]
-        phi = _pure_pursuit_rows(tr.x, tr.y, tr.heading, px, py, float(p.wheelbase), float(p.steer_max))
+        phi = _pure_pursuit_rows(tr.x, tr.y, tr.heading, px, py, float(p.wheelbase), float(p.steer_max),
+                                 tr.heading_cos_sin())
 
         # ------------------------------------------------------ longitudinal
         # the lane's speed; the exit speed on the main road for exiting

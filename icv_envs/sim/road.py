@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from icv_envs.sim._kernels import interval_ends, lanes_available
+from icv_envs.sim._kernels.physics import lane_of_rows
 from icv_envs._ufuncs import clip as uclip
 
 __all__ = ["OnRamp", "OffRamp", "Obstacle", "RoadLayout"]
@@ -156,6 +157,11 @@ class RoadLayout:
     def lane_of(self, y) -> np.ndarray:
         """Lane index whose centre is nearest to lateral position ``y``."""
         return uclip(np.rint(np.asarray(y) / self.lane_width), 0, self.total_lanes - 1).astype(np.int64)
+
+    def lane_of_rows(self, y: np.ndarray) -> np.ndarray:
+        """:meth:`lane_of` of a 1-D float64 array of finite positions (a
+        state's ``cy``), in one compiled call (:func:`icv_envs.sim._kernels.physics.lane_of_rows`)."""
+        return lane_of_rows(y, float(self.lane_width), int(self.total_lanes))
 
     # ---------------------------------------------------------------- ring
     def mod(self, x) -> np.ndarray:

@@ -101,6 +101,7 @@ class Traffic:
             setattr(self, f, np.zeros(0, dtype=bool))
         self.next_vid = 0
         self._center = None  # (x, y, heading, cx, cy): see center()
+        self._cos_sin = None  # (heading, cos, sin): see heading_cos_sin()
 
     # ------------------------------------------------------------ bookkeeping
     @property
@@ -177,6 +178,19 @@ class Traffic:
         if self.period is not None:
             cx = np.mod(cx, self.period)
         return self.set_center(cx, self.y + h * np.sin(self.heading))
+
+    def heading_cos_sin(self) -> tuple[np.ndarray, np.ndarray]:
+        """NumPy's ``cos`` and ``sin`` of the headings, kept until ``heading``
+        is replaced (as :meth:`center`; ``heading`` is read-only from then
+        on), so the observations' features and the expert's pure pursuit of
+        one state share them. Read them, do not write them."""
+        c = self._cos_sin
+        h = self.heading
+        if c is not None and c[0] is h:
+            return c[1], c[2]
+        h.setflags(write=False)
+        self._cos_sin = (h, np.cos(h), np.sin(h))
+        return self._cos_sin[1], self._cos_sin[2]
 
     def set_center(self, cx: np.ndarray, cy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Record ``(cx, cy)`` as the body centres of the current state (the

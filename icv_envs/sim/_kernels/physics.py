@@ -12,7 +12,7 @@ import numpy as np
 
 from icv_envs.formation._kernels import clip1
 
-__all__ = ["npy_mod", "lane_of1", "controls_rows", "kinematic_substep", "road_check", "interval_ends", "interval_ends_at",
+__all__ = ["npy_mod", "lane_of1", "lane_of_rows", "controls_rows", "kinematic_substep", "road_check", "interval_ends", "interval_ends_at",
            "lanes_available"]
 
 
@@ -122,6 +122,17 @@ def lane_of1(y, lane_width, total_lanes):
     li = np.rint(y / lane_width)
     li = min(max(li, 0.0), total_lanes - 1.0)
     return np.int64(li)
+
+
+@nb.njit(cache=True)
+def lane_of_rows(y, lane_width, total_lanes):
+    """``RoadLayout.lane_of`` of a 1-D float64 array of finite lateral
+    positions (:func:`lane_of1` of each; NumPy's five calls on a state's
+    ``cy`` in one)."""
+    out = np.empty(y.shape[0], dtype=np.int64)
+    for i in range(y.shape[0]):
+        out[i] = lane_of1(y[i], lane_width, total_lanes)
+    return out
 
 
 @nb.njit(cache=True)
