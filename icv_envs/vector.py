@@ -45,7 +45,8 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from icv_envs.envs._kernels import id_range, scatter_expert_rows, scatter_world_rows
+from icv_envs.envs._kernels import scatter_expert_rows, scatter_world_rows
+from icv_envs.sim._kernels import id_range
 from icv_envs.envs.actions import ContinuousAction
 from icv_envs.rl.envs import episode_finished
 

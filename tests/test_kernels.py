@@ -2263,8 +2263,8 @@ def test_lane_of_rows_is_lane_of(lanes, width, ys, halves):
 @settings(max_examples=200, deadline=None)
 @given(ids=st.lists(st.integers(-2**40, 2**40), min_size=1, max_size=60))
 def test_id_range_is_min_and_max(ids):
-    """``envs/_kernels.id_range`` (the slot lookup's bounds of a world's ids) is ``(min, max)``."""
-    from icv_envs.envs._kernels import id_range
+    """``sim/_kernels.id_range`` (the slot lookup's bounds of a world's ids, the join plans' table size) is ``(min, max)``."""
+    from icv_envs.sim._kernels import id_range
 
     vid = np.array(ids, dtype=np.int64)
     assert id_range(vid) == (vid.min(), vid.max())

@@ -8,22 +8,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["expert_match_rows", "scatter_world_rows", "scatter_expert_rows", "id_range"]
-
-
-@nb.njit(cache=True)
-def id_range(vid):
-    """``(vid.min(), vid.max())`` of a non-empty 1-D int64 array in one pass
-    (two NumPy reductions cost ~1.5 us on a world's few dozen ids)."""
-    lo = vid[0]
-    hi = vid[0]
-    for i in range(1, vid.shape[0]):
-        v = vid[i]
-        if v < lo:
-            lo = v
-        if v > hi:
-            hi = v
-    return lo, hi
+__all__ = ["expert_match_rows", "scatter_world_rows", "scatter_expert_rows"]
 
 
 @nb.njit(cache=True)

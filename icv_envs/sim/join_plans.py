@@ -25,6 +25,7 @@ from icv_envs.formation.control import (
     join_profile,
 )
 from icv_envs._ufuncs import flatnonzero
+from icv_envs.sim._kernels import id_range
 
 __all__ = ["JoinPlans", "JOIN_MAX_DURATION"]
 
@@ -85,7 +86,7 @@ class JoinPlans:
         """Plans for vehicles ``vid`` (non-empty) at ``time`` from offsets
         ``d0``, relative speeds ``v0`` and accelerations ``a0`` (finite);
         returns their durations."""
-        self.grow(int(vid.max()) + 1)
+        self.grow(int(id_range(np.asarray(vid, dtype=np.int64))[1]) + 1)
         lim = self.limits
         # no duration keeps a quintic inside the speed band when the member
         # must first reverse a large relative speed (a slow ramp vehicle
@@ -134,7 +135,7 @@ class JoinPlans:
         if c is not None and c[0] == key and c[1] == self.count:
             return c[2]  # the kept answer (these ids were in the tables when it was computed; tables only grow)
         if len(vid):
-            self.grow(int(vid.max()) + 1)
+            self.grow(int(id_range(np.asarray(vid, dtype=np.int64))[1]) + 1)
         if c is not None and c[0] == key:
             stale = flatnonzero(self.stamp[vid] > c[1])
             out = tuple(arr.copy() for arr in c[2])

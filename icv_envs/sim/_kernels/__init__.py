@@ -79,7 +79,8 @@ from icv_envs.sim._kernels.observation import (formation_feature_rows, formation
                                                intersection_reward_rows, kinematics_rows, nearest_along_road)
 from icv_envs.sim._kernels.physics import (controls_rows, npy_mod, kinematic_substep, road_check, interval_ends,
                                            lanes_available)
-from icv_envs.sim._kernels.stats import pairwise_sum, motion_record, motion_sums_add, headway_record, pet_transitions
+from icv_envs.sim._kernels.stats import (pairwise_sum, motion_record, motion_sums_add, headway_record, pet_transitions,
+                                         id_range)
 
 __all__ = [
     "npy_mod",
@@ -108,6 +109,7 @@ __all__ = [
     "motion_sums_add",
     "headway_record",
     "pet_transitions",
+    "id_range",
     "drivable_lane_bits",
     "drivable_lane_bits1",
     "eligible_free_rows",

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["pairwise_sum", "motion_record", "motion_sums_add", "headway_record", "pet_transitions"]
+__all__ = ["pairwise_sum", "motion_record", "motion_sums_add", "headway_record", "pet_transitions", "id_range"]
 
 
 @nb.njit(cache=True)
@@ -244,3 +244,19 @@ def pet_transitions(vid, pid, s, length, lo, hi, occ, path, busy):
             new_busy[nb_] = v
             nb_ += 1
     return left, entered, new_busy[:nb_]
+
+
+@nb.njit(cache=True)
+def id_range(vid):
+    """``(vid.min(), vid.max())`` of a non-empty 1-D int64 array in one pass
+    (two NumPy reductions cost ~1.5 us on a world's few dozen ids; one
+    ``max`` ~0.8 us)."""
+    lo = vid[0]
+    hi = vid[0]
+    for i in range(1, vid.shape[0]):
+        v = vid[i]
+        if v < lo:
+            lo = v
+        if v > hi:
+            hi = v
+    return lo, hi
