@@ -370,7 +370,7 @@ class HighwayFormationEnv(IcvAgentsEnv):
         w = self.world
         tr = w.traffic
         wts = c["reward"]
-        gap, _ = w.own_lane_gaps()
+        gap, _ = w._own_lane_gaps_kept()  # (the kernels only read it)
         ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
         return (np.asarray(rows, dtype=np.int64), tr.speed, float(c["speed_range"][1]), gap,
                 np.asarray(crashed_now, dtype=bool), np.ascontiguousarray(ua, dtype=np.float64),

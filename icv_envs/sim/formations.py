@@ -152,6 +152,7 @@ class FormationManager:
         self._lanes_memo: dict[int, tuple] = {}  # bit set -> lane set (_lane_set)
         self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
         self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_allowed)
+        self._road_c = None  # (road, the update's arguments that depend on the road only): _road_args
         self._lane_arrays: dict[tuple, tuple] = {}  # lane set -> (float64, int64) arrays (_lane_arrays_of)
         # per vehicle id: the join plans and the slot each was made for (sim/join_plans.py)
         self._plans = JoinPlans(self.profile_limits, self.profile_speeds, self.speed)
@@ -241,6 +242,19 @@ class FormationManager:
         if lanes is None:
             lanes = self._lanes_memo[bits] = tuple(lane for lane in range(bits.bit_length()) if bits >> lane & 1)
         return lanes
+
+    def _road_args(self, road) -> dict:
+        """The arguments of :meth:`update`'s compiled passes that depend on
+        the road only, converted once per road (a reset builds a new one)."""
+        c = self._road_c
+        if c is not None and c[0] is road:
+            return c[1]
+        length = float(road.length) if road.periodic else -1.0
+        d = {"membership": (length, int(road.n_exits), float(road.lane_width), int(road.total_lanes),
+                            int(road.n_lanes), bool(road.has_ramp_lane), road._diverge_iv),
+             "hold": (length, float(road.length), road.lane_ends, *_obstacles(road))}
+        self._road_c = (road, d)
+        return d
 
     def _allowed(self, n_lanes: int) -> np.ndarray:
         """The lanes this manager may use, as a read-only mask over ``n_lanes`` main lanes."""
@@ -405,8 +419,7 @@ class FormationManager:
         chg, next_gid, g_arr, room = membership_pass(
             traffic.group, traffic.tgt_lane, traffic.vid, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
             self._plans.slot_gid, self._A, self._L, self._cnt, self._stall, self._gids(), self.next_gid,
-            self.speed * dt, length, int(road.n_exits), float(road.lane_width), int(road.total_lanes),
-            int(road.n_lanes), bool(road.has_ramp_lane), road._diverge_iv, float(self.exit_lookahead),
+            self.speed * dt, *self._road_args(road)["membership"], float(self.exit_lookahead),
             float(self.exit_lookahead_per_lane), self.max_size, float(self.join_distance), self.create_new,
             float(self.new_formation_gap), float(self.formation_gap))
         if next_gid != self.next_gid:
@@ -467,11 +480,11 @@ class FormationManager:
         # there (the join profile's deadline) counts as stalled (``late``)
         # for ``stall_time`` in a row: the formation re-forms (and the count
         # restarts); a formation that re-forms anyway restarts it too
+        rc = self._road_args(road)["hold"]  # (period or -1, length, lane ends, obstacles)
         hold_pass(grp, g_arr, self._A, self._L, self._bits, self._stall, chg, room, traffic.tgt_behind, cx, d_ref,
                   traffic.vid, self._plans.deadline, float(self.time), float(self.max_anchor_lead),
-                  -self.anchor_brake * dt, float(self.stall_error), float(road.length) if road.periodic else -1.0,
-                  float(dt), float(self.stall_time), float(self.lookahead), float(road.length), road.lane_ends,
-                  *_obstacles(road), self._allowed(road.n_lanes))
+                  -self.anchor_brake * dt, float(self.stall_error), rc[0], float(dt), float(self.stall_time),
+                  float(self.lookahead), *rc[1:], self._allowed(road.n_lanes))
 
     def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-vehicle ``(x_ref, lane_ref, v_ref, member)``: body-centre

@@ -136,6 +136,12 @@ class World:
     def own_lane_gaps(self) -> tuple[np.ndarray, np.ndarray]:
         """Bumper-to-bumper gap to the leader in each vehicle's own lane, and
         that leader's row (-1 and ``inf`` when none)."""
+        gap, lead = self._own_lane_gaps_kept()
+        return gap.copy(), lead.copy()
+
+    def _own_lane_gaps_kept(self) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`own_lane_gaps` as kept for the current state (the step's
+        readers that only read them: the headway statistics, the rewards)."""
         index = self.lane_index(reserved=False)  # (re)sets self._gaps when the state changed
         if self._gaps is None:
             tr = self.traffic
@@ -145,8 +151,7 @@ class World:
             self._gaps = own_lane_gap_rows(index.keys, index.rows, index.lanes, index.x, float(index.offset), cx, cy,
                                            np.asarray(tr.length, dtype=np.float64), float(self.road.lane_width),
                                            int(self.road.total_lanes))
-        gap, lead = self._gaps
-        return gap.copy(), lead.copy()
+        return self._gaps
 
     # ---------------------------------------------------------------- dynamics
     def substep(self, accel: np.ndarray, steer: np.ndarray, events: StepEvents) -> None:
@@ -403,7 +408,7 @@ class World:
         The gaps and time headways feed :class:`icv_envs.sim.metrics.HeadwayStats`."""
         tr = self.traffic
         if tr.n > 1:
-            gap, _ = self.own_lane_gaps()
+            gap, _ = self._own_lane_gaps_kept()
             self.headways.record(gap, self.traffic.speed)
         if tr.n:
             long_stop = tr.stopped_for > JAM_STOP_TIME
