@@ -2130,10 +2130,11 @@ def test_same_ids_is_array_equal_for_id_arrays(a, b, same):
 @given(k=st.integers(0, 6), n=st.integers(0, 500), dt=st.sampled_from([0.04, 0.1, 1.0 / 15.0, 0.02]),
        start=st.tuples(st.integers(0, 10**9), st.floats(0, 1e9), st.floats(0, 1e9), st.floats(0, 1e9),
                        st.integers(0, 10**9)), seed=st.integers(0, 2**32 - 1))
-def test_motion_add_sums_is_add_row_by_row(k, n, dt, start, seed):
-    """``MotionStats.add_sums`` (the compiled substeps' sums in one call)
-    leaves the accumulators :meth:`MotionStats.add` row by row leaves, bit
-    for bit."""
+def test_motion_sums_add_is_add_row_by_row(k, n, dt, start, seed):
+    """``motion_sums_add`` over ``MotionStats.totals`` / ``set_totals`` (what
+    the compiled substeps do with their per-substep sums) leaves the
+    accumulators :meth:`MotionStats.add` row by row leaves, bit for bit."""
+    from icv_envs.sim._kernels import motion_sums_add
     from icv_envs.sim.metrics import MotionStats
 
     rng = np.random.default_rng(seed)
@@ -2144,7 +2145,7 @@ def test_motion_add_sums_is_add_row_by_row(k, n, dt, start, seed):
         (m.vehicle_steps, m.speed_sum, m.realised_abs_accel_sum, m.commanded_abs_accel_sum, m.stopped_steps) = start
     for (sv, sdv, sa), ns in zip(sums.tolist(), stopped.tolist()):
         a.add(n, sv, sdv, sa, ns, dt)
-    b.add_sums(n, sums, stopped, dt)
+    b.set_totals(*motion_sums_add(k, n, sums, stopped, dt, *b.totals()))
     for name in ("vehicle_steps", "speed_sum", "realised_abs_accel_sum", "commanded_abs_accel_sum", "stopped_steps"):
         x, y = getattr(a, name), getattr(b, name)
         assert type(x) is type(y) and np.float64(x).tobytes() == np.float64(y).tobytes(), name

@@ -64,7 +64,7 @@ import math
 
 import numpy as np
 
-from icv_envs.sim._kernels import headway_record, motion_record, motion_sums_add
+from icv_envs.sim._kernels import headway_record, motion_record
 
 __all__ = [
     "STOPPED_SPEED",
@@ -148,14 +148,21 @@ class MotionStats:
         self.commanded_abs_accel_sum += sa
         self.stopped_steps += stopped
 
-    def add_sums(self, n: int, sums: np.ndarray, stopped: np.ndarray, dt: float) -> None:
-        """:meth:`add` of each row of ``sums (k, 3)`` and ``stopped (k,)``
-        (the compiled substeps' per-substep sums, ``n`` vehicles each), in
-        order, in one compiled call (:func:`icv_envs.sim._kernels.motion_sums_add`)."""
-        (self.vehicle_steps, self.speed_sum, self.realised_abs_accel_sum, self.commanded_abs_accel_sum,
-         self.stopped_steps) = motion_sums_add(
-            int(len(sums)), int(n), sums, stopped, float(dt), int(self.vehicle_steps), float(self.speed_sum),
-            float(self.realised_abs_accel_sum), float(self.commanded_abs_accel_sum), int(self.stopped_steps))
+    def totals(self) -> tuple:
+        """The run's accumulators ``(vehicle_steps, speed_sum,
+        realised_abs_accel_sum, commanded_abs_accel_sum, stopped_steps)``,
+        for a compiled pass that adds to them (:func:`icv_envs.sim._kernels.quiet_substeps`)."""
+        return (int(self.vehicle_steps), float(self.speed_sum), float(self.realised_abs_accel_sum),
+                float(self.commanded_abs_accel_sum), int(self.stopped_steps))
+
+    def set_totals(self, vehicle_steps: int, speed_sum: float, realised: float, commanded: float,
+                   stopped_steps: int) -> None:
+        """The accumulators after such a pass (in :meth:`totals`' order)."""
+        self.vehicle_steps = vehicle_steps
+        self.speed_sum = speed_sum
+        self.realised_abs_accel_sum = realised
+        self.commanded_abs_accel_sum = commanded
+        self.stopped_steps = stopped_steps
 
     def reserve(self, size: int) -> None:
         """Room for the per-vehicle moments of ids ``< size``."""

@@ -213,20 +213,18 @@ class World:
         else:
             exit_id, (ex_x, de) = tr.exit, marks
         lat = -1.0 if tr.lat_accel_max is None else tr.lat_accel_max
-        (k, event, tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy, cx_before, sums,
-         stopped, missed, i, j, lane, off, at_end, n_off, n_end) = quiet_substeps(
+        m = self.motion
+        # (the clock and the run statistics advance inside, substep by
+        # substep as substep() adds them: the same additions of the same doubles)
+        (k, event, tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy, cx_before, self.time,
+         *totals, missed, i, j, lane, off, at_end, n_off, n_end) = quiet_substeps(
             int(n), tr.x, tr.y, tr.heading, tr.speed, np.asarray(accel, dtype=np.float64),
             np.asarray(steer, dtype=np.float64), tr.crashed, tr.stopped_for, tr.wheelbase, lat, self.dt, self.v_max,
             road.length if road.periodic else -1.0, tr.vid, tr.length, tr.width, STOPPED_SPEED, *self.motion.moments(),
             road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi,
             road._ramp_iv, EDGE_MARGIN, np.inf if road.periodic else road.length, exit_id, ex_x, de,
-            road.ramp_lane, cx0)
-        # the clock and the run statistics, substep by substep as substep()
-        # adds them (the statistics compiled: the same additions of the same doubles)
-        dt = self.dt
-        for _ in range(k):
-            self.time += dt
-        self.motion.add_sums(nv, sums, stopped, dt)  # (quiet_substeps returns the k substeps' rows)
+            road.ramp_lane, cx0, float(self.time), *m.totals())
+        m.set_totals(*totals)
         self.stats["missed_exits"] += int(missed)
         self._index = None
         cx, cy = tr.set_center(cx, cy)

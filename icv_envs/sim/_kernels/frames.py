@@ -10,7 +10,7 @@ from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.intersection import arc_s1, box_collision_pairs, intersection_events
 from icv_envs.sim._kernels.neighbours import collision_pairs
 from icv_envs.sim._kernels.physics import kinematic_substep, road_check
-from icv_envs.sim._kernels.stats import motion_record, pet_transitions
+from icv_envs.sim._kernels.stats import motion_record, motion_sums_add, pet_transitions
 
 __all__ = ["quiet_substeps", "intersection_frames"]
 
@@ -19,7 +19,7 @@ __all__ = ["quiet_substeps", "intersection_frames"]
 def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase, lat, dt, v_max,
                    period, vid, length, width, stopped_speed, m_count, m_s1, m_s2, lane_width, n_lanes, total_lanes,
                    lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, edge_margin, road_end, exit_id, ex_x, de, ramp_lane,
-                   cx_before):
+                   cx_before, time, vehicle_steps, speed_sum, realised, commanded, stopped_steps):
     """Up to ``n_frames`` substeps of :meth:`icv_envs.sim.world.World.substep`
     with the same controls, each the kernels that method calls in its order
     (:func:`kinematic_substep`, :func:`motion_record`,
@@ -30,15 +30,20 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     ``-1 <= wrap(cx - ex_x) < 10`` on ``ramp_lane``). ``period``: the ring's
     length, or -1; ``cx_before``: the body centres before the first
     substep. The motion moments are accumulated in place (``m_count``,
-    ``m_s1``, ``m_s2`` must hold every id); the per-substep sums are
-    returned for the caller to add in order. Vehicles crossing the end of
-    their diverge segment on a main lane (missed exits) are counted for the
-    quiet substeps only (the world counts the last one with its events).
+    ``m_s1``, ``m_s2`` must hold every id); the clock ``time`` advances by
+    ``dt`` per substep and the run's accumulators (``vehicle_steps`` ..
+    ``stopped_steps``, :class:`icv_envs.sim.metrics.MotionStats`) take each
+    substep's sums in order (:func:`motion_sums_add`), the additions the
+    world made one substep at a time. Vehicles crossing the end of their
+    diverge segment on a main lane (missed exits) are counted for the quiet
+    substeps only (the world counts the last one with its events).
 
     Returns ``(k, event, x, y, heading, speed, accel, steer, stopped_for,
-    cx, cy, cx_before, sums (k, 3), stopped (k,), missed, i, j, lane, off,
-    at_end, n_off, n_end)``: ``k`` substeps ran, the state and centres after
-    the last, the centres before it, and its collision pairs and road check."""
+    cx, cy, cx_before, time, vehicle_steps, speed_sum, realised, commanded,
+    stopped_steps, missed, i, j, lane, off, at_end, n_off, n_end)``: ``k``
+    substeps ran, the state and centres after the last, the centres before
+    it, the clock and accumulators after the ``k``, and the last substep's
+    collision pairs and road check."""
     n = x.shape[0]
     sums = np.zeros((n_frames, 3))
     stopped = np.zeros(n_frames, dtype=np.int64)
@@ -54,6 +59,8 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     at_end = np.zeros(0, dtype=np.bool_)
     n_off = 0
     n_end = 0
+    k = n_frames
+    event = False
     for f in range(n_frames):
         cx_before = cx
         v_before = speed
@@ -78,11 +85,15 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
             if lane[q] < n_lanes and _wrap1(cx_before[q] - de[q], period) < 0 and _wrap1(cx[q] - de[q], period) >= 0:
                 crossed += 1
         if event:
-            return (f + 1, True, x, y, heading, speed, acc, st, stopped_for, cx, cy, cx_before, sums[:f + 1],
-                    stopped[:f + 1], missed, i, j, lane, off, at_end, n_off, n_end)
+            k = f + 1
+            break
         missed += crossed
-    return (n_frames, False, x, y, heading, speed, acc, st, stopped_for, cx, cy, cx_before, sums, stopped, missed, i,
-            j, lane, off, at_end, n_off, n_end)
+    for _ in range(k):
+        time += dt
+    vehicle_steps, speed_sum, realised, commanded, stopped_steps = motion_sums_add(
+        k, n, sums, stopped, dt, vehicle_steps, speed_sum, realised, commanded, stopped_steps)
+    return (k, event, x, y, heading, speed, acc, st, stopped_for, cx, cy, cx_before, time, vehicle_steps, speed_sum,
+            realised, commanded, stopped_steps, missed, i, j, lane, off, at_end, n_off, n_end)
 
 
 @nb.njit(cache=True)
