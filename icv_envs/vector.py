@@ -333,8 +333,9 @@ class BatchedWorlds:
         acts = np.asarray(actions, dtype=np.float64)
         if acts.shape != (self.num_worlds, self.K, 2):
             raise ValueError(f"actions have shape {acts.shape}; allowed: ({self.num_worlds}, {self.K}, 2)")
-        bad = ~np.isfinite(acts).all(axis=-1) & self.mask
-        if np.count_nonzero(bad):
+        fin = np.isfinite(acts)
+        bad = None if np.count_nonzero(fin) == fin.size else ~fin.all(axis=-1) & self.mask  # (the count first)
+        if bad is not None and np.count_nonzero(bad):
             b, k = np.argwhere(bad)[0]
             raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k].tolist()} "
                              f"holds NaN or inf; allowed: finite values in [-1, 1]")
