@@ -2296,3 +2296,29 @@ def test_heading_cos_sin_is_numpys_kept_per_heading_array():
     c2, _ = tr.heading_cos_sin()
     assert c2 is not c
     np.testing.assert_array_equal(c2, np.cos(tr.heading))
+
+
+@settings(max_examples=200, deadline=None)
+@given(n=st.integers(1, 40), periodic=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_plan_inputs_rows_is_the_array_code(n, periodic, seed):
+    """``plan_inputs_rows`` (``FormationManager._plan``'s inputs in one
+    call) against the array code it replaced, bit for bit: members on a
+    ring (offsets folded across the seam) or a straight road, accelerations
+    beyond both profile limits."""
+    from icv_envs.sim._kernels.formation import plan_inputs_rows
+
+    rng = np.random.default_rng(seed)
+    road = RoadLayout(3, 2_000.0, 4.0, np.full(3, np.inf), [], [], [], periodic=periodic)
+    anchors = np.append(rng.uniform(0, 2_000, 6), np.nan)
+    group = rng.integers(0, 6, n)
+    behind = rng.uniform(0, 120, n) * rng.choice([1.0, 0.0], n)
+    cx, speed = rng.uniform(0, 2_000, n), rng.uniform(0, 40, n)
+    accel = rng.uniform(-9, 5, n) * rng.choice([1.0, 1e-9], n)
+    rows = np.sort(rng.choice(n, rng.integers(1, n + 1), replace=False)).astype(np.int64)
+    lo, hi, v_form = -3.0, 1.5, 25.0
+    want = (road.wrap(cx[rows] - (anchors[group[rows]] - behind[rows])), speed[rows] - v_form,
+            np.clip(accel[rows], lo, hi))
+    got = plan_inputs_rows(rows, group, behind, anchors, cx, speed, accel, v_form, lo, hi,
+                           road.length if periodic else -1.0)
+    for g, w in zip(got, want):
+        assert g.tobytes() == w.tobytes()

@@ -57,7 +57,7 @@ from icv_envs.formation.control import (
     PROFILE_MIN_DURATION,
 )
 from icv_envs.formation.targets import formation_targets
-from icv_envs.sim._kernels.formation import drivable_lane_bits1, reference_rows
+from icv_envs.sim._kernels.formation import drivable_lane_bits1, plan_inputs_rows, reference_rows
 from icv_envs.sim._kernels.formation_step import (
     hold_pass,
     membership_pass,
@@ -65,7 +65,7 @@ from icv_envs.sim._kernels.formation_step import (
     reform_costs,
     reform_slots,
 )
-from icv_envs._ufuncs import clip as uclip, flatnonzero
+from icv_envs._ufuncs import flatnonzero
 from icv_envs.sim.join_plans import JoinPlans
 
 __all__ = ["FormationManager"]
@@ -317,9 +317,13 @@ class FormationManager:
         if not len(rows):
             return np.zeros(0)
         lim = self.profile_limits
-        d0 = road.wrap(cx[rows] - self._slot_x(traffic, rows))
-        v0 = traffic.speed[rows] - self.speed
-        a0 = uclip(traffic.accel[rows], -lim["decel"], lim["accel"])
+        # road.wrap(cx - slot), v - v_formation and the clipped acceleration of
+        # each row, compiled (sim/_kernels/formation.plan_inputs_rows; tests/test_kernels.py)
+        rows = np.asarray(rows, dtype=np.int64)
+        d0, v0, a0 = plan_inputs_rows(rows, traffic.group, traffic.tgt_behind, self._anchor_lut(),
+                                      np.asarray(cx, dtype=np.float64), traffic.speed, traffic.accel,
+                                      float(self.speed), -float(lim["decel"]), float(lim["accel"]),
+                                      float(road.length) if road.periodic else -1.0)
         return self._plans.plan(traffic.vid[rows], d0, v0, a0, self.time)
 
     def _profile(self, traffic, rows):

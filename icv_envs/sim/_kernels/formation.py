@@ -7,10 +7,11 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from icv_envs.formation._kernels import clip1
 from icv_envs.sim._kernels.physics import lane_of1, npy_mod
 
 __all__ = ["drivable_lane_bits", "drivable_lane_bits1", "eligible_free_rows", "hold_targets", "leaving_rows",
-           "reference_rows", "room_ahead"]
+           "reference_rows", "room_ahead", "plan_inputs_rows"]
 
 
 @nb.njit(cache=True)
@@ -301,3 +302,24 @@ def leaving_rows(group, exit_id, cx, cy, lc_lane, lane_width, total_lanes, n_lan
             out[m] = i
             m += 1
     return out[:m]
+
+
+@nb.njit(cache=True)
+def plan_inputs_rows(rows, group, tgt_behind, anchors, cx, speed, accel, v_form, a_lo, a_hi, period):
+    """The join plans' inputs of members ``rows``
+    (:meth:`icv_envs.sim.formations.FormationManager._plan`): the offset
+    from the slot ``wrap(cx - (anchors[group] - tgt_behind))`` (``period <
+    0``: a straight road), the speed relative to the formation's ``v_form``
+    and the acceleration clipped to ``[a_lo, a_hi]`` (finite state), the
+    array code's operations element by element. Returns ``(d0, v0, a0)``."""
+    m = rows.shape[0]
+    d0 = np.empty(m)
+    v0 = np.empty(m)
+    a0 = np.empty(m)
+    for q in range(m):
+        r = rows[q]
+        d0[q] = _wrap1(cx[r] - (anchors[group[r]] - tgt_behind[r]), period)
+        v0[q] = speed[r] - v_form
+        a0[q] = clip1(accel[r], a_lo, a_hi)
+    return d0, v0, a0
+
