@@ -322,4 +322,3 @@ def plan_inputs_rows(rows, group, tgt_behind, anchors, cx, speed, accel, v_form,
         v0[q] = speed[r] - v_form
         a0[q] = clip1(accel[r], a_lo, a_hi)
     return d0, v0, a0
-
