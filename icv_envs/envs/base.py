@@ -506,7 +506,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
                     truncs[a] = bool(truncated_all)
                     extra.append((a, inf2[a]))
         # every agent reported this step as rows, in the dicts' key order
-        if isinstance(trunc, (bool, np.bool_)):  # (np.ones / np.zeros: np.full's Python wrapper costs ~1 us)
+        if isinstance(trunc, (bool, np.bool_)):  # (np.zeros, the usual case: 0.14 us against np.full's 0.55)
             trunc_rows = np.ones(len(step_vid), dtype=bool) if trunc else np.zeros(len(step_vid), dtype=bool)
         else:
             trunc_rows = np.array(trunc, dtype=bool)
