@@ -2248,7 +2248,8 @@ def test_lane_speeds_equal_the_array_code(lanes, table, scenario):
 
 @settings(max_examples=200, deadline=None)
 @given(lanes=st.integers(1, 7), width=st.sampled_from([3.5, 4.0, 3.75, 0.1]),
-       ys=st.lists(st.floats(-1e4, 1e4, allow_nan=False), max_size=40), halves=st.lists(st.integers(-3, 9), max_size=10))
+       ys=st.lists(st.floats(-1e4, 1e4, allow_nan=False), max_size=40),
+       halves=st.lists(st.integers(-3, 9), max_size=10))
 def test_lane_of_rows_is_lane_of(lanes, width, ys, halves):
     """``RoadLayout.lane_of_rows`` (the expert's lanes of a state in one
     call) gives ``lane_of``'s int64 lanes, on random positions, lane
@@ -2264,7 +2265,8 @@ def test_lane_of_rows_is_lane_of(lanes, width, ys, halves):
 @settings(max_examples=200, deadline=None)
 @given(ids=st.lists(st.integers(-2**40, 2**40), min_size=1, max_size=60))
 def test_id_range_is_min_and_max(ids):
-    """``sim/_kernels.id_range`` (the slot lookup's bounds of a world's ids, the join plans' table size) is ``(min, max)``."""
+    """``sim/_kernels.id_range`` (the slot lookup's bounds of a world's ids,
+    the join plans' table size) is ``(min, max)``."""
     from icv_envs.sim._kernels import id_range
 
     vid = np.array(ids, dtype=np.int64)

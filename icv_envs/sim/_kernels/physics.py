@@ -12,8 +12,8 @@ import numpy as np
 
 from icv_envs.formation._kernels import clip1
 
-__all__ = ["npy_mod", "lane_of1", "lane_of_rows", "controls_rows", "kinematic_substep", "road_check", "interval_ends", "interval_ends_at",
-           "lanes_available"]
+__all__ = ["npy_mod", "lane_of1", "lane_of_rows", "controls_rows", "kinematic_substep", "road_check", "interval_ends",
+           "interval_ends_at", "lanes_available"]
 
 
 @nb.njit(cache=True, inline="always")
