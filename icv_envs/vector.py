@@ -334,11 +334,12 @@ class BatchedWorlds:
         if acts.shape != (self.num_worlds, self.K, 2):
             raise ValueError(f"actions have shape {acts.shape}; allowed: ({self.num_worlds}, {self.K}, 2)")
         fin = np.isfinite(acts)
-        bad = None if np.count_nonzero(fin) == fin.size else ~fin.all(axis=-1) & self.mask  # (the count first)
-        if bad is not None and np.count_nonzero(bad):
-            b, k = np.argwhere(bad)[0]
-            raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k].tolist()} "
-                             f"holds NaN or inf; allowed: finite values in [-1, 1]")
+        if np.count_nonzero(fin) != fin.size:  # (the count first; the live slots' rows only then)
+            bad = ~fin.all(axis=-1) & self.mask
+            if np.count_nonzero(bad):
+                b, k = np.argwhere(bad)[0]
+                raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k].tolist()} "
+                                 f"holds NaN or inf; allowed: finite values in [-1, 1]")
         self.rewards[:] = 0.0
         self.terminated[:] = False
         self.truncated[:] = False
@@ -349,8 +350,8 @@ class BatchedWorlds:
                 n = len(out.vid)
                 # (compiled: envs/_kernels.scatter_world_rows, the slot assignments in one call)
                 scatter_world_rows(self._obs_flat, self.mask, self.rewards, self.terminated, self.truncated, b,
-                                   self._slots_of_vid(out.vid), out.obs.reshape(n, self._obs_flat.shape[2]), out.rewards,
-                                   out.terminated, out.truncated)
+                                   self._slots_of_vid(out.vid), out.obs.reshape(n, self._obs_flat.shape[2]),
+                                   out.rewards, out.terminated, out.truncated)
             else:
                 self._step_dicts(b, env, acts)
             if episode_finished(env):

@@ -452,13 +452,9 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         trunc = self._truncations(truncated_all, crashed_now)
         # agents that left during the step report their last observation
         # (their state just before they left), reward 0
-        departed = self._departed(events)
-        if departed:
-            departed = sorted(departed.items())
-            gone_vid = np.fromiter((v for v, _ in departed), dtype=np.int64, count=len(departed))
-            gone_obs = self._last_obs_of(gone_vid)
-        else:  # nobody left (most steps; the arrays are made below if someone arrived)
-            departed, gone_vid, gone_obs = [], None, ()
+        departed = sorted(self._departed(events).items())
+        gone_vid = np.fromiter((v for v, _ in departed), dtype=np.int64, count=len(departed))
+        gone_obs = self._last_obs_of(gone_vid)
         if arrays:
             infos = None
             rew = np.array(rew, dtype=np.float64)
@@ -492,8 +488,9 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
             w.remove_crashed_vehicles()
             self._after_removal()
         late = self._spawn_late()
+        late_vid = np.asarray(late, dtype=np.int64)
+        late_obs = np.zeros((0,) + self.observation_space.shape, dtype=np.float32)
         if late:
-            late_vid = np.asarray(late, dtype=np.int64)
             rows2 = np.searchsorted(self._vehicles().vid, late)
             late_obs = self._observe_rows(rows2)
             if not arrays:
@@ -511,11 +508,6 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         else:
             trunc_rows = np.array(trunc, dtype=bool)
         if departed or late:
-            if not departed:
-                gone_vid, gone_obs = np.zeros(0, dtype=np.int64), self._last_obs_of(np.zeros(0, dtype=np.int64))
-            if not late:
-                late_vid = np.zeros(0, dtype=np.int64)
-                late_obs = np.zeros((0,) + self.observation_space.shape, dtype=np.float32)
             out = StepRows(
                 np.concatenate([step_vid, gone_vid, late_vid]),
                 np.concatenate([obs, gone_obs, late_obs]),

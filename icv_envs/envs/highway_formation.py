@@ -535,7 +535,6 @@ class HighwayFormationEnv(IcvAgentsEnv):
         self.controlled_vehicles = [ego] if ego is not None else []
 
 
-
 # the hooks HighwayFormationEnv._post_rows stands for (icv_envs._hooks.own_hooks)
 _POST_HOOKS = hook_table(HighwayFormationEnv, "_features", "_rewards_rows", "_observe_rows", "_neighbours", "_wrap_dx",
                          "_wrap_period", "_obs_scales")

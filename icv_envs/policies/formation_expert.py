@@ -412,7 +412,6 @@ class FormationExpert:
         return self._normalise(acc, phi)
 
 
-
 # the hooks whose kernels compute() runs in one call while they are its own
 # (icv_envs._hooks.own_hooks): the desired lanes, and the longitudinal tail
 _HEAD_HOOKS = hook_table(FormationExpert, "_exit_lanes", "_desired_lanes", "_lane_end_escape")

@@ -220,7 +220,7 @@ class World:
          *totals, missed, i, j, lane, off, at_end, n_off, n_end) = quiet_substeps(
             int(n), tr.x, tr.y, tr.heading, tr.speed, np.asarray(accel, dtype=np.float64),
             np.asarray(steer, dtype=np.float64), tr.crashed, tr.stopped_for, tr.wheelbase, lat, self.dt, self.v_max,
-            road.length if road.periodic else -1.0, tr.vid, tr.length, tr.width, STOPPED_SPEED, *self.motion.moments(),
+            road.length if road.periodic else -1.0, tr.vid, tr.length, tr.width, STOPPED_SPEED, *m.moments(),
             road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi,
             road._ramp_iv, EDGE_MARGIN, np.inf if road.periodic else road.length, exit_id, ex_x, de,
             road.ramp_lane, cx0, float(self.time), *m.totals())
@@ -412,7 +412,7 @@ class World:
             long_stop = tr.stopped_for > JAM_STOP_TIME
             if np.count_nonzero(long_stop):
                 rows = np.flatnonzero(long_stop)
-                gap = self.own_lane_gaps()[0][rows] if tr.n > 1 else np.full(len(rows), np.inf)
+                gap = self._own_lane_gaps_kept()[0][rows] if tr.n > 1 else np.full(len(rows), np.inf)
                 cx, cy = tr.center()
                 lane = self.road.lane_of(cy[rows])
                 to_end = self.road.interval_end(lane, cx[rows]) - cx[rows] - 0.5 * tr.length[rows]

@@ -12,8 +12,8 @@ from icv_envs.formation._kernels import clip1
 from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lane_of1, npy_mod
 
-__all__ = ["nearest_along_road", "kinematics_rows", "formation_feature_rows", "formation_reward_terms", "formation_post_rows",
-           "intersection_feature_rows", "intersection_reward_pre", "intersection_reward_rows"]
+__all__ = ["nearest_along_road", "kinematics_rows", "formation_feature_rows", "formation_reward_terms",
+           "formation_post_rows", "intersection_feature_rows", "intersection_reward_pre", "intersection_reward_rows"]
 
 
 @nb.njit(cache=True)

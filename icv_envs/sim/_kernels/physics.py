@@ -149,11 +149,9 @@ def road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane, ob_
     then it is not off the road. Returns ``(lane, off, at_end, n_off,
     n_at_end)``."""
     n = cx.shape[0]
-    lane = np.empty(n, dtype=np.int64)
     off = np.empty(n, dtype=np.bool_)
     at_end = np.empty(n, dtype=np.bool_)
-    for i in range(n):
-        lane[i] = lane_of1(cy[i], lane_width, total_lanes)
+    lane = lane_of_rows(cy, lane_width, total_lanes)
     ok = lanes_available(lane, cx, n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     n_off = 0
     n_end = 0
