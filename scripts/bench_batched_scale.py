@@ -4,7 +4,7 @@ batched bar): 16 HighwayFormation worlds of K agents, zero actions
 runs timed (50 + 150 batch steps, the last 150 timed); process CPU us per
 world-step. Run from outside the checkout:
 
-    PYTHONPATH=<tree> python bw_scale.py 0|1
+    PYTHONPATH=<tree> python scripts/bench_batched_scale.py 0|1
 """
 import json
 import sys

@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
-# The measurements of stop 39 (README "Speed"), run from /tmp: REF = stop 38's final tree (199ece7),
-# TEST = this stop's; both trees alternately where paired. Usage: measure.sh REF TEST OUT
+# One round of the README's Speed figures (issue 10's bars), run from outside the checkout: REF = the
+# reference tree (the previous stop's final tree), TEST = the tree measured; both trees alternately where
+# paired, every file into OUT. Usage: scripts/measure_speed_round.sh REF TEST OUT
+# (stops 38 and 39: results/bench/stop38/final*, results/bench/stop39/{final,rerun})
 set -u
-REF=$1; TEST=$2; OUT=$3; S=/work/main/scripts
+REF=$1; TEST=$2; OUT=$3; S=$(cd "$(dirname "$0")" && pwd)
+mkdir -p "$OUT" && OUT=$(cd "$OUT" && pwd)
 cd /tmp
 for c in ring batched batched-expert intersection; do
   python $S/bench_trees.py $REF $TEST --case $c --reps 3 --out $OUT/trees_$c.json > $OUT/trees_$c.txt 2>&1

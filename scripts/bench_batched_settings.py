@@ -1,11 +1,11 @@
-"""Batched worlds on settings the stop's figures were not measured on: 8
-worlds of 30 agents, seed 7, uniform random actions in [-0.3, 0.3]
+"""Batched worlds on a setting the benchmarks' figures are not measured on
+(README "Speed": issue 10's batched bars): 8 worlds of 30 agents, seed 7, uniform random actions in [-0.3, 0.3]
 (``0``) or the expert's (``1``), 100 batch steps; the same run made twice
 and the second timed (its own loop, so that trees before stop 38, whose
 ``batched_sps`` timed the first run, are measured the same way). Run from
 outside the checkout, alternately per tree:
 
-    PYTHONPATH=<tree> python other_settings.py 0|1
+    PYTHONPATH=<tree> python scripts/bench_batched_settings.py 0|1
 """
 import json
 import sys
