@@ -2324,3 +2324,32 @@ def test_plan_inputs_rows_is_the_array_code(n, periodic, seed):
                            road.length if periodic else -1.0)
     for g, w in zip(got, want):
         assert g.tobytes() == w.tobytes()
+
+
+@settings(max_examples=300, deadline=None)
+@given(n=st.integers(1, 40), K=st.integers(0, 12), grid=st.booleans(), pd=st.sampled_from([0.5, 3.0, 30.0, 100.0, np.inf]),
+       nan=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_nearest_euclidean_is_a_sort_by_distance_then_row(n, K, grid, pd, nan, seed):
+    """The intersection observation's neighbours: per query row the first
+    ``K`` others by (np.hypot distance, row) within ``pd``; a grid of
+    integer positions makes exact ties common (formations spawn symmetric
+    about a vehicle); NaN positions are never neighbours."""
+    from icv_envs.sim._kernels import nearest_euclidean
+
+    rng = np.random.default_rng(seed)
+    x = rng.integers(-3, 4, n).astype(float) if grid else rng.uniform(-50, 50, n)
+    y = rng.integers(-3, 4, n).astype(float) if grid else rng.uniform(-50, 50, n)
+    if nan:
+        x[rng.integers(0, n)] = np.nan
+    K = min(K, n - 1)
+    rows = rng.permutation(n)[:rng.integers(0, n + 1)].astype(np.int64)
+    sel, present = nearest_euclidean(x, y, rows, K, pd)
+    assert sel.shape == present.shape == (len(rows), K)
+    for r, o in enumerate(rows):
+        d = np.hypot(x - x[o], y - y[o])
+        ok = (np.arange(n) != o) & (d <= pd)
+        cand = np.flatnonzero(ok)
+        want = cand[np.lexsort((cand, d[cand]))][:K]
+        assert present[r].sum() == len(want)
+        assert not present[r, len(want):].any()
+        np.testing.assert_array_equal(sel[r, :len(want)], want)

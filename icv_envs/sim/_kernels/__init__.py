@@ -76,7 +76,8 @@ from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs,
                                               leader_rows, own_lane_gap_rows)
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_post_rows, formation_reward_terms,
                                                intersection_feature_rows, intersection_reward_pre,
-                                               intersection_reward_rows, kinematics_rows, nearest_along_road)
+                                               intersection_reward_rows, kinematics_rows, nearest_along_road,
+                                               nearest_euclidean)
 from icv_envs.sim._kernels.physics import (controls_rows, npy_mod, kinematic_substep, road_check, interval_ends,
                                            lanes_available)
 from icv_envs.sim._kernels.stats import (pairwise_sum, motion_record, motion_sums_add, headway_record, pet_transitions,
@@ -97,6 +98,7 @@ __all__ = [
     "leader_rows",
     "own_lane_gap_rows",
     "nearest_along_road",
+    "nearest_euclidean",
     "intersection_feature_rows",
     "intersection_reward_pre",
     "intersection_reward_rows",

@@ -12,7 +12,7 @@ from icv_envs.formation._kernels import clip1
 from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lane_of1, npy_mod
 
-__all__ = ["nearest_along_road", "kinematics_rows", "formation_feature_rows", "formation_reward_terms",
+__all__ = ["nearest_along_road", "nearest_euclidean", "kinematics_rows", "formation_feature_rows", "formation_reward_terms",
            "formation_post_rows", "intersection_feature_rows", "intersection_reward_pre", "intersection_reward_rows"]
 
 
@@ -76,6 +76,52 @@ def nearest_along_road(cx, rows, K, pd, periodic, length):
         for q in range(K):
             sel[r, q] = cand[pick[q]]
             present[r, q] = np.isfinite(dist[pick[q]])
+    return sel, present
+
+
+@nb.njit(cache=True)
+def nearest_euclidean(x, y, rows, K, pd):
+    """The intersection observation's neighbour search
+    (:meth:`icv_envs.envs.intersection.IntersectionEnv._neighbours`)
+    compiled: for each query row ``o``, the ``K`` vehicles nearest by
+    ``hypot(x - x[o], y - y[o])`` (the observer itself and vehicles farther
+    than ``pd`` excluded), nearest first, ties by row (the array code left
+    the order of exact ties to ``np.argpartition``'s selection). One pass
+    per row keeps a sorted buffer of the ``K`` best. Returns ``(sel,
+    present)`` of shape ``(len(rows), K)``; absent slots hold row 0 and
+    ``present`` False (the ``Kinematics`` rows skip them)."""
+    n = x.shape[0]
+    m = rows.shape[0]
+    sel = np.zeros((m, K), dtype=np.int64)
+    present = np.zeros((m, K), dtype=np.bool_)
+    best = np.empty(K)
+    for r in range(m):
+        o = rows[r]
+        x0 = x[o]
+        y0 = y[o]
+        cnt = 0
+        for j in range(n):
+            if j == o:
+                continue
+            d = np.hypot(x[j] - x0, y[j] - y0)
+            if not d <= pd:  # (farther than pd, or NaN: absent, as inf was)
+                continue
+            if cnt == K and d >= best[K - 1]:
+                continue
+            # insert after every kept entry with a distance <= d (rows come in
+            # ascending order: ties stay by row)
+            q = cnt if cnt < K else K - 1
+            while q > 0 and best[q - 1] > d:
+                if q < K:
+                    best[q] = best[q - 1]
+                    sel[r, q] = sel[r, q - 1]
+                q -= 1
+            best[q] = d
+            sel[r, q] = j
+            if cnt < K:
+                cnt += 1
+        for q in range(cnt):
+            present[r, q] = True
     return sel, present
 
 
