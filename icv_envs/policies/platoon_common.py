@@ -70,7 +70,7 @@ class Corridors:
         box = rs.phase == 1
         early = box & (rs.s < diverge)
         dep = (rs.phase == 2) | (box & (rs.s > rs.L - diverge))
-        if dep.any():
+        if np.count_nonzero(dep):
             ex = np.where(f.exit_leg >= 0, f.exit_leg, lay.exit_of[f.mv])
             dep_corr = (12 + 3 * ex + lay.dlane[rs.pid]).astype(np.int64)
         else:

@@ -125,8 +125,8 @@ class PlatoonControl:
             cap[st] = np.minimum(cap[st], a_st)
         box = (rs.phase == 1) & (cap < acc_ref - 0.5)
         other = box & (cap_other < acc_ref - 0.5)
-        self.stats["envelope_box_binding"] += int(other.sum())
-        self.stats["envelope_box_binding_member"] += int((box & ~other).sum())
+        self.stats["envelope_box_binding"] += np.count_nonzero(other)
+        self.stats["envelope_box_binding_member"] += np.count_nonzero(box & ~other)
         return cap
 
     def _envelope_pairs(self, f, rs, cor, in_box: bool, cap, cap_other) -> int:

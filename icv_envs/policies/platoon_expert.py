@@ -340,7 +340,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         lay = world.layout
         stuck = ((rs.phase == 0) & (f.lc_lane < 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
                  & (f.klane != f.tlane))
-        if not stuck.any():
+        if not np.count_nonzero(stuck):
             return rs
         served = lay.allowed[f.mv, uclip(f.klane, 0, 2)]
         # in a lane that serves its movement (not the expected one): it keeps it
@@ -438,7 +438,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         others then yield to (a phantom reservation, issue 9)."""
         vids = np.asarray(vids)
         mask = np.asarray(mask, dtype=bool)
-        self._plan_vids = None if mask.all() else set(vids[mask].tolist())
+        self._plan_vids = None if np.count_nonzero(mask) == len(mask) else set(vids[mask].tolist())
 
     def _signals(self, f, want: bool = True) -> np.ndarray:
         """Lane each vehicle is listed in besides its own (its lane change's

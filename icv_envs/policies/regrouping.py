@@ -57,7 +57,7 @@ class Regrouping:
             moving = set(f.vid[f.speed >= 0.5].tolist())
             for vid in [v for v, b in self._yield.items() if v not in alive or b not in moving]:
                 del self._yield[vid]
-        if not need.any():
+        if not np.count_nonzero(need):
             return
         rows = flatnonzero(need)
         # vehicles in division start only near their slot; one that is
@@ -67,7 +67,7 @@ class Regrouping:
         yielding = np.fromiter((v in yv for v in f.vid[rows].tolist()), dtype=bool, count=len(rows))
         ready = np.ones(len(rows), dtype=bool)
         dv = f.stage[rows] == ST_LC
-        if dv.any():
+        if np.count_nonzero(dv):
             err = self._slot_error(world, rs, rows[dv])
             ready[dv] = (np.abs(err) < p.slot_tolerance) | (yielding[dv] & (err < p.slot_tolerance))
         nxt = f.klane[rows] + np.sign(f.tlane[rows] - f.klane[rows])
@@ -384,7 +384,7 @@ class Regrouping:
             return [], [], [], []
         members = [S["members"] for S in subs]
         sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(subs))
-        if not sizes.all():
+        if np.count_nonzero(sizes) < len(sizes):
             raise ValueError(f"sub-formation {sids[int(np.argmin(sizes))]} has no members")
         rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
         d = rs.dist[rows]

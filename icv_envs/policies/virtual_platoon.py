@@ -143,7 +143,7 @@ class VirtualPlatoon:
         lr, _, _, _ = cor.neighbours(rows, 3 * f.leg[rows] + rs.lane[rows], rs.s[rows])
         lr0 = np.maximum(lr, 0)
         bad = (lr >= 0) & (f.node[lr0] != f.node[rows]) & (rs.phase[lr0] == 0)
-        if not bad.any():
+        if not np.count_nonzero(bad):
             return
         # only a foreign vehicle between the node's first vehicle and this member counts
         ids, mr, seg, _ = self._member_rows(f)
@@ -152,7 +152,7 @@ class VirtualPlatoon:
         first_d = dict(zip(ids, dmin.tolist()))
         fd = np.array([first_d.get(int(nd), np.inf) for nd in f.node[rows]])
         bad &= (rs.dist[lr0] > fd + 1e-9) & (rs.dist[rows] > fd + 1e-9)
-        if not bad.any():
+        if not np.count_nonzero(bad):
             return
         for nid in sorted(set(f.node[rows[bad]].tolist())):
             N = self.nodes.get(nid)
@@ -221,7 +221,7 @@ class VirtualPlatoon:
             r = f.rows(self.nodes[k]["members"])
             r = r[r >= 0]
             i0 = r[np.argmin(rs.dist[r])]
-            info[k] = (float(rs.dist[i0]), float(rs.X[i0]), float(f.speed[i0]), bool((rs.phase[r] > 0).any()))
+            info[k] = (float(rs.dist[i0]), float(rs.X[i0]), float(f.speed[i0]), np.count_nonzero(rs.phase[r] > 0) > 0)
         pos = next((i for i, k in enumerate(order) if info[k][0] > d_new), len(order))
         b = abs(self.p.comfort[0])
         j = pos
@@ -326,7 +326,7 @@ class VirtualPlatoon:
         hold = np.zeros(n, dtype=bool)  # the bound is violated: stop before the box
         # formation following (approach / adjusting zones, and followers of nodes before R1)
         fol = (f.ref >= 0) & (f.node < 0)
-        if fol.any():
+        if np.count_nonzero(fol):
             k = flatnonzero(fol)
             # safety net: two vehicles referring to each other (must not
             # happen): the nearer one drops its reference.  A follower ahead
@@ -526,18 +526,18 @@ class VirtualPlatoon:
         # deepening (nodes of other legs enter first) still reaches R1 in
         # bounded time and waits there the rest, as before
         slow = (H > room) & (p.advisory_speed_floor < p.v0)
-        if not (hold.any() or slow.any()):
+        if not (np.count_nonzero(hold) or np.count_nonzero(slow)):
             return
         L = np.maximum(rs.dist[cand] - lay.R1, 0.0)
         v_adv = np.maximum(p.v0 * L / (L + np.maximum(H, 1e-9)), p.advisory_speed_floor)
-        if slow.any():
+        if np.count_nonzero(slow):
             ks = cand[slow]
             mode[ks] = MODE_TREE
             xref[ks] = rs.X[ks]  # no position error: the feedback law tracks the advised speed
             vref[ks] = v_adv[slow]
             self._advised = (ks, v_adv[slow], H[slow])
             self.stats["advised"] += len(ks)
-        if not hold.any():
+        if not np.count_nonzero(hold):
             return
         k = cand[hold]
         mode[k] = MODE_TREE

@@ -62,6 +62,7 @@ from icv_envs.sim.intersection_metrics import (
 )
 from icv_envs.sim._kernels.frames import intersection_frames
 from icv_envs.sim._kernels.intersection import box_collision_pairs, route_rows, rows_of_ids
+from icv_envs.sim._kernels.stats import motion_sums_add
 from icv_envs._ufuncs import clip as uclip, flatnonzero
 
 __all__ = [
@@ -234,7 +235,7 @@ class IntersectionWorld:
         of collisions (:class:`~icv_envs.sim.intersection_metrics.FaultStats`)."""
         vids = np.asarray(vids)
         em = np.asarray(expert_mask, dtype=bool)
-        self._expert_vids = None if em.all() else set(vids[em].tolist())
+        self._expert_vids = None if np.count_nonzero(em) == len(em) else set(vids[em].tolist())
 
     # the highway env's code calls the fleet "traffic"
     @property
@@ -330,23 +331,37 @@ class IntersectionWorld:
             JAM_SECONDS)
         stt = self.stats
         nv = f.n
-        # the clock, the run statistics and the PET events, frame by frame as single steps add them
-        tf = trans[:, 0].tolist()
-        q = 0
-        for fr in range(ran):
-            self.time += self.dt
-            self.step_count += 1
-            sv, sa = float(sums[fr, 0]), float(sums[fr, 2])
-            stt["vehicle_steps"] += nv
-            stt["speed_sum"] += sv
-            stt["abs_accel_sum"] += sa
-            self.motion.add(nv, sv, float(sums[fr, 1]), sa, int(stopped[fr]), self.dt)
-            stt["min_speed_in_box"] = min(stt["min_speed_in_box"], float(min_box[fr]))
-            q1 = q
-            while q1 < len(tf) and tf[q1] == fr:
-                q1 += 1
-            self.pet.apply(self.time, busy, trans[q:q1, 1:])
-            q = q1
+        # the clock, the run statistics and the PET events, frame by frame as
+        # single steps add them (the same additions of the same doubles, in
+        # order; the motion accumulators in one compiled pass,
+        # sim/_kernels.motion_sums_add, as MotionStats.add adds them)
+        m = self.motion
+        m.set_totals(*motion_sums_add(ran, nv, sums, stopped, self.dt, *m.totals()))
+        dt = self.dt
+        t = self.time
+        times = []
+        ss, sa, mn = stt["speed_sum"], stt["abs_accel_sum"], stt["min_speed_in_box"]
+        for (sv, _, a), mb in zip(sums[:ran].tolist(), min_box[:ran].tolist()):
+            t += dt
+            times.append(t)
+            ss += sv
+            sa += a
+            mn = min(mn, mb)
+        self.time = t
+        self.step_count += ran
+        stt["vehicle_steps"] += nv * ran
+        stt["speed_sum"], stt["abs_accel_sum"], stt["min_speed_in_box"] = ss, sa, mn
+        if len(trans):
+            tf = trans[:, 0].tolist()
+            q = 0
+            for fr in range(ran):
+                q1 = q
+                while q1 < len(tf) and tf[q1] == fr:
+                    q1 += 1
+                self.pet.apply(times[fr], busy, trans[q:q1, 1:])
+                q = q1
+        else:  # no PET events: the occupancy only
+            self.pet.apply(t, busy, trans[:, 1:])
         self._route = None
         if not event:
             return int(ran)

@@ -94,6 +94,8 @@ def nearest_euclidean(x, y, rows, K, pd):
     m = rows.shape[0]
     sel = np.zeros((m, K), dtype=np.int64)
     present = np.zeros((m, K), dtype=np.bool_)
+    if K <= 0:
+        return sel, present
     best = np.empty(K)
     for r in range(m):
         o = rows[r]
@@ -103,7 +105,13 @@ def nearest_euclidean(x, y, rows, K, pd):
         for j in range(n):
             if j == o:
                 continue
-            d = np.hypot(x[j] - x0, y[j] - y0)
+            dx = x[j] - x0
+            dy = y[j] - y0
+            # (hypot is at least the larger leg, rounded or not: a leg beyond
+            # pd decides without it)
+            if abs(dx) > pd or abs(dy) > pd:
+                continue
+            d = np.hypot(dx, dy)
             if not d <= pd:  # (farther than pd, or NaN: absent, as inf was)
                 continue
             if cnt == K and d >= best[K - 1]:
