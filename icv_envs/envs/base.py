@@ -452,9 +452,13 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         trunc = self._truncations(truncated_all, crashed_now)
         # agents that left during the step report their last observation
         # (their state just before they left), reward 0
-        departed = sorted(self._departed(events).items())
-        gone_vid = np.fromiter((v for v, _ in departed), dtype=np.int64, count=len(departed))
-        gone_obs = self._last_obs_of(gone_vid)
+        departed = self._departed(events)
+        if departed:
+            departed = sorted(departed.items())
+            gone_vid = np.fromiter((v for v, _ in departed), dtype=np.int64, count=len(departed))
+            gone_obs = self._last_obs_of(gone_vid)
+        else:  # nobody left (most steps)
+            departed, gone_vid, gone_obs = [], None, ()
         if arrays:
             infos = None
             rew = np.array(rew, dtype=np.float64)
@@ -488,8 +492,7 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
             w.remove_crashed_vehicles()
             self._after_removal()
         late = self._spawn_late()
-        late_vid = np.asarray(late, dtype=np.int64)
-        late_obs = np.zeros((0,) + self.observation_space.shape, dtype=np.float32)
+        late_obs = None
         if late:
             rows2 = np.searchsorted(self._vehicles().vid, late)
             late_obs = self._observe_rows(rows2)
@@ -508,6 +511,12 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         else:
             trunc_rows = np.array(trunc, dtype=bool)
         if departed or late:
+            late_vid = np.asarray(late, dtype=np.int64)
+            empty = np.zeros((0,) + self.observation_space.shape, dtype=np.float32)
+            if gone_vid is None:
+                gone_vid, gone_obs = np.zeros(0, dtype=np.int64), empty
+            if late_obs is None:
+                late_obs = empty
             out = StepRows(
                 np.concatenate([step_vid, gone_vid, late_vid]),
                 np.concatenate([obs, gone_obs, late_obs]),
