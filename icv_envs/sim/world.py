@@ -216,8 +216,7 @@ class World:
         m = self.motion
         # (the clock and the run statistics advance inside, substep by
         # substep as substep() adds them: the same additions of the same doubles)
-        (k, event, tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy, cx_before, self.time,
-         *totals, missed, i, j, lane, off, at_end, n_off, n_end) = quiet_substeps(
+        (k, event, S, self.time, *totals, missed, E, m_pairs, n_off, n_end) = quiet_substeps(
             int(n), tr.x, tr.y, tr.heading, tr.speed, np.asarray(accel, dtype=np.float64),
             np.asarray(steer, dtype=np.float64), tr.crashed, tr.stopped_for, tr.wheelbase, lat, self.dt, self.v_max,
             road.length if road.periodic else -1.0, tr.vid, tr.length, tr.width, STOPPED_SPEED, *m.moments(),
@@ -227,8 +226,13 @@ class World:
         m.set_totals(*totals)
         self.stats["missed_exits"] += int(missed)
         self._index = None
+        # (the state as row views of one array, the events unpacked only when there are some)
+        tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy, cx_before = S
         cx, cy = tr.set_center(cx, cy)
         if event:
+            q = 2 * m_pairs
+            i, j, lane = E[:m_pairs], E[m_pairs:q], E[q:q + nv]
+            off, at_end = E[q + nv:q + 2 * nv] != 0, E[q + 2 * nv:q + 3 * nv] != 0
             self._substep_events(events, cx, cy, cx_before if road.n_exits else None, i, j, lane, off, at_end,
                                  n_off, n_end)
         return int(k)
