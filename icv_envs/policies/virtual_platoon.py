@@ -370,8 +370,7 @@ class VirtualPlatoon:
         if self.nodes:
             ids, depths, T = self.tree(world, rs)
             self.node_order = ids
-            for k, nid in enumerate(ids):
-                self.node_depth[nid] = int(depths[k + 1])
+            self.node_depth = dict(zip(ids, depths[1:].tolist()))
             _, rows_all, kk, _ = self._member_rows(f, ids)
             live = ~f.cleared[rows_all]
             rows_all, kk = rows_all[live], kk[live]
