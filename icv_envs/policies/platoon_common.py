@@ -35,50 +35,44 @@ class Corridors:
     BIG = 1.0e5
 
     def __init__(self, world, rs, signal_lane, diverge: float = 10.0) -> None:
-        (appr, lane, lat_leg, reach, w, leg, s, box, pid, early, plane0, dep, dep_corr, L) = self._inputs(world, rs,
-                                                                                                     diverge)
         # the entries (listed in the order of the class docstring; of two
         # entries of one vehicle in one corridor, only a signal can repeat a
         # physical one, and the physical one is kept), sorted by key then
         # row; ``lead``: the entry index of each entry's leader (-1 none)
+        (phase, lane, lat_leg, sin_dh, cos_dh, length, width, w, leg, s, pid, plane, L, exit_leg, exit_of, mv,
+         dlane) = self._inputs(world, rs)
         self.rows, self.corr, self.coord, self.keys, self.signal_only, self.lead = corridor_index(
-            appr, lane, lat_leg, reach, w, leg, s, np.asarray(signal_lane, dtype=np.int64), box, pid, early, plane0,
-            dep, dep_corr, L, self.BIG)
+            phase, lane, lat_leg, sin_dh, cos_dh, length, width, w, leg, s, np.asarray(signal_lane, dtype=np.int64),
+            pid, plane, L, float(diverge), exit_leg, exit_of, mv, dlane, self.BIG)
 
     @staticmethod
-    def _inputs(world, rs, diverge: float) -> tuple:
-        """The index's per-vehicle inputs but the signals, computed once per
+    def _inputs(world, rs) -> tuple:
+        """The index's per-vehicle inputs but the signals, gathered once per
         route state (the experts and the env build two to four indices of
         one state a step, with different signals), kept as :meth:`plain` is
-        (:meth:`_state_cache`)."""
-        f = world.fleet
-        n = f.n
+        (:meth:`_state_cache`); the rest of the per-vehicle work (the
+        footprint's reach, the box and departure flags, the departure
+        corridor) is :func:`~icv_envs.policies._kernels.corridor_index`'s."""
         cache = Corridors._state_cache(world, rs)
-        if ("inputs", diverge) in cache:
-            return cache["inputs", diverge]
+        if "inputs" in cache:
+            return cache["inputs"]
+        f = world.fleet
         lay = world.layout
-        w = lay.lane_width
-        appr = rs.phase == 0
-        # half the footprint's lateral extent, heading included: a vehicle
-        # stopped at an angle in the middle of a lane change reaches further
-        # into the lane it leaves than its width says (single-vp, 4500 veh/h,
-        # seed 0: the follower in that lane, no longer seeing it with the
-        # former 0.3 m slack on the width, hit its rear corner)
-        ad = lay.app_dir[f.leg]
-        dh = f.heading - np.arctan2(ad[:, 1], ad[:, 0]) if n else np.zeros(0)
-        reach = 0.5 * w + 0.5 * (f.length * np.abs(np.sin(dh)) + f.width * np.abs(np.cos(dh)))
-        box = rs.phase == 1
-        early = box & (rs.s < diverge)
-        dep = (rs.phase == 2) | (box & (rs.s > rs.L - diverge))
-        if np.count_nonzero(dep):
-            ex = np.where(f.exit_leg >= 0, f.exit_leg, lay.exit_of[f.mv])
-            dep_corr = (12 + 3 * ex + lay.dlane[rs.pid]).astype(np.int64)
-        else:
-            dep_corr = np.zeros(n, dtype=np.int64)
-        out = (appr, rs.lane.astype(np.int64, copy=False), rs.lat_leg, reach, float(w),
-               f.leg.astype(np.int64, copy=False), rs.s, box, rs.pid.astype(np.int64, copy=False), early,
-               np.maximum(f.plane, 0).astype(np.int64, copy=False), dep, dep_corr, rs.L)
-        cache["inputs", diverge] = out
+        # the heading relative to the approach direction, whose sine and cosine
+        # give the footprint's lateral reach: a vehicle stopped at an angle in
+        # the middle of a lane change reaches further into the lane it leaves
+        # than its width says (single-vp, 4500 veh/h, seed 0: the follower in
+        # that lane, no longer seeing it with the former 0.3 m slack on the
+        # width, hit its rear corner). (The approach directions' angles per
+        # leg, IntersectionLayout.app_angle: arctan2 of the axis-aligned unit
+        # vectors, exact values, so the same numbers as per vehicle.)
+        dh = f.heading - lay.app_angle[f.leg]
+        i64 = np.int64
+        out = (rs.phase.astype(i64, copy=False), rs.lane.astype(i64, copy=False), rs.lat_leg, np.sin(dh), np.cos(dh),
+               f.length, f.width, float(lay.lane_width), f.leg.astype(i64, copy=False), rs.s,
+               rs.pid.astype(i64, copy=False), f.plane.astype(i64, copy=False), rs.L,
+               f.exit_leg.astype(i64, copy=False), lay.exit_of, f.mv.astype(i64, copy=False), lay.dlane)
+        cache["inputs"] = out
         return out
 
     @staticmethod

@@ -116,6 +116,9 @@ class IntersectionLayout:
         self.departure_length = dl
         self.out = _OUT.copy()
         self.app_dir = -_OUT
+        # the approach directions' angles (exact: arctan2 of axis-aligned unit vectors)
+        self.app_angle = np.arctan2(self.app_dir[:, 1], self.app_dir[:, 0])
+        self.app_angle.setflags(write=False)
         self.app_right = _right_of(self.app_dir)
         self.dep_right = _right_of(_OUT)
         self.allowed = np.zeros((12, N_LANES), dtype=bool)

@@ -19,15 +19,36 @@ __all__ = ["corridor_index", "corridor_neighbours"]
 
 
 @nb.njit(cache=True)
-def corridor_index(appr, lane, lat_leg, reach, w, leg, s, signal_lane, box, pid, early, plane0, dep, dep_corr,
-                   L, big):
+def corridor_index(phase, lane, lat_leg, sin_dh, cos_dh, length, width, w, leg, s, signal_lane, pid, plane, L,
+                   diverge, exit_leg, exit_of, mv, dlane, big):
     """Entries ``(rows, corr, coord, keys, signal_only, lead)`` of the corridor index, sorted by key then
-    row. Candidate entries in the order of the numpy code: the approach lanes ``lane - 1, lane,
-    lane + 1`` the footprint reaches into (``|lat_leg - (ln + 0.5) w| < reach``), the signal lane, the
-    path of an in-box vehicle, its approach lane over its first metres (``early``), the departure lane
-    (``dep``); of two entries of one vehicle in one corridor the first is kept (a vehicle whose body
-    covers its signal lane is listed there physically)."""
-    n = appr.shape[0]
+    row. Per vehicle first, as the numpy code computed them: on the approach (``phase`` 0) the
+    footprint's lateral reach ``w/2 + (length |sin dh| + width |cos dh|) / 2`` (``dh`` the heading
+    relative to the approach direction; its sine and cosine from numpy), in the box (``phase`` 1)
+    over its first ``diverge`` metres (``early``), departed (``phase`` 2) or within ``diverge`` of
+    the box's exit edge (``dep``, corridor ``12 + 3 exit + dlane[pid]``, the exit its own leg or
+    its movement's). Candidate entries in the order of the numpy code: the approach lanes
+    ``lane - 1, lane, lane + 1`` the footprint reaches into (``|lat_leg - (ln + 0.5) w| < reach``),
+    the signal lane, the path of an in-box vehicle, its approach lane over its first metres
+    (``early``, lane ``max(plane, 0)``), the departure lane (``dep``); of two entries of one
+    vehicle in one corridor the first is kept (a vehicle whose body covers its signal lane is
+    listed there physically)."""
+    n = phase.shape[0]
+    appr = np.empty(n, dtype=np.bool_)
+    box = np.empty(n, dtype=np.bool_)
+    early = np.empty(n, dtype=np.bool_)
+    dep = np.empty(n, dtype=np.bool_)
+    reach = np.empty(n)
+    dep_corr = np.zeros(n, dtype=np.int64)
+    for i in range(n):
+        appr[i] = phase[i] == 0
+        box[i] = phase[i] == 1
+        reach[i] = 0.5 * w + 0.5 * (length[i] * abs(sin_dh[i]) + width[i] * abs(cos_dh[i]))
+        early[i] = box[i] and s[i] < diverge
+        dep[i] = phase[i] == 2 or (box[i] and s[i] > L[i] - diverge)
+        if dep[i]:
+            ex = exit_leg[i] if exit_leg[i] >= 0 else exit_of[mv[i]]
+            dep_corr[i] = 12 + 3 * ex + dlane[pid[i]]
     cap = 7 * n + 1
     rows = np.empty(cap, dtype=np.int64)
     corr = np.empty(cap, dtype=np.int64)
@@ -58,7 +79,7 @@ def corridor_index(appr, lane, lat_leg, reach, w, leg, s, signal_lane, box, pid,
     for i in range(n):
         if early[i]:
             rows[m] = i
-            corr[m] = 3 * leg[i] + plane0[i]
+            corr[m] = 3 * leg[i] + max(plane[i], 0)
             coord[m] = s[i]
             m += 1
     for i in range(n):
