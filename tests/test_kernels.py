@@ -2353,3 +2353,40 @@ def test_nearest_euclidean_is_a_sort_by_distance_then_row(n, K, grid, pd, nan, s
         assert present[r].sum() == len(want)
         assert not present[r, len(want):].any()
         np.testing.assert_array_equal(sel[r, :len(want)], want)
+
+
+def _numpy_corridor_leaders(lead, rows, coord, length, speed, n):
+    """The intersection env's ``_leaders`` array code (before stop 40)."""
+    gap = np.full(n, np.inf)
+    dv = np.zeros(n)
+    e = np.flatnonzero(lead >= 0)
+    if len(e):
+        me = rows[e]
+        ld = rows[lead[e]]
+        g = coord[lead[e]] - coord[e] - 0.5 * (length[me] + length[ld])
+        np.minimum.at(gap, me, g)
+        o = np.lexsort((g, me))
+        me_o, first = me[o], np.ones(len(o), dtype=bool)
+        first[1:] = me_o[1:] != me_o[:-1]
+        pick = o[first]
+        dv[me[pick]] = speed[me[pick]] - speed[ld[pick]]
+    return gap, dv
+
+
+@settings(max_examples=300, deadline=None)
+@given(n=st.integers(1, 30), m=st.integers(0, 80), grid=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_corridor_leaders_is_the_array_code(n, m, grid, seed):
+    """Random corridor entries (several per vehicle, leaders anywhere, -1
+    for none); integer coordinates and lengths make equal gaps common."""
+    from icv_envs.sim._kernels import corridor_leaders
+
+    rng = np.random.default_rng(seed)
+    rows = rng.integers(0, n, m)
+    lead = np.where(rng.random(m) < 0.7, rng.integers(0, max(m, 1), m), -1) if m else np.zeros(0, dtype=np.int64)
+    coord = rng.integers(-5, 5, m).astype(float) if grid else rng.normal(0, 30, m)
+    length = rng.integers(4, 6, n).astype(float) if grid else rng.uniform(3, 12, n)
+    speed = rng.uniform(0, 15, n)
+    got = corridor_leaders(lead.astype(np.int64), rows.astype(np.int64), coord, length, speed, n)
+    want = _numpy_corridor_leaders(lead, rows, coord, length, speed, n)
+    for a, b in zip(got, want):
+        assert a.tobytes() == b.tobytes()

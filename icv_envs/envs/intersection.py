@@ -53,9 +53,9 @@ from icv_envs.platoon.geometry import LEGS, movement_name
 from icv_envs.policies.fcfs import FcfsExpert
 from icv_envs.policies.platoon_expert import Corridors, PlatoonExpert, PlatoonParams
 from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents, validate_radii
-from icv_envs.sim._kernels import (intersection_feature_rows, intersection_reward_pre, intersection_reward_rows,
-                                   nearest_euclidean)
-from icv_envs._ufuncs import clip as uclip, flatnonzero
+from icv_envs.sim._kernels import (corridor_leaders, intersection_feature_rows, intersection_reward_pre,
+                                   intersection_reward_rows, nearest_euclidean)
+from icv_envs._ufuncs import clip as uclip
 
 __all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "OBS_EXTRA_FEATURES", "MAX_THROUGHPUT"]
 
@@ -424,25 +424,15 @@ class IntersectionEnv(IntersectionReport, IntersectionRendering, IcvAgentsEnv):
             return cached[1]
         w = self.world
         f = w.fleet
-        gap = np.full(f.n, np.inf)
-        dv = np.zeros(f.n)
-        self._leaders_cache = (key, (gap, dv))
         if f.n < 2:
-            return gap, dv
-        cor = Corridors.plain(w, w.route())
-        e = flatnonzero(cor.lead >= 0)
-        if len(e):
-            me = cor.rows[e]
-            ld = cor.rows[cor.lead[e]]
-            g = cor.coord[cor.lead[e]] - cor.coord[e] - 0.5 * (f.length[me] + f.length[ld])
-            np.minimum.at(gap, me, g)
-            # the leader of the smallest gap (ties: the first corridor listed)
-            o = np.lexsort((g, me))
-            me_o, first = me[o], np.ones(len(o), dtype=bool)
-            first[1:] = me_o[1:] != me_o[:-1]
-            pick = o[first]
-            dv[me[pick]] = f.speed[me[pick]] - f.speed[ld[pick]]
-        return gap, dv
+            out = (np.full(f.n, np.inf), np.zeros(f.n))
+        else:
+            # (compiled: sim/_kernels.corridor_leaders; the leader of the smallest gap, ties: the first
+            # corridor listed)
+            cor = Corridors.plain(w, w.route())
+            out = corridor_leaders(cor.lead, cor.rows, cor.coord, f.length, f.speed, f.n)
+        self._leaders_cache = (key, out)
+        return out
 
     def global_state(self, slots: list[str]) -> np.ndarray:
         """One row per possible agent (slot order), absolute normalised features, zeros for absent vehicles."""

@@ -77,7 +77,7 @@ from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs,
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_post_rows, formation_reward_terms,
                                                intersection_feature_rows, intersection_reward_pre,
                                                intersection_reward_rows, kinematics_rows, nearest_along_road,
-                                               nearest_euclidean)
+                                               nearest_euclidean, corridor_leaders)
 from icv_envs.sim._kernels.physics import (controls_rows, npy_mod, kinematic_substep, road_check, interval_ends,
                                            lanes_available)
 from icv_envs.sim._kernels.stats import (pairwise_sum, motion_record, motion_sums_add, headway_record, pet_transitions,
@@ -99,6 +99,7 @@ __all__ = [
     "own_lane_gap_rows",
     "nearest_along_road",
     "nearest_euclidean",
+    "corridor_leaders",
     "intersection_feature_rows",
     "intersection_reward_pre",
     "intersection_reward_rows",

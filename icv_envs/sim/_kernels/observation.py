@@ -12,7 +12,7 @@ from icv_envs.formation._kernels import clip1
 from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lane_of1, npy_mod
 
-__all__ = ["nearest_along_road", "nearest_euclidean", "kinematics_rows", "formation_feature_rows", "formation_reward_terms",
+__all__ = ["nearest_along_road", "nearest_euclidean", "corridor_leaders", "kinematics_rows", "formation_feature_rows", "formation_reward_terms",
            "formation_post_rows", "intersection_feature_rows", "intersection_reward_pre", "intersection_reward_rows"]
 
 
@@ -131,6 +131,36 @@ def nearest_euclidean(x, y, rows, K, pd):
         for q in range(cnt):
             present[r, q] = True
     return sel, present
+
+
+@nb.njit(cache=True)
+def corridor_leaders(lead, rows, coord, length, speed, n):
+    """Per vehicle (``n`` rows): the bumper gap to its nearest leader over
+    the corridors it is listed in and its speed minus that leader's, from a
+    corridor index's entries (``rows``, ``coord``, ``lead`` the entry of each
+    entry's leader, -1 none; :class:`icv_envs.policies.platoon_common.Corridors`):
+    ``coord[lead] - coord - (length[me] + length[leader]) / 2`` per entry,
+    the least per vehicle (inf without a leader; of equal gaps the first
+    entry's leader, as the array code's stable sort chose), ``dv`` 0 without
+    one. The intersection env's ``_leaders``; the array code it replaced is
+    its reference in ``tests/test_kernels.py``."""
+    gap = np.full(n, np.inf)
+    dv = np.zeros(n)
+    best = np.full(n, -1, dtype=np.int64)
+    for e in range(lead.shape[0]):
+        k = lead[e]
+        if k < 0:
+            continue
+        me = rows[e]
+        ld = rows[k]
+        g = coord[k] - coord[e] - 0.5 * (length[me] + length[ld])
+        if best[me] < 0 or g < gap[me]:
+            gap[me] = g
+            best[me] = ld
+    for i in range(n):
+        if best[i] >= 0:
+            dv[i] = speed[i] - speed[best[i]]
+    return gap, dv
 
 
 @nb.njit(cache=True)
