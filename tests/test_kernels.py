@@ -1356,6 +1356,9 @@ def test_formation_post_rows_kernel_on_a_ring(seed):
     else:
         sel, present = np.zeros((n, 0), dtype=np.int64), np.zeros((n, 0), dtype=bool)
     obs = kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, *flags, L)
+    T, member_q, obs_got = got  # (the float terms as rows of one array)
+    assert T.shape == (5, n)
+    got = (T[0], T[1], T[2], T[3], member_q, T[4], obs_got)
     for g, w in zip(got, tuple(want) + (obs,)):
         assert g.dtype == w.dtype and g.tobytes() == w.tobytes()
 

@@ -402,10 +402,11 @@ class HighwayFormationEnv(IcvAgentsEnv):
         if not len(rows) or road.n_exits or type(obs_type) is not Kinematics or not own_hooks(self, _POST_HOOKS):
             return super()._post_rows(rows, crashed_now)
         options = obs_type.kernel_options()  # (idx, V, s_abs, s_rel, absolute, normalize, clip)
-        *terms, obs = formation_post_rows(*self._feature_args(), *self._reward_args(rows, crashed_now),
-                                          *self._neighbour_args(options[1] - 1, obs_type.pd), *options,
-                                          float(self._wrap_period()))
-        total, parts = self._reward_total(terms)
+        T, member, obs = formation_post_rows(*self._feature_args(), *self._reward_args(rows, crashed_now),
+                                             *self._neighbour_args(options[1] - 1, obs_type.pd), *options,
+                                             float(self._wrap_period()))
+        progress, safety, comfort, expo, partial = T  # (row views)
+        total, parts = self._reward_total((progress, safety, comfort, expo, member, partial))
         return total, parts, obs
 
     def global_state(self, slots: list[str]) -> np.ndarray:

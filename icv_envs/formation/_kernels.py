@@ -193,21 +193,21 @@ def profile_gather(vid, time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab):
     the profile's end values ``(d, v, a)`` (kept where its plan has ended,
     ``time - t0 >= T``), the positions ``run`` of the plans still running
     and their times ``time - t0`` clamped to ``[0, T]`` (whose powers the
-    caller takes from numpy for :func:`quintic_rows`). Returns ``(d, v, a,
-    run, tc)``; the clamp ``min(max(t, 0), T)`` as numpy's
+    caller takes from numpy for :func:`quintic_rows`). Returns ``(P, run,
+    tc)``, ``P`` the profile ``d, v, a`` as the rows of one ``(3, n)`` array
+    (numba boxes each returned array for about 0.35 us, a view of a row
+    costs 0.1); the clamp ``min(max(t, 0), T)`` as numpy's
     ``minimum(maximum(t, 0), T)`` (the times are finite)."""
     n = vid.shape[0]
-    d = np.empty(n)
-    v = np.empty(n)
-    a = np.empty(n)
+    P = np.empty((3, n))
     run = np.empty(n, dtype=np.int64)
     tc = np.empty(n)
     m = 0
     for i in range(n):
         k = vid[i]
-        d[i] = fd_tab[k]
-        v[i] = fv_tab[k]
-        a[i] = fa_tab[k]
+        P[0, i] = fd_tab[k]
+        P[1, i] = fv_tab[k]
+        P[2, i] = fa_tab[k]
         t = time - t0_tab[k]
         T = T_tab[k]
         if t < T:
@@ -215,7 +215,7 @@ def profile_gather(vid, time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab):
             x = t if t > 0.0 else 0.0
             tc[m] = x if x < T else T
             m += 1
-    return d, v, a, run[:m], tc[:m]
+    return P, run[:m], tc[:m]
 
 
 # ------------------------------------------------- lane change and steering

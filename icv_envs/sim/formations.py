@@ -526,9 +526,10 @@ class FormationManager:
             d, dv, dd = self._profile(traffic, m)
         else:  # read-only like the profiles (one numba specialisation of reference_rows)
             d = dv = dd = _EMPTY_READONLY
-        x_ref, lane_ref, v_ref, member, a_ref = reference_rows(
+        R, lane_ref, member = reference_rows(
             traffic.group, traffic.tgt_lane, traffic.tgt_behind, self._anchor_lut(), m, d, dv, dd, float(self.speed),
             -1.0 if traffic.period is None else float(traffic.period))
+        x_ref, v_ref, a_ref = R  # (row views)
         return (x_ref, lane_ref, v_ref, member), a_ref
 
     def reference_accel(self, traffic) -> np.ndarray:

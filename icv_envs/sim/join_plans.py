@@ -156,7 +156,8 @@ class JoinPlans:
         are the same numbers; :meth:`plan` stores them)."""
         # the end values, which plans still run and their clamped times in
         # one compiled pass (formation._kernels.profile_gather)
-        d, v, a, run, tc = profile_gather(vid, float(time), self.t0, self.T, self.fd, self.fv, self.fa)
+        P, run, tc = profile_gather(vid, float(time), self.t0, self.T, self.fd, self.fv, self.fa)
+        d, v, a = P  # (row views)
         if len(run):
             # join_profile's quintic (compiled, from the plans' stored
             # coefficients; the powers from numpy, as join_profile takes them)

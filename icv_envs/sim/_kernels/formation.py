@@ -204,11 +204,14 @@ def reference_rows(group, tgt_lane, tgt_behind, anchor_of, m, d, dv, dd, speed, 
     ``x_ref = (anchor_of[group] - tgt_behind) + d`` (``mod period`` on a ring,
     ``period < 0``: none), ``v_ref = speed + dv``, ``a_ref = dd``; ``nan``
     for free vehicles, whose ``lane_ref`` is -1 (members: ``tgt_lane``).
-    Returns ``(x_ref, lane_ref, v_ref, member, a_ref)``."""
+    Returns ``(R, lane_ref, member)``, ``R`` the rows ``x_ref, v_ref,
+    a_ref`` of one ``(3, n)`` array (numba boxes each returned array for
+    about 0.35 us, a view of a row costs 0.1)."""
     n = group.shape[0]
-    x_ref = np.full(n, np.nan)
-    v_ref = np.full(n, np.nan)
-    a_ref = np.full(n, np.nan)
+    R = np.full((3, n), np.nan)
+    x_ref = R[0]
+    v_ref = R[1]
+    a_ref = R[2]
     lane_ref = np.empty(n, dtype=np.int64)
     member = np.empty(n, dtype=np.bool_)
     for i in range(n):
@@ -222,7 +225,7 @@ def reference_rows(group, tgt_lane, tgt_behind, anchor_of, m, d, dv, dd, speed, 
         x_ref[r] = x
         v_ref[r] = speed + dv[q]
         a_ref[r] = dd[q]
-    return x_ref, lane_ref, v_ref, member, a_ref
+    return R, lane_ref, member
 
 
 @nb.njit(cache=True, inline="always")

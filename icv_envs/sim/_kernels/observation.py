@@ -317,8 +317,10 @@ def formation_post_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, l
     (``K`` .. ``road_length``), then :func:`kinematics_rows` (``idx`` ..
     ``o_period``). For ``HighwayFormationEnv._post_rows`` on roads without
     exits (the exits' column is written in Python between the features and
-    the observation). Returns ``(progress, safety, comfort, exponent,
-    member, partial, obs)``."""
+    the observation). Returns ``(T, member, obs)``, ``T`` the float reward
+    terms by rows ``progress, safety, comfort, exponent, partial`` (one
+    array instead of five: numba boxes each returned array for about
+    0.35 us, a view of a row costs 0.1)."""
     F = formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
                                n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
     progress, safety, comfort, expo, member_q, partial = formation_reward_terms(
@@ -329,7 +331,13 @@ def formation_post_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, l
         sel = np.zeros((rows.shape[0], 0), dtype=np.int64)
         present = np.zeros((rows.shape[0], 0), dtype=np.bool_)
     obs = kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, normalize, clip, o_period)
-    return progress, safety, comfort, expo, member_q, partial, obs
+    T = np.empty((5, rows.shape[0]))
+    T[0] = progress
+    T[1] = safety
+    T[2] = comfort
+    T[3] = expo
+    T[4] = partial
+    return T, member_q, obs
 
 
 @nb.njit(cache=True)
