@@ -2393,3 +2393,22 @@ def test_corridor_leaders_is_the_array_code(n, m, grid, seed):
     want = _numpy_corridor_leaders(lead, rows, coord, length, speed, n)
     for a, b in zip(got, want):
         assert a.tobytes() == b.tobytes()
+
+
+@settings(max_examples=200, deadline=None)
+@given(n=st.integers(0, 70), scale=st.sampled_from([1e-6, 1e-3, 1.0, 120.0]), zeros=st.booleans(),
+       seed=st.integers(0, 2**32 - 1))
+def test_the_quintics_powers_in_one_call_are_the_three_calls(n, scale, zeros, seed):
+    """``JoinPlans`` takes ``t**3, t**4, t**5`` as the rows of one
+    ``np.power(t, [[3], [4], [5]])`` call: the same numbers as the three
+    calls on this machine's NumPy dispatch (checked natively here; the
+    trajectory fingerprints check it at AVX2)."""
+    from icv_envs.sim.join_plans import _POW345
+
+    rng = np.random.default_rng(seed)
+    t = rng.uniform(0, scale, n)
+    if zeros and n:
+        t[rng.random(n) < 0.3] = 0.0
+    P = np.power(t, _POW345)
+    for row, e in zip(P, (3, 4, 5)):
+        assert row.tobytes() == (t ** e).tobytes()
