@@ -271,10 +271,12 @@ class IntersectionWorld:
         lay = self.layout
         # compiled (icv_envs.sim._kernels.intersection.route_rows; the array
         # code it replaced is its reference in tests/test_intersection_frames.py)
-        cx, cy, u, lat_leg, lane, pid, s, lat, X, dist, phase, L = route_rows(
+        Fl, In = route_rows(
             f.x, f.y, f.heading, 0.5 * self.wheelbase, f.leg, f.mv, f.plane, f.tlane, f.entered, f.departed, _OUT,
             lay.app_dir, lay.app_right, lay.box_half, lay.lane_width, N_LANES, lay.P0, lay.D0, lay.P1, lay.D1, lay.L,
             lay.arc, lay.C, lay.TH0, lay.R, lay.SGN)
+        cx, cy, u, lat_leg, s, lat, X, dist, L = Fl  # (row views)
+        lane, pid, phase = In
         self._route = RouteState(cx=cx, cy=cy, u=u, lat_leg=lat_leg, lane=lane, pid=pid, s=s, lat=lat, X=X, dist=dist,
                                  phase=phase, L=L)
         return self._route
@@ -320,8 +322,7 @@ class IntersectionWorld:
         top = int(f.vid.max()) + 1
         self.motion.reserve(top)
         lo, hi, occ, path, busy = self.pet.tables(top)
-        (ran, event, f.x, f.y, f.heading, f.speed, f.accel, f.steer, sums, stopped, min_box, trans, busy, cx, cy, u,
-         lat_leg, crash, new_wrong, clear_now, removed, left, i, j, jam_rows) = intersection_frames(
+        (ran, event, S, sums, stopped, min_box, trans, busy, B, i, j, jam_rows) = intersection_frames(
             n, f.x, f.y, f.heading, f.speed, accel, steer, f.crashed, self.dt, self.wheelbase, self.v_max, self.time,
             f.vid, f.leg, f.mv, f.length, f.width, f.tlane, f.entered, f.departed, f.cleared, f.wrong_exit,
             f.exit_leg, f.plane, f.enter_time, _OUT, lay.app_dir, lay.app_right, lay.dep_right, lay.exit_of,
@@ -329,6 +330,9 @@ class IntersectionWorld:
             lay.departure_length, lay.P0, lay.D0, lay.P1, lay.D1, lay.L, lay.arc, lay.C, lay.TH0, lay.R, lay.SGN,
             STOPPED_SPEED, *self.motion.moments(), lo, hi, occ, path, busy, self.jams.standing_times(top),
             JAM_SECONDS)
+        # (the state and the last frame's events as row views of two arrays)
+        f.x, f.y, f.heading, f.speed, f.accel, f.steer, cx, cy, u, lat_leg = S
+        crash, new_wrong, clear_now, removed, left = B
         stt = self.stats
         nv = f.n
         # the clock, the run statistics and the PET events, frame by frame as

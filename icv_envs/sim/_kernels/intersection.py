@@ -214,20 +214,25 @@ def route_rows(x, y, heading, half_wheelbase, leg, mv, plane, tlane, entered, de
     ``hypot`` as NumPy's); ``X = L/2 - s``, ``dist = box_half - s`` and the
     path length ``L``.
 
-    Returns ``(cx, cy, u, lat_leg, lane, pid, s, lat, X, dist, phase, L)``."""
+    Returns ``(Fl, In)``: the rows ``cx, cy, u, lat_leg, s, lat, X, dist,
+    L`` of one float array and ``lane, pid, phase`` of one int64 array (two
+    boxed arrays instead of twelve: numba boxes each returned array for
+    about 0.35 us, a view of a row costs 0.1)."""
     n = x.shape[0]
-    cx = np.empty(n)
-    cy = np.empty(n)
-    u = np.empty(n)
-    lat_leg = np.empty(n)
-    lane = np.empty(n, dtype=np.int64)
-    pid = np.empty(n, dtype=np.int64)
-    s = np.empty(n)
-    lat = np.empty(n)
-    X = np.empty(n)
-    dist = np.empty(n)
-    phase = np.empty(n, dtype=np.int64)
-    Lr = np.empty(n)
+    Fl = np.empty((9, n))
+    In = np.empty((3, n), dtype=np.int64)
+    cx = Fl[0]
+    cy = Fl[1]
+    u = Fl[2]
+    lat_leg = Fl[3]
+    s = Fl[4]
+    lat = Fl[5]
+    X = Fl[6]
+    dist = Fl[7]
+    Lr = Fl[8]
+    lane = In[0]
+    pid = In[1]
+    phase = In[2]
     top = float(n_lanes - 1)
     for i in range(n):
         c = x[i] + half_wheelbase * np.cos(heading[i])
@@ -264,4 +269,4 @@ def route_rows(x, y, heading, half_wheelbase, leg, mv, plane, tlane, entered, de
         Lr[i] = L[p]
         X[i] = 0.5 * L[p] - si
         dist[i] = box_half - si
-    return cx, cy, u, lat_leg, lane, pid, s, lat, X, dist, phase, Lr
+    return Fl, In
