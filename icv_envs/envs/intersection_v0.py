@@ -95,7 +95,8 @@ N steps (PettingZoo's `max_cycles`).
 A `(V, 14)` float32 array in highway-env's `Kinematics` layout.  Row 0 is the
 observing vehicle in absolute terms; rows 1..V-1 the V-1 nearest vehicles
 (Euclidean distance of body centres) within `perception_distance` (100 m),
-with x, y, vx, vy relative to the observer, zero-padded (presence 0).
+nearest first, exactly equal distances by vehicle row (ascending id), with
+x, y, vx, vy relative to the observer, zero-padded (presence 0).
 Columns:
 
 | # | feature | scaling |
