@@ -66,3 +66,50 @@ def test_a_replaced_member_list_or_a_new_fleet_is_seen():
     assert ex._member_rows_kept[0][0] is not f.vid
     ex._member_rows(f)
     assert ex._member_rows_kept[0][0] is f.vid
+
+
+def _fresh_sub_distances(ex, f, rs):
+    kept = ex._sub_distances_kept
+    ex._sub_distances_kept = None
+    try:
+        return ex._sub_distances(f, rs)
+    finally:
+        ex._sub_distances_kept = kept
+
+
+@pytest.mark.parametrize("method, seed", [("multi-vp", 3), ("multi-vp", 8)])
+def test_kept_sub_distances_equal_fresh_ones_along_a_run(method, seed):
+    """Regrouping._sub_distances keeps its last answer while the fleet's
+    rows, the route state and the sub-formations' member lists are the
+    same objects: equal to a fresh answer at every step, and a replaced
+    member list or a new route state is seen."""
+    env = parallel_env(method=method, throughput=2500.0, duration=120.0)
+    obs, infos = env.reset(seed=seed)
+    ex, w = env.core.expert, env.core.world
+    hits = 0
+    for t in range(400):
+        if env.episode_over:
+            break
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+        if not ex.subs:
+            continue
+        f, rs = w.fleet, w.route()
+        before = ex._sub_distances_kept
+        got = ex._sub_distances(f, rs)
+        hits += ex._sub_distances_kept is before
+        want = _fresh_sub_distances(ex, f, rs)
+        assert got[0] == want[0] and got[2] == want[2] and got[3] == want[3]
+    assert hits > 10
+    f, rs = w.fleet, w.route()
+    sid = next(k for k, S in ex.subs.items() if len(set(rs.dist[f.rows(S["members"])].tolist())) > 1)
+    k = list(ex.subs).index(sid)
+    before = ex._sub_distances(f, rs)
+    S = ex.subs[sid]
+    S["members"] = S["members"][:1]  # a new list, as the expert replaces them: min and max now equal
+    got = ex._sub_distances(f, rs)
+    assert got[2][k] == got[3][k] and (got[2][k], got[3][k]) != (before[2][k], before[3][k])
+    assert got[2] == _fresh_sub_distances(ex, f, rs)[2]
+    w.invalidate()  # a new route state
+    rs2 = w.route()
+    ex._sub_distances(f, rs2)
+    assert ex._sub_distances_kept[1] is rs2

@@ -247,6 +247,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         self._tree = None
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self._member_rows_kept = [None, None]  # VirtualPlatoon._member_rows: per order asked for
+        self._sub_distances_kept = None  # Regrouping._sub_distances: the last answer
         self._vcap = np.zeros(0)
         self._plan_vids: set | None = None  # set_plan_carriers; None: every vehicle
         self._pruned: tuple | None = None  # _prune: (fleet id, count, next id) at its last call

@@ -7,6 +7,7 @@ behaviour is documented in that module's docstring ("Adjusting zone").
 from __future__ import annotations
 
 import itertools
+import operator
 
 import numpy as np
 
@@ -383,13 +384,23 @@ class Regrouping:
         if not subs:
             return [], [], [], []
         members = [S["members"] for S in subs]
+        # the last answer, while the fleet's rows, the route state and the
+        # member lists (replaced when members change, never changed in place)
+        # are the same objects, in the same order (two calls a step, the
+        # merging's and the coordinating zone's; the lists returned are only read)
+        c = self._sub_distances_kept
+        if (c is not None and c[0] is f.vid and c[1] is rs and len(c[2]) == len(members)
+                and all(map(operator.is_, c[2], members))):
+            return sids, subs, c[3], c[4]
         sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(subs))
         if np.count_nonzero(sizes) < len(sizes):
             raise ValueError(f"sub-formation {sids[int(np.argmin(sizes))]} has no members")
         rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
         d = rs.dist[rows]
         start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-        return sids, subs, np.minimum.reduceat(d, start).tolist(), np.maximum.reduceat(d, start).tolist()
+        dmin, dmax = np.minimum.reduceat(d, start).tolist(), np.maximum.reduceat(d, start).tolist()
+        self._sub_distances_kept = (f.vid, rs, members, dmin, dmax)
+        return sids, subs, dmin, dmax
 
     def _merging(self, world, rs) -> None:
         p = self.p
