@@ -2412,3 +2412,32 @@ def test_the_quintics_powers_in_one_call_are_the_three_calls(n, scale, zeros, se
     P = np.power(t, _POW345)
     for row, e in zip(P, (3, 4, 5)):
         assert row.tobytes() == (t ** e).tobytes()
+
+
+@settings(max_examples=300, deadline=None)
+@given(sizes=st.lists(st.integers(1, 6), min_size=0, max_size=12), grid=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_node_heads_is_the_stable_sorts_choice(sizes, grid, seed):
+    """``node_heads`` against the array code of ``VirtualPlatoon.tree`` it
+    replaced: per node the member of least distance and the one of largest X
+    by two stable lexsorts (integer values make ties common; rows -1 for
+    members no longer on the road read the last vehicle, as numpy's indexing
+    does, before the kernel is called)."""
+    from icv_envs.policies._kernels import node_heads
+
+    rng = np.random.default_rng(seed)
+    sizes = np.asarray(sizes, dtype=np.int64)
+    m = int(sizes.sum())
+    n = max(m, 1) + 3
+    rows = rng.integers(-1, n, m).astype(np.int64)
+    Xs = rng.integers(-3, 3, n).astype(float) if grid else rng.normal(0, 50, n)
+    ds = rng.integers(0, 4, n).astype(float) if grid else rng.uniform(0, 300, n)
+    X, dist = Xs[rows], ds[rows]
+    seg = np.repeat(np.arange(len(sizes)), sizes)
+    i0 = np.lexsort((dist, seg))
+    i1 = np.lexsort((-X, seg))
+    head = np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.int64) if len(sizes) else np.zeros(0, dtype=np.int64)
+    i0, i1 = i0[head], i1[head]
+    (first, rear_row), (xf, rear) = node_heads(rows, sizes, X, dist)
+    np.testing.assert_array_equal(first, rows[i0])
+    np.testing.assert_array_equal(rear_row, rows[i1])
+    assert xf.tobytes() == X[i0].tobytes() and rear.tobytes() == X[i1].tobytes()

@@ -17,6 +17,7 @@ from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.policies._kernels import (
     anticipated_references,
     follow_references,
+    node_heads,
     repair_order,
     stop_flags,
     tree_layers,
@@ -260,7 +261,7 @@ class VirtualPlatoon:
         order.insert(pos, nid)
         self.vp_order = order
 
-    def _repair_order(self, world, rs, o, ids, rows, seg):
+    def _repair_order(self, world, rs, o, ids, rows, seg, mvs=None):
         """The node order ``o`` (indices into ``ids``) repaired so that no node comes before a node of
         its own leg that has a vehicle ahead of one of its vehicles in a shared
         approach lane; ``rows`` are the rows of every node's members (``seg``
@@ -271,7 +272,9 @@ class VirtualPlatoon:
         the farthest member distance."""
         K = len(ids)
         # (the pair test over (node, node, lane) and the repair loop compiled: policies/_kernels/virtual_platoon.py)
-        leg = world.layout.leg_of[np.array([self.nodes[k]["mv"] for k in ids], dtype=np.int64)]
+        if mvs is None:  # (each node's movement, in the order of ids)
+            mvs = np.array([self.nodes[k]["mv"] for k in ids], dtype=np.int64)
+        leg = world.layout.leg_of[mvs]
         at, moves = repair_order(np.asarray(o, dtype=np.int64), K, np.asarray(rows, dtype=np.int64),
                                  np.asarray(seg, dtype=np.int64), np.asarray(rs.phase, dtype=np.int64),
                                  np.asarray(rs.lane, dtype=np.int64), np.asarray(rs.dist, dtype=np.float64), leg)
@@ -293,17 +296,9 @@ class VirtualPlatoon:
         # node the first vehicle (least distance to the centre) and the rear one
         # (largest X); ties go to the earlier member, as argmin / argmax do
         # (lexsort is stable)
+        # (compiled: policies/_kernels.node_heads, the stable sorts' choice in one pass)
         _, rows, seg, sizes = self._member_rows(f)
-        X = rs.X[rows]
-        dist = rs.dist[rows]
-        i0 = np.lexsort((dist, seg))
-        i1 = np.lexsort((-X, seg))
-        head = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-        i0, i1 = i0[head], i1[head]
-        first = rows[i0]
-        rear_row = rows[i1]
-        xf = X[i0]
-        rear = X[i1]
+        (first, rear_row), (xf, rear) = node_heads(rows, sizes, rs.X[rows], rs.dist[rows])
         mvs = np.array([self.nodes[nid]["mv"] for nid in ids], dtype=np.int64)
         lens = np.array([self.nodes[nid]["length"] for nid in ids], dtype=np.float64)
         # nodes in the virtual platoon's order (_insert_node), repaired so that
@@ -312,7 +307,7 @@ class VirtualPlatoon:
         # wait behind it for a reference it cannot reach: a circular wait)
         rank = {k: i for i, k in enumerate(self.vp_order)}
         o = np.argsort([rank.get(k, len(rank) + k) for k in ids], kind="stable")
-        o = self._repair_order(world, rs, o, ids, rows, seg)
+        o = self._repair_order(world, rs, o, ids, rows, seg, mvs)
         xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
         ids = [ids[i] for i in o]
         # the paper's tree and references (Sec. 4.2: the conflict graph of the

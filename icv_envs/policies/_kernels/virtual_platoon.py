@@ -17,8 +17,41 @@ import numpy as np
 
 from icv_envs.platoon._kernels import depths_of
 
-__all__ = ["anticipated_references", "follow_references", "repair_order", "stop_flags", "tree_layers",
-           "tree_references", "virtual_caps"]
+__all__ = ["anticipated_references", "follow_references", "node_heads", "repair_order", "stop_flags",
+           "tree_layers", "tree_references", "virtual_caps"]
+
+
+@nb.njit(cache=True)
+def node_heads(rows, sizes, X, dist):
+    """Per node (members in ``rows``, node ``k`` the next ``sizes[k] >= 1``
+    of them; ``X``, ``dist`` the members' values, aligned with ``rows``) its
+    first vehicle (least ``dist``) and its rear one (largest ``X``), ties to
+    the earlier member, as the stable ``lexsort((dist, seg))`` /
+    ``lexsort((-X, seg))`` of
+    :meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon.tree`'s array
+    code chose (finite values). Returns ``(I, V)``: rows ``first,
+    rear_row`` of ``I`` and their ``X`` in ``V``."""
+    K = sizes.shape[0]
+    I = np.empty((2, K), dtype=np.int64)
+    V = np.empty((2, K))
+    q0 = 0
+    for k in range(K):
+        m = sizes[k]
+        if m < 1:
+            raise ValueError("node_heads: a node without members")
+        b0 = q0
+        b1 = q0
+        for q in range(q0 + 1, q0 + m):
+            if dist[q] < dist[b0]:
+                b0 = q
+            if X[q] > X[b1]:
+                b1 = q
+        I[0, k] = rows[b0]
+        I[1, k] = rows[b1]
+        V[0, k] = X[b0]
+        V[1, k] = X[b1]
+        q0 += m
+    return I, V
 
 
 @nb.njit(cache=True)
