@@ -7,11 +7,9 @@ the checkout: ``PYTHONPATH=<tree> python count_kernel_calls.py 0|1``
 machine's per-item costs (53 ns an array argument, 20 ns a scalar, 350 ns a
 returned array, 50 ns a call)."""
 import sys, collections, numpy as np
-import numba
 from numba.core.registry import CPUDispatcher
 expert = sys.argv[1] == "1"
 from icv_envs.vector import BatchedWorlds
-import icv_envs
 B=16
 bw = BatchedWorlds(B, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=expert)
 bw.reset()
