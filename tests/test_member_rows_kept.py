@@ -63,9 +63,9 @@ def test_a_replaced_member_list_or_a_new_fleet_is_seen():
     assert len(rows2) == len(rows) - 1 and sizes2.sum() == sizes.sum() - 1
     _same(ex._member_rows(f), _fresh(ex, f))
     f.vid = f.vid.copy()  # the fleet's rows replaced (a spawn or removal makes a new array)
-    assert ex._member_rows_kept[0][0] is not f.vid
+    assert ex._member_rows_kept[0][0][0] is not f.vid  # (the kept key's fleet rows)
     ex._member_rows(f)
-    assert ex._member_rows_kept[0][0] is f.vid
+    assert ex._member_rows_kept[0][0][0] is f.vid
 
 
 def _fresh_sub_distances(ex, f, rs):
@@ -112,4 +112,4 @@ def test_kept_sub_distances_equal_fresh_ones_along_a_run(method, seed):
     w.invalidate()  # a new route state
     rs2 = w.route()
     ex._sub_distances(f, rs2)
-    assert ex._sub_distances_kept[1] is rs2
+    assert ex._sub_distances_kept[0][1] is rs2  # (the kept key's route state)

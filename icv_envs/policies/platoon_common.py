@@ -7,16 +7,29 @@ Used by :mod:`icv_envs.policies.regrouping` (paper Sec. 5),
 
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 
 from icv_envs.policies._kernels import corridor_index, corridor_neighbours
 
-__all__ = ["Corridors", "MODE_FREE", "MODE_FOLLOW", "MODE_TREE", "MODE_PLAN", "ST_APPROACH", "ST_LC",
+__all__ = ["Corridors", "same_objects", "MODE_FREE", "MODE_FOLLOW", "MODE_TREE", "MODE_PLAN", "ST_APPROACH", "ST_LC",
            "ST_ADJUSTED", "ST_COORD"]
 
 MODE_FREE, MODE_FOLLOW, MODE_TREE, MODE_PLAN = 0, 1, 2, 3
 # vehicle stages
 ST_APPROACH, ST_LC, ST_ADJUSTED, ST_COORD = 0, 1, 2, 3
+
+
+def same_objects(a: tuple, b: tuple) -> bool:
+    """Whether ``a`` and ``b`` hold the same objects in the same order
+    (identity, not equality): the key test of the experts' kept answers
+    (:meth:`~icv_envs.policies.virtual_platoon.VirtualPlatoon._member_rows`,
+    :meth:`~icv_envs.policies.regrouping.Regrouping._sub_distances`), whose
+    parts (the fleet's id array, the route state, the groups' member lists)
+    are replaced, never changed in place, when what they stand for changes.
+    A kept key holds its objects, so none is freed and its id reused."""
+    return len(a) == len(b) and all(map(operator.is_, a, b))
 
 
 class Corridors:

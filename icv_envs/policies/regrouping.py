@@ -7,14 +7,13 @@ behaviour is documented in that module's docstring ("Adjusting zone").
 from __future__ import annotations
 
 import itertools
-import operator
 
 import numpy as np
 
 from icv_envs.formation.assignment import assign_targets
 from icv_envs.formation.bezier import _lane_change_lateral_rows
 from icv_envs.formation.targets import interlaced_targets
-from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors
+from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors, same_objects
 from icv_envs.sim.traffic import idm_acceleration
 from icv_envs._ufuncs import clip as uclip, flatnonzero
 
@@ -388,10 +387,10 @@ class Regrouping:
         # member lists (replaced when members change, never changed in place)
         # are the same objects, in the same order (two calls a step, the
         # merging's and the coordinating zone's; the lists returned are only read)
+        key = (f.vid, rs, *members)
         c = self._sub_distances_kept
-        if (c is not None and c[0] is f.vid and c[1] is rs and len(c[2]) == len(members)
-                and all(map(operator.is_, c[2], members))):
-            return sids, subs, c[3], c[4]
+        if c is not None and same_objects(c[0], key):
+            return (sids, subs, *c[1])
         sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(subs))
         if np.count_nonzero(sizes) < len(sizes):
             raise ValueError(f"sub-formation {sids[int(np.argmin(sizes))]} has no members")
@@ -399,7 +398,7 @@ class Regrouping:
         d = rs.dist[rows]
         start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
         dmin, dmax = np.minimum.reduceat(d, start).tolist(), np.maximum.reduceat(d, start).tolist()
-        self._sub_distances_kept = (f.vid, rs, members, dmin, dmax)
+        self._sub_distances_kept = (key, (dmin, dmax))
         return sids, subs, dmin, dmax
 
     def _merging(self, world, rs) -> None:

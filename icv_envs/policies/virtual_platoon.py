@@ -9,7 +9,6 @@ The pure algorithms (tree depths, reference positions) are in
 from __future__ import annotations
 
 import itertools
-import operator
 
 import numpy as np
 
@@ -24,7 +23,7 @@ from icv_envs.policies._kernels import (
     tree_references,
     virtual_caps,
 )
-from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors
+from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors, same_objects
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 from icv_envs._ufuncs import flatnonzero
 
@@ -132,16 +131,16 @@ class VirtualPlatoon:
         slot = 0 if ids is None else 1
         ids = list(self.nodes) if ids is None else ids
         members = [self.nodes[nid]["members"] for nid in ids]
-        kept = self._member_rows_kept
-        c = kept[slot]
-        if c is not None and c[0] is f.vid and len(c[1]) == len(members) and all(map(operator.is_, c[1], members)):
-            return (ids, *c[2])
+        key = (f.vid, *members)
+        c = self._member_rows_kept[slot]
+        if c is not None and same_objects(c[0], key):
+            return (ids, *c[1])
         sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(ids))
         seg = np.repeat(np.arange(len(ids)), sizes)
         rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
         for arr in (rows, seg, sizes):
             arr.setflags(write=False)
-        kept[slot] = (f.vid, members, (rows, seg, sizes))
+        self._member_rows_kept[slot] = (key, (rows, seg, sizes))
         return ids, rows, seg, sizes
 
     def _detach_inverted(self, world, rs) -> None:
