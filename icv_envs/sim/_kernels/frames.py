@@ -16,6 +16,25 @@ __all__ = ["quiet_substeps", "intersection_frames"]
 
 
 @nb.njit(cache=True)
+def _rows10(a0, a1, a2, a3, a4, a5, a6, a7, a8, a9):
+    """Ten float arrays of one length as the rows of one ``(10, n)`` array:
+    the state the frames' passes return as one array (numba boxes each
+    returned array for about 0.35 us, a view of a row costs 0.1)."""
+    S = np.empty((10, a0.shape[0]))
+    S[0] = a0
+    S[1] = a1
+    S[2] = a2
+    S[3] = a3
+    S[4] = a4
+    S[5] = a5
+    S[6] = a6
+    S[7] = a7
+    S[8] = a8
+    S[9] = a9
+    return S
+
+
+@nb.njit(cache=True)
 def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase, lat, dt, v_max,
                    period, vid, length, width, stopped_speed, m_count, m_s1, m_s2, lane_width, n_lanes, total_lanes,
                    lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, edge_margin, road_end, exit_id, ex_x, de, ramp_lane,
@@ -95,17 +114,7 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
         time += dt
     vehicle_steps, speed_sum, realised, commanded, stopped_steps = motion_sums_add(
         k, n, sums, stopped, dt, vehicle_steps, speed_sum, realised, commanded, stopped_steps)
-    S = np.empty((10, n))
-    S[0] = x
-    S[1] = y
-    S[2] = heading
-    S[3] = speed
-    S[4] = acc
-    S[5] = st
-    S[6] = stopped_for
-    S[7] = cx
-    S[8] = cy
-    S[9] = cx_before
+    S = _rows10(x, y, heading, speed, acc, st, stopped_for, cx, cy, cx_before)
     m = i.shape[0]
     E = np.empty(2 * m + 3 * lane.shape[0], dtype=np.int64)
     E[:m] = i
@@ -237,17 +246,7 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
                 break
         if event or fr == n_frames - 1:
             k = fr + 1
-            S = np.empty((10, n))
-            S[0] = x
-            S[1] = y
-            S[2] = heading
-            S[3] = speed
-            S[4] = acc
-            S[5] = st
-            S[6] = cx
-            S[7] = cy
-            S[8] = u
-            S[9] = lat_leg
+            S = _rows10(x, y, heading, speed, acc, st, cx, cy, u, lat_leg)
             B = np.empty((5, n), dtype=np.bool_)
             B[0] = crash
             B[1] = new_wrong
