@@ -1003,3 +1003,61 @@ def test_platoon_accelerations_equal_the_replaced_array_code(data):
         xref, vref, tight, vcap, p["clip"], p["kp"], p["kv"], p["comfort"][0], p["comfort"][1], p["a_min"],
         p["a_max"])
     assert _same(got, acc) and got_binding == binding
+
+
+def _old_tree_glue(rows, seg, sizes, ids, vp_order, mvs, lens, X, dist, phase, lane, cleared, leg_of, conflict, D_t):
+    """VirtualPlatoon.tree at b4c2680 (its calls of node_heads, the ranks'
+    stable argsort, _repair_order's repair_order and tree_layers) and
+    _references' ordered member rows of the not yet cleared members."""
+    from icv_envs.policies._kernels import node_heads, repair_order, tree_layers
+
+    (first, rear_row), (xf, rear) = node_heads(rows, sizes, X[rows], dist[rows])
+    rank = {k: i for i, k in enumerate(vp_order)}
+    o = np.argsort([rank.get(k, len(rank) + k) for k in ids], kind="stable")
+    at, moves = repair_order(np.asarray(o, dtype=np.int64), len(ids), rows, seg, phase, lane, dist, leg_of[mvs])
+    xf, rear, first, rear_row, mvs, lens = xf[at], rear[at], first[at], rear_row[at], mvs[at], lens[at]
+    depths, refs, U, lb, pred = tree_layers(mvs, conflict, xf, lens, rear, D_t)
+    members = np.split(rows, np.cumsum(sizes)[:-1])
+    r_all = np.concatenate([members[g] for g in at])
+    kk = np.repeat(np.arange(len(at)), sizes[at])
+    live = ~cleared[r_all]
+    return moves, at, first, rear_row, pred, mvs, xf, rear, lb, lens, depths, refs, U, r_all[live], kk[live]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_vp_tree_is_the_tree_it_replaced(data):
+    """``vp_tree`` (stop 41) against the composition it replaced: the same
+    order, moves, heads, layers, references, bounds and live members, on
+    nodes of shared lanes and legs (integer distances make ties and repairs
+    common), ids listed in ``vp_order`` or not, twice or in another order."""
+    from icv_envs.policies._kernels import vp_tree
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n_mv, K = 12, data.draw(st.integers(1, 10))
+    conflict = rng.random((n_mv, n_mv)) < data.draw(st.sampled_from([0.2, 0.5, 0.9]))
+    conflict = conflict | conflict.T
+    leg_of = np.repeat(np.arange(4), 3).astype(np.int64)
+    sizes = rng.integers(1, 5, K).astype(np.int64)
+    n = int(sizes.sum()) + 4
+    rows = rng.permutation(n)[: int(sizes.sum())].astype(np.int64)
+    seg = np.repeat(np.arange(K), sizes).astype(np.int64)
+    ids = np.sort(rng.choice(40, K, replace=False)).astype(np.int64)
+    pool = np.concatenate([ids, rng.integers(40, 50, 3)])
+    vp_order = rng.choice(pool, data.draw(st.integers(0, K + 3)), replace=data.draw(st.booleans())).astype(np.int64)
+    mvs = rng.integers(0, n_mv, K).astype(np.int64)
+    lens = rng.choice([0.0, 5.0, 17.3], K)
+    grid = data.draw(st.booleans())
+    X = rng.integers(-30, 0, n).astype(float) if grid else rng.uniform(-300, 0, n)
+    dist = rng.integers(0, 30, n).astype(float) if grid else rng.uniform(0, 300, n)
+    phase = (rng.random(n) < 0.2).astype(np.int64)
+    lane = rng.integers(0, 3, n).astype(np.int64)
+    cleared = rng.random(n) < 0.2
+    D_t = float(rng.choice([21.0, 19.7]))
+    want = _old_tree_glue(rows, seg, sizes, ids.tolist(), vp_order.tolist(), mvs, lens, X, dist, phase, lane, cleared,
+                          leg_of, conflict, D_t)
+    moves, I, F, depths, refs, U, live_rows, live_node = vp_tree(rows, seg, sizes, ids, vp_order, mvs, lens, X, dist,
+                                                                 phase, lane, cleared, leg_of, conflict, D_t)
+    got = (moves, I[0], I[1], I[2], I[3], I[4], F[0], F[1], F[2], F[3], depths, refs, U, live_rows, live_node)
+    for g, w in zip(got, want):
+        assert _same(np.asarray(g), np.asarray(w))

@@ -16,12 +16,10 @@ from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.policies._kernels import (
     anticipated_references,
     follow_references,
-    node_heads,
-    repair_order,
     stop_flags,
-    tree_layers,
     tree_references,
     virtual_caps,
+    vp_tree,
 )
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors, same_objects
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
@@ -260,65 +258,53 @@ class VirtualPlatoon:
         order.insert(pos, nid)
         self.vp_order = order
 
-    def _repair_order(self, world, rs, o, ids, rows, seg, mvs=None):
-        """The node order ``o`` (indices into ``ids``) repaired so that no node comes before a node of
-        its own leg that has a vehicle ahead of one of its vehicles in a shared
-        approach lane; ``rows`` are the rows of every node's members (``seg``
-        the index into ``ids`` of each row's node). Scans the later node
-        ``b`` first, then the earlier ``a``: the first such pair moves ``b``
-        to ``a``'s place, and the scan restarts. The pair test is one array
-        over (node, node, lane): per node and approach lane the nearest and
-        the farthest member distance."""
-        K = len(ids)
-        # (the pair test over (node, node, lane) and the repair loop compiled: policies/_kernels/virtual_platoon.py)
-        if mvs is None:  # (each node's movement, in the order of ids)
-            mvs = np.array([self.nodes[k]["mv"] for k in ids], dtype=np.int64)
-        leg = world.layout.leg_of[mvs]
-        at, moves = repair_order(np.asarray(o, dtype=np.int64), K, np.asarray(rows, dtype=np.int64),
-                                 np.asarray(seg, dtype=np.int64), np.asarray(rs.phase, dtype=np.int64),
-                                 np.asarray(rs.lane, dtype=np.int64), np.asarray(rs.dist, dtype=np.float64), leg)
-        if moves:
-            self.stats["order_repaired"] = self.stats.get("order_repaired", 0) + moves
-        order = [ids[i] for i in at]
-        placed = set(order)
-        self.vp_order = order + [k for k in self.vp_order if k not in placed]
-        return at
-
     def tree(self, world, rs):
-        """Current virtual platoon: ``(node ids in order, depths (with the leader at 0), references)``."""
+        """Current virtual platoon: ``(node ids in order, depths (with the leader at 0), references)``.
+
+        Per node the first vehicle (least distance to the centre) and the
+        rear one (largest ``X``), ties to the earlier member; the nodes in
+        the virtual platoon's order (:meth:`_insert_node`), repaired so that
+        no node comes before a node of its own leg that has a vehicle ahead
+        of one of its vehicles in the same approach lane (that node would
+        wait behind it for a reference it cannot reach, a circular wait: the
+        pair test over (node, node, approach lane) of the nearest and the
+        farthest member distance, the later node scanned first, the first
+        such pair moving the later node to the earlier one's place,
+        :func:`~icv_envs.policies._kernels.repair_order`); the paper's tree
+        and references (Sec. 4.2: the conflict graph of the nodes'
+        movements, the tree-layers, the layer references from the first
+        vehicles' ``X`` made nondecreasing) and
+        the bound ``D_t`` behind the rear of each node's earlier conflicting
+        nodes. All of it in one compiled call
+        (:func:`~icv_envs.policies._kernels.vp_tree`, from stop 41; before,
+        ``node_heads``, a stable argsort of the ranks, ``repair_order`` and
+        ``tree_layers`` one by one, each frozen in the tests). ``T["live"]``
+        holds the members not yet cleared in this order, with the place of
+        their node."""
         f = world.fleet
         p = self.p
-        ids = list(self.nodes)
+        nodes = self.nodes
+        ids = list(nodes)
         if not ids:
             return [], np.zeros(1, dtype=np.int64), None
-        # every node's members in one array (each node's in member order): per
-        # node the first vehicle (least distance to the centre) and the rear one
-        # (largest X); ties go to the earlier member, as argmin / argmax do
-        # (lexsort is stable)
-        # (compiled: policies/_kernels.node_heads, the stable sorts' choice in one pass)
+        K = len(ids)
         _, rows, seg, sizes = self._member_rows(f)
-        (first, rear_row), (xf, rear) = node_heads(rows, sizes, rs.X[rows], rs.dist[rows])
-        mvs = np.array([self.nodes[nid]["mv"] for nid in ids], dtype=np.int64)
-        lens = np.array([self.nodes[nid]["length"] for nid in ids], dtype=np.float64)
-        # nodes in the virtual platoon's order (_insert_node), repaired so that
-        # no node comes before a node of its own leg that has a vehicle ahead
-        # of one of its vehicles in the same approach lane (that node would
-        # wait behind it for a reference it cannot reach: a circular wait)
-        rank = {k: i for i, k in enumerate(self.vp_order)}
-        o = np.argsort([rank.get(k, len(rank) + k) for k in ids], kind="stable")
-        o = self._repair_order(world, rs, o, ids, rows, seg, mvs)
-        xf, rear, first, rear_row, mvs, lens = xf[o], rear[o], first[o], rear_row[o], mvs[o], lens[o]
-        ids = [ids[i] for i in o]
-        # the paper's tree and references (Sec. 4.2: the conflict graph of the
-        # nodes' movements, the tree-layers, the layer references from the
-        # first vehicles' X made nondecreasing) and the bound D_t behind the
-        # rear of each node's earlier conflicting nodes, in one compiled pass
-        # (policies/_kernels.tree_layers; the array code it replaced,
-        # depths_of and _reference_positions on the conflict block, is frozen
-        # in tests/test_expert_kernels.py)
-        depths, refs, U, lb, pred = tree_layers(mvs, world.layout.conflict, xf, lens, rear, float(p.D_t))
-        return ids, depths, {"xf": xf, "rear": rear, "first": first, "rear_row": rear_row, "refs": refs,
-                             "lb": lb, "pred": pred, "mvs": mvs, "U": U, "depths": depths[1:], "lens": lens}
+        i64 = np.int64
+        mvs = np.fromiter([nodes[nid]["mv"] for nid in ids], dtype=i64, count=K)
+        lens = np.fromiter([nodes[nid]["length"] for nid in ids], dtype=np.float64, count=K)
+        moves, I, F, depths, refs, U, live_rows, live_node = vp_tree(
+            rows, seg, sizes, np.fromiter(ids, dtype=i64, count=K),
+            np.fromiter(self.vp_order, dtype=i64, count=len(self.vp_order)), mvs, lens, rs.X, rs.dist,
+            rs.phase.astype(i64, copy=False), rs.lane.astype(i64, copy=False), f.cleared, world.layout.leg_of,
+            world.layout.conflict, float(p.D_t))
+        if moves:
+            self.stats["order_repaired"] = self.stats.get("order_repaired", 0) + moves
+        ids = [ids[i] for i in I[0].tolist()]
+        placed = set(ids)
+        self.vp_order = ids + [k for k in self.vp_order if k not in placed]
+        return ids, depths, {"xf": F[0], "rear": F[1], "first": I[1], "rear_row": I[2], "refs": refs, "lb": F[2],
+                             "pred": I[3], "mvs": I[4], "U": U, "depths": depths[1:], "lens": F[3],
+                             "live": (live_rows, live_node)}
 
     # -------------------------------------------------------------- references
     def _references(self, world, rs) -> None:
@@ -365,9 +351,7 @@ class VirtualPlatoon:
             ids, depths, T = self.tree(world, rs)
             self.node_order = ids
             self.node_depth = dict(zip(ids, depths[1:].tolist()))
-            _, rows_all, kk, _ = self._member_rows(f, ids)
-            live = ~f.cleared[rows_all]
-            rows_all, kk = rows_all[live], kk[live]
+            rows_all, kk = T["live"]  # (the members not yet cleared, in the tree's order)
             self._tree, self._tree_rows = T, (rows_all, kk)
             # a node's first vehicle never chases a reference ahead of it: it
             # then drives at v0 (the virtual platoon only holds vehicles back)
@@ -507,7 +491,7 @@ class VirtualPlatoon:
             return
         ids = self.node_order
         # its node would be ordered before the first node of its own leg that
-        # has a vehicle behind it (_repair_order): only the nodes before that
+        # has a vehicle behind it (the order's repair in tree()): only the nodes before that
         # one may bound it.  Bounded by that node, or by a later node that
         # waits for it, it would hold the vehicle behind it, which that node
         # waits for: a circular wait (multi-vp, 3000 veh/h, seed 1: 331

@@ -18,7 +18,7 @@ import numpy as np
 from icv_envs.platoon._kernels import depths_of
 
 __all__ = ["anticipated_references", "follow_references", "node_heads", "repair_order", "stop_flags",
-           "tree_layers", "tree_references", "virtual_caps"]
+           "tree_layers", "tree_references", "virtual_caps", "vp_tree"]
 
 
 @nb.njit(cache=True)
@@ -381,3 +381,86 @@ def stop_flags(phase, allowed, mv, klane, lc_lane, tlane, dist, R1, coordinated,
     for i in range(n):
         stop[i] = stop[i] and not (u[i] > -0.5 * length[i])
     return stop, held
+
+
+@nb.njit(cache=True)
+def vp_tree(rows, seg, sizes, ids, vp_order, mvs, lens, X, dist, phase, lane, cleared, leg_of, conflict, D_t):
+    """:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon.tree` in one
+    call, from every node's members (``rows``, ``seg``, ``sizes`` in the
+    insertion order ``ids`` of the nodes, each node's in member order) and
+    the nodes' movements ``mvs`` and lengths ``lens``: each node's first and
+    rear vehicle (:func:`node_heads`); the nodes in the virtual platoon's
+    order (the rank in ``vp_order``, the last place of an id listed twice,
+    nodes not listed after the listed ones by id: the stable argsort of
+    ``rank.get(id, len(rank) + id)`` with ``rank`` the dict of ``vp_order``'s
+    places), repaired (:func:`repair_order`); the tree-layers and their
+    references and bounds (:func:`tree_layers`) in that order; and the
+    members not yet cleared, in that order, with the place of their node
+    (what ``_member_rows`` answered for the ordered ids, filtered).
+
+    Returns ``(moves, I, F, depths, refs, U, live_rows, live_node)``: ``I
+    (5, K)`` by rows ``at`` (the order, indices into ``ids``), ``first``,
+    ``rear_row``, ``pred``, ``mvs``; ``F (4, K)`` by rows ``xf``, ``rear``,
+    ``lb``, ``lens`` (all but ``at`` in the new order)."""
+    K = sizes.shape[0]
+    nr = rows.shape[0]
+    Xr = np.empty(nr)
+    dr = np.empty(nr)
+    for q in range(nr):
+        Xr[q] = X[rows[q]]
+        dr[q] = dist[rows[q]]
+    I0, V0 = node_heads(rows, sizes, Xr, dr)
+    # the rank of each id (its last place in vp_order); unlisted ids after the listed ones, by id
+    no = vp_order.shape[0]
+    distinct = 0
+    for i in range(no):
+        seen = False
+        for j in range(i):
+            if vp_order[j] == vp_order[i]:
+                seen = True
+                break
+        if not seen:
+            distinct += 1
+    keys = np.empty(K, dtype=np.int64)
+    for k in range(K):
+        r = -1
+        for i in range(no):
+            if vp_order[i] == ids[k]:
+                r = i
+        keys[k] = r if r >= 0 else distinct + ids[k]
+    o = np.argsort(keys, kind="mergesort")
+    leg = np.empty(K, dtype=np.int64)
+    for k in range(K):
+        leg[k] = leg_of[mvs[k]]
+    at, moves = repair_order(o, K, rows, seg, phase, lane, dist, leg)
+    I = np.empty((5, K), dtype=np.int64)
+    F = np.empty((4, K))
+    for c in range(K):
+        g = at[c]
+        I[0, c] = g
+        I[1, c] = I0[0, g]
+        I[2, c] = I0[1, g]
+        I[4, c] = mvs[g]
+        F[0, c] = V0[0, g]
+        F[1, c] = V0[1, g]
+        F[3, c] = lens[g]
+    depths, refs, U, lb, pred = tree_layers(I[4], conflict, F[0], F[3], F[1], D_t)
+    for c in range(K):
+        I[3, c] = pred[c]
+        F[2, c] = lb[c]
+    start = np.empty(K, dtype=np.int64)
+    s = 0
+    for k in range(K):
+        start[k] = s
+        s += sizes[k]
+    live_rows = np.empty(nr, dtype=np.int64)
+    live_node = np.empty(nr, dtype=np.int64)
+    m = 0
+    for c in range(K):
+        g = at[c]
+        for q in range(start[g], start[g] + sizes[g]):
+            if not cleared[rows[q]]:
+                live_rows[m] = rows[q]
+                live_node[m] = c
+                m += 1
+    return moves, I, F, depths, refs, U, live_rows[:m], live_node[:m]
