@@ -30,7 +30,6 @@ PARTS = [
     ("icv_envs.policies.platoon_expert", "PlatoonExpert", "_coordinate"),
     ("icv_envs.policies.platoon_expert", "PlatoonExpert", "_references"),
     ("icv_envs.policies.platoon_expert", "PlatoonExpert", "tree"),
-    ("icv_envs.policies.platoon_expert", "PlatoonExpert", "_anticipate"),
     ("icv_envs.policies.platoon_expert", "PlatoonExpert", "_start_lane_changes"),
     ("icv_envs.policies.platoon_expert", "PlatoonExpert", "compute"),
     ("icv_envs.policies.platoon_expert", "PlatoonExpert", "_envelope"),

@@ -398,26 +398,6 @@ def _old_virtual_cap(self, world, rs):
     return cap
 
 
-@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 2600.0, 3), ("single-vp", 2200.0, 4)])
-def test_virtual_cap_equals_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
-    from icv_envs.policies.virtual_platoon import VirtualPlatoon
-
-    real = VirtualPlatoon._virtual_cap
-    seen = {"capped": 0, "calls": 0}
-
-    def checked(self, world, rs):
-        got = real(self, world, rs)
-        want = _old_virtual_cap(self, world, rs)
-        assert _same(got, want)
-        seen["calls"] += 1
-        seen["capped"] += int(np.isfinite(got).sum())
-        return got
-
-    monkeypatch.setattr(VirtualPlatoon, "_virtual_cap", checked)
-    _drive_intersection(method, throughput, seed, 90.0, 450)
-    assert seen["calls"] > 100 and seen["capped"] > 0, seen
-
-
 def _old_anticipate(self, world, rs, mode, xref, vref):
     """VirtualPlatoon._anticipate at 4d79153 (stats in a dict of its own)."""
     from icv_envs.policies.platoon_common import MODE_FREE, MODE_TREE
@@ -479,28 +459,28 @@ def _old_anticipate(self, world, rs, mode, xref, vref):
     return anticipation, advised, stats
 
 
-@pytest.mark.parametrize("throughput,seed", [(2600.0, 3), (3000.0, 1)])
-def test_anticipation_equals_the_replaced_array_code_on_runs(monkeypatch, throughput, seed):
-    from icv_envs.policies.virtual_platoon import VirtualPlatoon
+def _old_advise_in_zone(self, world, rs, xref, vref, tight):
+    """VirtualPlatoon._advise_in_zone at b4c2680 (stats in a dict of its own)."""
+    from icv_envs.sim.intersection_metrics import QUEUE_GAP
 
-    real = VirtualPlatoon._anticipate
-    seen = {"anticipating": 0, "advised": 0}
-
-    def checked(self, world, rs, mode, xref, vref):
-        m2, x2, v2 = mode.copy(), xref.copy(), vref.copy()
-        s0 = {k: self.stats[k] for k in ("advised", "anticipating")}
-        want = _old_anticipate(self, world, rs, m2, x2, v2)
-        real(self, world, rs, mode, xref, vref)
-        assert _same(mode, m2) and _same(xref, x2) and _same(vref, v2)
-        for got, exp in zip(self._anticipation + self._advised, want[0] + want[1]):
-            assert _same(got, exp)
-        for k in ("advised", "anticipating"):
-            assert self.stats[k] - s0[k] == want[2][k]
-            seen[k] += want[2][k]
-
-    monkeypatch.setattr(VirtualPlatoon, "_anticipate", checked)
-    _drive_intersection("multi-vp", throughput, seed, 120.0, 600)
-    assert seen["anticipating"] > 0 and seen["advised"] > 0, seen
+    p = self.p
+    f = world.fleet
+    empty = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0))
+    rows, _ = self._tree_rows
+    if not len(rows):
+        return empty, 0
+    H = xref[rows] - rs.X[rows]
+    room = f.speed[rows] ** 2 / (2.0 * abs(p.comfort[0]))
+    L = np.maximum(-rs.u[rows] - 0.5 * f.length[rows] - p.stop_margin, 0.0)
+    w = (rs.phase[rows] == 0) & (H > room) & (L - room > QUEUE_GAP)
+    k = rows[w]
+    if not len(k):
+        return empty, 0
+    v_tree = vref[k].copy()
+    vref[k] = p.v0 * L[w] / (L[w] + H[w])
+    xref[k] = rs.X[k]
+    tight[k] = False
+    return (k, vref[k].copy(), H[w], v_tree), len(k)
 
 
 def _old_anticipation_core(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs, rear_row, rear, depths, lens, x0,
@@ -627,7 +607,8 @@ def test_prune_shortcut_changes_nothing(monkeypatch, method, throughput, seed):
 # ----------------------------------------------------------------------------
 # VirtualPlatoon._references (follow and tree references, the stop flags)
 def _old_references(self, world, rs) -> None:
-    """VirtualPlatoon._references at 4d79153."""
+    """VirtualPlatoon._references at 4d79153 (from stop 41 one compiled
+    call after the tree, ``vp_references``)."""
     from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE
     p = self.p
     f = world.fleet
@@ -711,13 +692,20 @@ def _old_references(self, world, rs) -> None:
         xref[rows_all] = np.where(bind, lb, paper)
         vref[rows_all] = np.where(bind, f.speed[pred_rear], vpaper)
         tight[rows_all] = bind
+    # (from stop 41 the advisory, the anticipation and the caps through their
+    # frozen forms above, which these methods were until then)
     self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0))
-    advised = self._advise_in_zone(world, rs, xref, vref, tight) if p.zone_advisory else self._zone_advised[0]
+    if p.zone_advisory:
+        self._zone_advised, n_zone = _old_advise_in_zone(self, world, rs, xref, vref, tight)
+        self.stats["advised_in_zone"] += n_zone
+    advised = self._zone_advised[0]
     if p.anticipate:
-        self._anticipate(world, rs, mode, xref, vref)
+        self._anticipation, self._advised, s2 = _old_anticipate(self, world, rs, mode, xref, vref)
+        for k, v in s2.items():
+            self.stats[k] += v
     self._mode, self._xref, self._vref, self._tight = mode, xref, vref, tight
     self._apply_yields(world, rs)
-    self._vcap = self._virtual_cap(world, rs)
+    self._vcap = _old_virtual_cap(self, world, rs)
     # may a vehicle enter the box? only from an allowed lane, lane change finished
     allowed = lay.allowed[f.mv, np.clip(f.klane, 0, 2)]
     self._stop = (rs.phase == 0) & (~allowed | (f.lc_lane >= 0) | (f.klane != f.tlane))
@@ -729,15 +717,19 @@ def _old_references(self, world, rs) -> None:
     self._stop &= ~(rs.u > -0.5 * f.length)  # a vehicle already at the line goes on
 
 
-@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 3000.0, 2), ("single-vp", 2600.0, 4),
-                                                    ("fcfs", 2600.0, 5)])
-def test_references_equal_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
+@pytest.mark.parametrize("method,throughput,seed,steps", [("multi-vp", 3000.0, 2, 300), ("single-vp", 2600.0, 4, 300),
+                                                          ("fcfs", 2600.0, 5, 300), ("multi-vp", 2600.0, 3, 600)])
+def test_references_equal_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed, steps):
+    """Step by step on runs, the modes, references, caps, stop flags, the
+    cut references, the counters and the advisory's, anticipation's and
+    tree's inspection arrays equal the frozen code's (from stop 41 one
+    compiled call after the tree; a long multi-vp run for the advisories)."""
     import copy
 
     from icv_envs.policies.virtual_platoon import VirtualPlatoon
 
     real = VirtualPlatoon._references
-    seen = {"follow": 0, "tree": 0, "stop": 0, "hold": 0}
+    seen = {"follow": 0, "tree": 0, "stop": 0, "zone": 0, "ant": 0, "adv": 0}
 
     def checked(self, world, rs):
         me2, w2, rs2 = copy.deepcopy((self, world, rs))
@@ -747,17 +739,24 @@ def test_references_equal_the_replaced_array_code_on_runs(monkeypatch, method, t
             assert _same(getattr(self, name), getattr(me2, name)), name
         assert self.stats == me2.stats
         assert _same(world.fleet.ref, w2.fleet.ref)
-        for a, b in zip(self._tree_rows, me2._tree_rows):
-            assert _same(a, b)
+        for name in ("_tree_rows", "_zone_advised", "_anticipation", "_advised"):
+            got, want = getattr(self, name), getattr(me2, name)
+            assert len(got) == len(want) and all(_same(a, b) for a, b in zip(got, want)), name
+        assert self.node_order == me2.node_order and self.node_depth == me2.node_depth
         seen["follow"] += int((self._mode == 1).sum())
         seen["tree"] += int((self._mode == 2).sum())
         seen["stop"] += int(self._stop.sum())
+        seen["zone"] += len(self._zone_advised[0])
+        seen["ant"] += len(self._anticipation[0])
+        seen["adv"] += len(self._advised[0])
 
     monkeypatch.setattr(VirtualPlatoon, "_references", checked)
-    _drive_intersection(method, throughput, seed, 60.0, 300)
+    _drive_intersection(method, throughput, seed, steps / 5.0, steps)
     assert seen["follow"] > 0 and seen["stop"] > 0, seen
     if method != "fcfs":
         assert seen["tree"] > 0, seen
+    if steps == 600:  # (the advisory inside R1 and the anticipation ran)
+        assert seen["zone"] > 0 and seen["ant"] > 0 and seen["adv"] > 0, seen
 
 
 @settings(max_examples=300, deadline=None)

@@ -2,7 +2,7 @@
 
 A vehicle of the adjusting zone (``R2 >= dist > R1``) that drives free
 tracks, with comfortable braking only, the reference it would get if its
-node were made now (``VirtualPlatoon._anticipate``); only nodes ordered
+node were made now (``VirtualPlatoon._references``, anticipation); only nodes ordered
 before the first node of its own leg with a vehicle behind it bound it
 (without the rule, circular waits: multi-vp, 3000 veh/h, seed 1, 331 jammed
 vehicles; 2500 veh/h, seed 13, 51).

@@ -4,7 +4,7 @@ A node vehicle whose reference lies further behind it than comfortable
 braking absorbs, and whose braking distance would end more than
 ``QUEUE_GAP`` before the stop line, drives at ``v0 L / (L + H)`` (it meets a
 reference moving at ``v0`` at the stop line) instead of standing for it
-right after ``R1`` (``VirtualPlatoon._advise_in_zone``).  Before the rule,
+right after ``R1`` (``VirtualPlatoon._references``, the advisory inside R1).  Before the rule,
 those stands were the virtual platoon's only jams on the 20-seed sweep.
 """
 

@@ -60,7 +60,7 @@ Adjusting zone (regrouping, Sec. 5), when the formation's front crosses ``R2``
     5. *Anticipation* (our addition, ``vp_anticipation``): a free-driving
        vehicle of the zone whose would-be node reference (appended to the
        current virtual platoon) lies behind it already tracks it, braking at
-       most ``comfort[0]`` (:meth:`VirtualPlatoon._anticipate`,
+       most ``comfort[0]`` (:meth:`VirtualPlatoon._references`, anticipation;
        docs/methods.md#virtual-platoon).
 Coordinating zone (virtual platoon, Sec. 4.2)
     A sub-formation becomes a node when its first vehicle crosses ``R1``
@@ -88,7 +88,7 @@ Coordinating zone (virtual platoon, Sec. 4.2)
     A node vehicle whose reference lies further behind it than comfortable
     braking absorbs, where standing would leave it away from the stop line,
     drives at the speed that meets the reference at the line instead
-    (our addition, ``vp_zone_advisory``; :meth:`VirtualPlatoon._advise_in_zone`).
+    (our addition, ``vp_zone_advisory``; :meth:`VirtualPlatoon._references`, the speed advisory inside R1).
 
     Our addition (the paper is silent): the layer references assume every
     earlier layer sits on its reference.  A node that lags its reference
@@ -208,9 +208,9 @@ class PlatoonParams:
     D_safe: float = 19.0  # [m] hard virtual-lane spacing to earlier conflicting nodes (required_layer_gap)
     cap_tau: float = 0.2  # [s] reaction time of the virtual-lane safe speed (the policy period)
     envelope_in_box: bool = True
-    anticipate: bool = True  # track the virtual platoon's reference from R2 on (VirtualPlatoon._anticipate)
-    zone_advisory: bool = True  # the speed advisory inside R1 as well (VirtualPlatoon._advise_in_zone)
-    advisory_speed_floor: float = 5.0  # [m/s] slowest advised speed in the adjusting zone (v0 / 2; _anticipate)
+    anticipate: bool = True  # track the virtual platoon's reference from R2 on (VirtualPlatoon._references: anticipation)
+    zone_advisory: bool = True  # the speed advisory inside R1 as well (VirtualPlatoon._references: advisory inside R1)
+    advisory_speed_floor: float = 5.0  # [m/s] slowest advised speed in the adjusting zone (v0 / 2; VirtualPlatoon._references: anticipation)
     extra: dict = field(default_factory=dict)
 
 
@@ -251,10 +251,10 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         self._vcap = np.zeros(0)
         self._plan_vids: set | None = None  # set_plan_carriers; None: every vehicle
         self._pruned: tuple | None = None  # _prune: (fleet id, count, next id) at its last call
-        # VirtualPlatoon._anticipate: (rows, reference X, bounding node id or -1)
+        # VirtualPlatoon._references' anticipation: (rows, reference X, bounding node id or -1)
         self._anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
-        self._advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))  # VirtualPlatoon._anticipate
-        self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0))  # _advise_in_zone
+        self._advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))  # its advised rows, speed, hold
+        self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0))  # its advisory inside R1
         self._yield: dict[int, int] = {}  # vid -> vid of the vehicle it yields to (Regrouping._note_yields)
         self.stats = {"envelope_box_binding": 0, "envelope_box_binding_member": 0, "virtual_cap_binding": 0, "detached": 0, "ref_cycles_broken": 0, "merges": 0, "divisions": 0, "subformations": 0,
                       "nodes": 0, "lane_changes": 0, "held_out_of_node": 0, "kept_lane_in_R1": 0,
@@ -465,7 +465,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         the reference is ahead), the speed error, and whether the vehicle may
         enter the box now (in a node / holding a reservation, in a lane
         allowed for its movement).  A vehicle under the speed advisory inside
-        R1 (:meth:`VirtualPlatoon._advise_in_zone`) reports the tree's
+        R1 (:meth:`VirtualPlatoon._references`) reports the tree's
         reference (its hold ``H`` behind it, the tree's speed reference), not
         the advisory its controller tracks."""
         self._check_stamp(world)

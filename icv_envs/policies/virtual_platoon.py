@@ -13,14 +13,7 @@ import itertools
 import numpy as np
 
 from icv_envs.formation.targets import formation_length, interlaced_targets
-from icv_envs.policies._kernels import (
-    anticipated_references,
-    follow_references,
-    stop_flags,
-    tree_references,
-    virtual_caps,
-    vp_tree,
-)
+from icv_envs.policies._kernels import vp_references, vp_tree
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors, same_objects
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 from icv_envs._ufuncs import flatnonzero
@@ -308,85 +301,39 @@ class VirtualPlatoon:
 
     # -------------------------------------------------------------- references
     def _references(self, world, rs) -> None:
-        """Per-vehicle longitudinal mode and references for :meth:`compute`."""
-        p = self.p
-        f = world.fleet
-        lay = world.layout
-        n = f.n
-        mode = np.full(n, MODE_FREE, dtype=np.int64)
-        xref = np.zeros(n)  # MODE_FOLLOW: u reference; MODE_TREE: X reference
-        vref = np.full(n, p.v0)
-        tight = np.zeros(n, dtype=bool)  # the safety bound binds: full braking allowed
-        hold = np.zeros(n, dtype=bool)  # the bound is violated: stop before the box
-        # formation following (approach / adjusting zones, and followers of nodes before R1)
-        fol = (f.ref >= 0) & (f.node < 0)
-        if np.count_nonzero(fol):
-            k = flatnonzero(fol)
-            # safety net: two vehicles referring to each other (must not
-            # happen): the nearer one drops its reference.  A follower ahead
-            # of the vehicle it follows, in that vehicle's own lane, is that
-            # vehicle's leader on the road: holding its slot (ahead of the
-            # reference, in another lane) makes each wait for the other once
-            # the lane change to the slot is blocked, a circular wait
-            # (multi-vp, 3500 veh/h, seed 0: a member stood 1 m ahead of its
-            # sub-formation's first vehicle in lane 2, waiting for a gap in
-            # lane 1, for 150 s). Such a follower drives free until the lane
-            # change separates the two.  The same holds in the lane that
-            # vehicle waits to change into: it is listed there too (its turn
-            # signal), brakes behind the follower alongside or ahead of it,
-            # and the follower stood waiting to drop back to its slot behind
-            # it (multi-vp, 3000 veh/h, seed 23: from 450 s to the end of the
-            # run, 39 vehicles jammed behind the two).  Compiled:
-            # policies/_kernels.follow_references (the array code it replaced
-            # is frozen in tests/test_expert_kernels.py)
-            n_cyc, n_ahead = follow_references(k, f.rows(f.ref[k]), f.ref, f.vid, rs.dist, f.klane, self._signals(f),
-                                               rs.phase, rs.u, f.xg, f.speed, MODE_FOLLOW, mode, xref, vref)
-            self.stats["ref_cycles_broken"] += int(n_cyc)
-            self.stats["ahead_of_reference"] += int(n_ahead)
-        self.node_depth = {}
-        self.node_order = []
-        self._tree = None
-        self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-        if self.nodes:
-            ids, depths, T = self.tree(world, rs)
-            self.node_order = ids
-            self.node_depth = dict(zip(ids, depths[1:].tolist()))
-            rows_all, kk = T["live"]  # (the members not yet cleared, in the tree's order)
-            self._tree, self._tree_rows = T, (rows_all, kk)
-            # a node's first vehicle never chases a reference ahead of it: it
-            # then drives at v0 (the virtual platoon only holds vehicles back)
-            # followers: their slot relative to the first vehicle's slot, which is
-            # not slot 0 once the members ahead of it have left the road (with
-            # the absolute slot, multi-vp, 3000 veh/h, seed 2: a member with
-            # x_g = 72 m following the node's new first vehicle 9-11 m behind
-            # got a reference 30-50 m behind it, braked to a stop in the box
-            # and held the whole virtual platoon: 9 jammed at R1).  The hard
-            # spacing to an earlier conflicting node is already lost (a node
-            # that entered late, close to the box): the virtual lane cannot
-            # restore it, so the vehicle stops before the box until that
-            # node's rear has moved D_safe ahead of it (hold).  Compiled:
-            # policies/_kernels.tree_references
-            tree_references(rows_all, kk, T["first"], T["refs"], T["lb"], T["pred"], T["rear_row"], rs.X, f.xg,
-                            f.speed, float(p.v0), float(p.D_t - p.D_safe), MODE_TREE, mode, xref, vref, tight, hold)
-        self._zone_advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0))
-        advised = self._advise_in_zone(world, rs, xref, vref, tight) if p.zone_advisory else self._zone_advised[0]
-        if p.anticipate:
-            self._anticipate(world, rs, mode, xref, vref)
-        self._mode, self._xref, self._vref, self._tight = mode, xref, vref, tight
-        self._apply_yields(world, rs)
-        self._vcap = self._virtual_cap(world, rs)
-        # may a vehicle enter the box? only from an allowed lane, lane change
-        # finished; in the coordinating zone only coordinated vehicles (a node
-        # / a reservation); not while held or advised (the hold lasts: it
-        # waits at the stop line at most); a vehicle already at the line goes
-        # on (compiled: policies/_kernels.stop_flags)
-        self._stop, held = stop_flags(rs.phase, lay.allowed, f.mv, f.klane, f.lc_lane, f.tlane, rs.dist,
-                                      float(lay.R1), np.asarray(self._coordinated(f), dtype=bool), hold,
-                                      np.asarray(advised, dtype=np.int64), rs.u, f.length)
-        self.stats["held_at_line"] += int(held)
+        """Per-vehicle longitudinal mode and references for :meth:`compute`,
+        in this order, all but the tree (:meth:`tree`) and the lane-change
+        yields (:meth:`Regrouping._apply_yields`) in one compiled call
+        (:func:`~icv_envs.policies._kernels.vp_references`, from stop 41;
+        the array code of each part is frozen in
+        ``tests/test_expert_kernels.py``).
 
-    def _advise_in_zone(self, world, rs, xref, vref, tight) -> np.ndarray:
-        """The speed advisory inside ``R1`` too: a node vehicle whose
+        **Formation following** (approach and adjusting zones, and followers of nodes before
+        ``R1``). A safety net: two vehicles referring to each other (must not happen): the
+        nearer one drops its reference.  A follower ahead of the vehicle it follows, in that
+        vehicle's own lane, is that vehicle's leader on the road: holding its slot (ahead of
+        the reference, in another lane) makes each wait for the other once the lane change
+        to the slot is blocked, a circular wait (multi-vp, 3500 veh/h, seed 0: a member
+        stood 1 m ahead of its sub-formation's first vehicle in lane 2, waiting for a gap in
+        lane 1, for 150 s). Such a follower drives free until the lane change separates the
+        two.  The same holds in the lane that vehicle waits to change into: it is listed
+        there too (its turn signal), brakes behind the follower alongside or ahead of it,
+        and the follower stood waiting to drop back to its slot behind it (multi-vp, 3000
+        veh/h, seed 23: from 450 s to the end of the run, 39 vehicles jammed behind the
+        two).
+
+        **The tree's references** (the nodes' live members). A node's first vehicle never
+        chases a reference ahead of it: it then drives at v0 (the virtual platoon only holds
+        vehicles back); followers track their slot relative to the first vehicle's slot,
+        which is not slot 0 once the members ahead of it have left the road (with the
+        absolute slot, multi-vp, 3000 veh/h, seed 2: a member with x_g = 72 m following the
+        node's new first vehicle 9-11 m behind got a reference 30-50 m behind it, braked to
+        a stop in the box and held the whole virtual platoon: 9 jammed at R1).  The hard
+        spacing to an earlier conflicting node is already lost (a node that entered late,
+        close to the box): the virtual lane cannot restore it, so the vehicle stops before
+        the box until that node's rear has moved D_safe ahead of it (hold).
+
+        **The speed advisory inside R1** (``_advise_in_zone`` until stop 40), too: a node vehicle whose
         reference lies further behind it than comfortable braking absorbs
         meets it at the stop line instead of standing (our rule; the paper
         is silent).
@@ -399,7 +346,7 @@ class VirtualPlatoon:
         m from the stop line (issue 8: the virtual platoon's only jams on the
         20-seed sweep, vehicles standing at ``R1`` for 10-20 s with the lanes
         behind them blocked).  Such a vehicle instead gets the adjusting
-        zone's advisory (:meth:`_anticipate`) with ``L`` its distance to the
+        zone's advisory (the anticipation's, below) with ``L`` its distance to the
         stop line: ``v0 L / (L + H)``, at which it reaches the line when a
         reference moving at ``v0`` does, tracked with no position error and
         braking at most ``comfort[0]``; recomputed every step, so a reference
@@ -415,31 +362,9 @@ class VirtualPlatoon:
         -> 9.08 s).  It stays a node all the time, so later conflicting nodes
         keep their bound ``D_t`` behind its rear.
         ``PlatoonParams.zone_advisory`` (env config ``vp_zone_advisory``)
-        switches it off.  Returns the advised rows."""
-        p = self.p
-        f = world.fleet
-        rows, _ = self._tree_rows
-        if not len(rows):
-            return np.zeros(0, dtype=np.int64)
-        H = xref[rows] - rs.X[rows]
-        room = f.speed[rows] ** 2 / (2.0 * abs(p.comfort[0]))
-        L = np.maximum(-rs.u[rows] - 0.5 * f.length[rows] - p.stop_margin, 0.0)
-        w = (rs.phase[rows] == 0) & (H > room) & (L - room > QUEUE_GAP)
-        k = rows[w]
-        if not len(k):
-            return k
-        v_tree = vref[k].copy()
-        vref[k] = p.v0 * L[w] / (L[w] + H[w])
-        xref[k] = rs.X[k]
-        tight[k] = False
-        # rows, advised speed, hold H, the tree's speed reference: tests, and the
-        # observation, which keeps reporting the tree's reference (PlatoonExpert.references)
-        self._zone_advised = (k, vref[k].copy(), H[w], v_tree)
-        self.stats["advised_in_zone"] += len(k)
-        return k
+        switches it off.
 
-    def _anticipate(self, world, rs, mode, xref, vref) -> None:
-        """Track the virtual platoon's reference from ``R2`` on (our addition;
+        **Anticipation in the adjusting zone** (``_anticipate`` until stop 40): track the virtual platoon's reference from ``R2`` on (our addition;
         the paper is silent).
 
         A node is made when its first vehicle crosses ``R1``; if its reference
@@ -476,71 +401,8 @@ class VirtualPlatoon:
         vehicle-seconds; with it, 13 and 54).  It never pulls a vehicle
         forward.  ``PlatoonParams.anticipate`` (env config
         ``vp_anticipation``) switches both off.
-        """
-        self._anticipation = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
-        self._advised = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))  # rows, advised speed, hold H
-        T = self._tree
-        if T is None:
-            return
-        f = world.fleet
-        lay = world.layout
-        p = self.p
-        cand = flatnonzero((mode == MODE_FREE) & (rs.phase == 0) & (f.node < 0) & (rs.dist > lay.R1)
-                              & (rs.dist <= lay.R2) & ~f.cleared)
-        if not len(cand):
-            return
-        ids = self.node_order
-        # its node would be ordered before the first node of its own leg that
-        # has a vehicle behind it (the order's repair in tree()): only the nodes before that
-        # one may bound it.  Bounded by that node, or by a later node that
-        # waits for it, it would hold the vehicle behind it, which that node
-        # waits for: a circular wait (multi-vp, 3000 veh/h, seed 1: 331
-        # jammed with the own-leg node; 2500 veh/h, seed 13: 51 jammed with a
-        # node of another leg bounded by it).  Its depth, layer reference, the
-        # bound behind the conflicting nodes' rears and the hold, compiled
-        # (policies/_kernels.anticipated_references; the array code it
-        # replaced is frozen in tests/test_expert_kernels.py)
-        ref, lb, pred, R, room, H = anticipated_references(
-            cand, f.mv, f.leg, rs.dist, rs.X, f.speed, lay.conflict, lay.leg_of, T["mvs"], T["rear_row"], T["rear"],
-            T["depths"], T["lens"], float(T["refs"][0]), float(p.D_t), float(2.0 * abs(p.comfort[0])))
-        # only a hold that braking at the comfortable deceleration absorbs
-        # before standing still: a larger one would hold the vehicle outside
-        # R1 while nodes of other legs enter first and deepen its reference
-        # (starvation: multi-vp, 3000 veh/h, seed 12, 19 jammed for 904 s);
-        # it waits at R1 as the paper's zones are printed
-        hold = (H > 0) & (H <= room)
-        # a larger hold: a speed advisory instead of standing at R1.  The
-        # reference moves towards the box at about v0, so driving the rest of
-        # the adjusting zone (L = dist - R1) at v0 L / (L + H) meets it at R1;
-        # never slower than advisory_speed_floor (default v0 / 2: at most twice
-        # the time through the zone), so a vehicle whose reference keeps
-        # deepening (nodes of other legs enter first) still reaches R1 in
-        # bounded time and waits there the rest, as before
-        slow = (H > room) & (p.advisory_speed_floor < p.v0)
-        if not (np.count_nonzero(hold) or np.count_nonzero(slow)):
-            return
-        L = np.maximum(rs.dist[cand] - lay.R1, 0.0)
-        v_adv = np.maximum(p.v0 * L / (L + np.maximum(H, 1e-9)), p.advisory_speed_floor)
-        if np.count_nonzero(slow):
-            ks = cand[slow]
-            mode[ks] = MODE_TREE
-            xref[ks] = rs.X[ks]  # no position error: the feedback law tracks the advised speed
-            vref[ks] = v_adv[slow]
-            self._advised = (ks, v_adv[slow], H[slow])
-            self.stats["advised"] += len(ks)
-        if not np.count_nonzero(hold):
-            return
-        k = cand[hold]
-        mode[k] = MODE_TREE
-        xref[k] = R[hold]
-        vref[k] = np.where(lb[hold] >= ref[hold], f.speed[T["rear_row"][pred[hold]]], p.v0)
-        # for inspection (tests, plots): rows, reference, bounding node id (-1: the layer reference binds)
-        bound = np.where(lb[hold] >= ref[hold], np.asarray(ids, dtype=np.int64)[pred[hold]], -1)
-        self._anticipation = (k, R[hold], bound)
-        self.stats["anticipating"] += len(k)
 
-    def _virtual_cap(self, world, rs) -> np.ndarray:
-        """Safe-speed cap in the virtual lane (Gipps): every not yet cleared
+        **The virtual lane's cap** (``_virtual_cap`` until stop 40): a safe-speed cap in the virtual lane (Gipps): every not yet cleared
         vehicle of node ``k`` keeps ``X_v - X_rear,i >= D_safe`` to the rearmost
         vehicle of every earlier node ``i`` it conflicts with, even if that
         vehicle brakes at ``|a_min|`` from now on and this one reacts
@@ -551,20 +413,66 @@ class VirtualPlatoon:
 
         In steady state at ``v0`` it keeps ``D_safe + v0 tau`` (21 m with the
         defaults, = the default ``D_t``).  ``inf`` for vehicles outside the
-        virtual platoon."""
+        virtual platoon.
+
+        **Stop flags.** May a vehicle enter the box? Only from an allowed lane, lane change
+        finished; in the coordinating zone only coordinated vehicles (a node / a
+        reservation); not while held or advised (the hold lasts: it waits at the stop line
+        at most); a vehicle already at the line goes on.
+        """
         p = self.p
         f = world.fleet
-        cap = np.full(f.n, np.inf)
-        T = self._tree
-        if T is None:
-            return cap
-        rows_all, kk = self._tree_rows
-        if not len(rows_all):
-            return cap
-        # (compiled: policies/_kernels.virtual_caps, the array code's
-        # arithmetic per member and earlier conflicting node; frozen in
-        # tests/test_expert_kernels.py)
+        lay = world.layout
+        i64 = np.int64
+        fk = flatnonzero((f.ref >= 0) & (f.node < 0))
+        if len(fk):
+            fk_rows, sig = f.rows(f.ref[fk]), self._signals(f)
+        else:
+            fk_rows = sig = fk
+        self.node_depth = {}
+        self.node_order = []
+        self._tree = T = None
+        e_i, e_f = np.zeros(0, dtype=i64), np.zeros(0)
+        rows_all = kk = t_ids = e_i
+        if self.nodes:
+            ids, depths, T = self.tree(world, rs)
+            self.node_order = ids
+            self.node_depth = dict(zip(ids, depths[1:].tolist()))
+            rows_all, kk = T["live"]  # (the members not yet cleared, in the tree's order)
+            t_ids = np.fromiter(ids, dtype=i64, count=len(ids))
+            self._tree = T
+        self._tree_rows = (rows_all, kk)
+        t = T if T is not None else {"first": e_i, "refs": e_f, "lb": e_f, "pred": e_i, "rear_row": e_i, "rear": e_f,
+                                     "U": np.zeros((0, 0), dtype=bool), "mvs": e_i, "depths": e_i, "lens": e_f}
         b = abs(p.a_min)
         tau = p.cap_tau
-        return virtual_caps(f.n, rows_all, kk, T["U"], rs.X, T["rear"], T["rear_row"], f.speed, float(p.D_safe),
-                            float(b), float(tau), float((b * tau) ** 2))
+        mode, Fr, Bo, counts, zone, Z, adv, A, ant, AR, bound = vp_references(
+            fk, fk_rows, f.ref, f.vid, rs.dist, f.klane, sig, rs.phase, rs.u, f.xg, f.speed, rs.X, f.length, f.mv,
+            f.leg, f.node, f.cleared, T is not None, rows_all, kk, t["first"], t["refs"], t["lb"], t["pred"],
+            t["rear_row"], t["rear"], t["U"], t_ids, t["mvs"], t["depths"], t["lens"], lay.conflict, lay.leg_of,
+            lay.allowed, f.lc_lane, f.tlane, np.asarray(self._coordinated(f), dtype=bool), float(p.v0),
+            float(p.D_t - p.D_safe), float(p.D_t), float(2.0 * abs(p.comfort[0])), float(p.stop_margin),
+            float(QUEUE_GAP), bool(p.zone_advisory), bool(p.anticipate), float(lay.R1), float(lay.R2),
+            float(p.advisory_speed_floor), float(p.D_safe), float(b), float(tau), float((b * tau) ** 2), MODE_FREE,
+            MODE_FOLLOW, MODE_TREE)
+        st = self.stats
+        n_cyc, n_ahead, held = counts.tolist()
+        if len(fk):
+            st["ref_cycles_broken"] += n_cyc
+            st["ahead_of_reference"] += n_ahead
+        # rows, advised speed, hold H, the tree's speed reference: tests, and the
+        # observation, which keeps reporting the tree's reference (PlatoonExpert.references)
+        self._zone_advised = (zone, Z[0], Z[1], Z[2])
+        st["advised_in_zone"] += len(zone)
+        if p.anticipate:
+            # for inspection (tests, plots): the advised rows, speed and hold; the
+            # holding rows, reference and bounding node id (-1: the layer reference binds)
+            self._advised = (adv, A[0], A[1])
+            self._anticipation = (ant, AR, bound)
+            st["advised"] += len(adv)
+            st["anticipating"] += len(ant)
+        self._mode, self._xref, self._vref, self._tight = mode, Fr[0], Fr[1], Bo[0]
+        self._apply_yields(world, rs)
+        self._vcap = Fr[2]
+        self._stop = Bo[1]
+        st["held_at_line"] += held

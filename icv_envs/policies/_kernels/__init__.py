@@ -60,6 +60,7 @@ from icv_envs.policies._kernels.virtual_platoon import (
     tree_layers,
     tree_references,
     virtual_caps,
+    vp_references,
     vp_tree,
 )
 
@@ -68,4 +69,4 @@ __all__ = ["anticipated_references", "box_steering", "node_heads", "corridor_ind
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
            "lane_change_starts", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "normalised_actions",
            "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "stop_flags", "tree_layers",
-           "tree_references", "virtual_caps", "vp_tree"]
+           "tree_references", "virtual_caps", "vp_references", "vp_tree"]

@@ -18,7 +18,7 @@ import numpy as np
 from icv_envs.platoon._kernels import depths_of
 
 __all__ = ["anticipated_references", "follow_references", "node_heads", "repair_order", "stop_flags",
-           "tree_layers", "tree_references", "virtual_caps", "vp_tree"]
+           "tree_layers", "tree_references", "virtual_caps", "vp_references", "vp_tree"]
 
 
 @nb.njit(cache=True)
@@ -123,7 +123,7 @@ def repair_order(at, K, rows, seg, phase, lane, dist, leg):
 @nb.njit(cache=True)
 def virtual_caps(n, rows_all, kk, U, X, rear, rear_row, speed, D_safe, b, tau, bt2):
     """The virtual lane's safe-speed caps
-    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._virtual_cap`):
+    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._references`, the virtual lane's cap):
     for member ``rows_all[j]`` of node ``kk[j]``, Gipps' safe speed behind
     the rear vehicle of every earlier node ``i`` it conflicts with
     (``U[i, kk[j]]``), the smallest, as an acceleration cap ``(v_safe - v) /
@@ -173,7 +173,7 @@ def anticipated_references(cand, mv, leg, dist, X, speed, conflict, leg_of, mvs,
                            D_t, den):
     """The references the adjusting zone's free vehicles ``cand`` would get
     if their nodes were made now
-    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._anticipate`):
+    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._references`, the anticipation):
     per candidate, the current nodes it conflicts with, up to the first
     node of its own leg with a vehicle behind it; its depth ``1 +`` their
     largest depth (0 without one); the layer reference ``x0 + depth D_t +``
@@ -464,3 +464,162 @@ def vp_tree(rows, seg, sizes, ids, vp_order, mvs, lens, X, dist, phase, lane, cl
                 live_node[m] = c
                 m += 1
     return moves, I, F, depths, refs, U, live_rows[:m], live_node[:m]
+
+
+@nb.njit(cache=True, inline="always")
+def _np_maximum(a, b):
+    """``numpy.maximum(a, b)`` of two floats: NaN if either is, ``b`` on a tie."""
+    if a != a or b != b:
+        return a + b
+    return a if a > b else b
+
+
+@nb.njit(cache=True, error_model="numpy")
+def vp_references(fk, fk_rows, ref, vid, dist, klane, sig, phase, u, xg, speed, X, length, mv, leg, node, cleared,
+                  has_tree, rows_all, kk, first_of, refs, lb_of, pred_of, rear_row, rear, U, t_ids, t_mvs, t_depths,
+                  t_lens, conflict, leg_of, allowed, lc_lane, tlane, coordinated, v0, hold_gap, D_t, den, stop_margin,
+                  queue_gap, zone_advisory, anticipate, R1, R2, floor, D_safe, b, tau, bt2, mode_free, mode_follow,
+                  mode_tree):
+    """:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._references`
+    after the tree, in one call and in its order: the formation followers
+    ``fk`` of the vehicles at rows ``fk_rows`` (:func:`follow_references`),
+    the tree's references of its live members (:func:`tree_references`,
+    with ``has_tree``), the speed advisory inside ``R1`` (with
+    ``zone_advisory``), the adjusting zone's anticipation
+    (:func:`anticipated_references` and its holds and advisories, with
+    ``anticipate`` and ``has_tree``), the virtual lane's caps
+    (:func:`virtual_caps`) and the stop flags (:func:`stop_flags`); the
+    array code's operations in its order (numpy's ``maximum`` as
+    :func:`_np_maximum`, ``x ** 2`` as ``x * x``).
+
+    Returns ``(mode, Fr (3, n): xref, vref, cap, Bo (2, n): tight, stop,
+    counts, zone, Z (3, m), adv, A (2, m), ant, AR, bound)``: ``counts``
+    the broken cycles, followers ahead of their reference and vehicles held
+    at the line; the zone advisory's rows, and by rows of ``Z`` their
+    advised speed, hold and the tree's speed reference; the anticipation's
+    advised rows, and by rows of ``A`` their speed and hold; its holding
+    rows, their reference and the bounding node's id (-1: the layer
+    reference binds)."""
+    n = X.shape[0]
+    mode = np.full(n, mode_free, dtype=np.int64)
+    Fr = np.empty((3, n))
+    xref = Fr[0]
+    vref = Fr[1]
+    for i in range(n):
+        xref[i] = 0.0
+        vref[i] = v0
+    Bo = np.zeros((2, n), dtype=np.bool_)
+    tight = Bo[0]
+    hold = np.zeros(n, dtype=np.bool_)
+    counts = np.zeros(3, dtype=np.int64)
+    if fk.shape[0] > 0:
+        n_cyc, n_ahead = follow_references(fk, fk_rows, ref, vid, dist, klane, sig, phase, u, xg, speed, mode_follow,
+                                           mode, xref, vref)
+        counts[0] = n_cyc
+        counts[1] = n_ahead
+    m_all = rows_all.shape[0]
+    if has_tree:
+        tree_references(rows_all, kk, first_of, refs, lb_of, pred_of, rear_row, X, xg, speed, v0, hold_gap, mode_tree,
+                        mode, xref, vref, tight, hold)
+    # the speed advisory inside R1 (VirtualPlatoon._references' docstring)
+    w = np.zeros(m_all, dtype=np.bool_)
+    Hz = np.empty(m_all)
+    Lz = np.empty(m_all)
+    nz = 0
+    if zone_advisory:
+        for j in range(m_all):
+            r = rows_all[j]
+            H = xref[r] - X[r]
+            room = speed[r] * speed[r] / den
+            L = _np_maximum(-u[r] - 0.5 * length[r] - stop_margin, 0.0)
+            Hz[j] = H
+            Lz[j] = L
+            w[j] = phase[r] == 0 and H > room and L - room > queue_gap
+            if w[j]:
+                nz += 1
+    zone = np.empty(nz, dtype=np.int64)
+    Z = np.empty((3, nz))
+    q = 0
+    for j in range(m_all):
+        if w[j]:
+            r = rows_all[j]
+            Z[2, q] = vref[r]
+            vref[r] = v0 * Lz[j] / (Lz[j] + Hz[j])
+            xref[r] = X[r]
+            tight[r] = False
+            zone[q] = r
+            Z[0, q] = vref[r]
+            Z[1, q] = Hz[j]
+            q += 1
+    # the adjusting zone's anticipation (VirtualPlatoon._references' docstring)
+    adv = np.empty(0, dtype=np.int64)
+    A = np.empty((2, 0))
+    ant = np.empty(0, dtype=np.int64)
+    AR = np.empty(0)
+    bound = np.empty(0, dtype=np.int64)
+    if anticipate and has_tree:
+        nc = 0
+        for i in range(n):
+            if (mode[i] == mode_free and phase[i] == 0 and node[i] < 0 and dist[i] > R1 and dist[i] <= R2
+                    and not cleared[i]):
+                nc += 1
+        cand = np.empty(nc, dtype=np.int64)
+        q = 0
+        for i in range(n):
+            if (mode[i] == mode_free and phase[i] == 0 and node[i] < 0 and dist[i] > R1 and dist[i] <= R2
+                    and not cleared[i]):
+                cand[q] = i
+                q += 1
+        if nc > 0:
+            aref, alb, apred, R, room, H = anticipated_references(cand, mv, leg, dist, X, speed, conflict, leg_of, t_mvs,
+                                                                  rear_row, rear, t_depths, t_lens, refs[0], D_t, den)
+            n_hold = 0
+            n_slow = 0
+            for j in range(nc):
+                if H[j] > 0 and H[j] <= room[j]:
+                    n_hold += 1
+                if H[j] > room[j] and floor < v0:
+                    n_slow += 1
+            if n_hold or n_slow:
+                adv = np.empty(n_slow, dtype=np.int64)
+                A = np.empty((2, n_slow))
+                q = 0
+                for j in range(nc):
+                    if H[j] > room[j] and floor < v0:
+                        c = cand[j]
+                        L = _np_maximum(dist[c] - R1, 0.0)
+                        va = _np_maximum(v0 * L / (L + _np_maximum(H[j], 1e-9)), floor)
+                        mode[c] = mode_tree
+                        xref[c] = X[c]
+                        vref[c] = va
+                        adv[q] = c
+                        A[0, q] = va
+                        A[1, q] = H[j]
+                        q += 1
+                ant = np.empty(n_hold, dtype=np.int64)
+                AR = np.empty(n_hold)
+                bound = np.empty(n_hold, dtype=np.int64)
+                q = 0
+                for j in range(nc):
+                    if H[j] > 0 and H[j] <= room[j]:
+                        c = cand[j]
+                        binds = alb[j] >= aref[j]
+                        mode[c] = mode_tree
+                        xref[c] = R[j]
+                        vref[c] = speed[rear_row[apred[j]]] if binds else v0
+                        ant[q] = c
+                        AR[q] = R[j]
+                        bound[q] = t_ids[apred[j]] if binds else -1
+                        q += 1
+    if has_tree and m_all > 0:
+        cap = virtual_caps(n, rows_all, kk, U, X, rear, rear_row, speed, D_safe, b, tau, bt2)
+        for i in range(n):
+            Fr[2, i] = cap[i]
+    else:
+        for i in range(n):
+            Fr[2, i] = np.inf
+    stop, held = stop_flags(phase, allowed, mv, klane, lc_lane, tlane, dist, R1, coordinated, hold, zone, u, length)
+    for i in range(n):
+        Bo[1, i] = stop[i]
+    counts[2] = held
+    return mode, Fr, Bo, counts, zone, Z, adv, A, ant, AR, bound
