@@ -1060,3 +1060,131 @@ def test_vp_tree_is_the_tree_it_replaced(data):
     got = (moves, I[0], I[1], I[2], I[3], I[4], F[0], F[1], F[2], F[3], depths, refs, U, live_rows, live_node)
     for g, w in zip(got, want):
         assert _same(np.asarray(g), np.asarray(w))
+
+
+# ----------------------------------------------------------------------------
+# VirtualPlatoon._detach_inverted (its test compiled from stop 41), frozen
+def _old_detach_inverted(self, world, rs) -> None:
+    """VirtualPlatoon._detach_inverted at b4c2680. A node member whose leader in its approach lane is a vehicle of
+    another group (still before the box) would be ordered before it but
+    cannot pass it: that member and every member of its node further
+    from the centre leave the node and form a node of their own (ordered
+    after the foreign vehicle)."""
+    f = world.fleet
+    rows = np.flatnonzero((f.node >= 0) & (rs.phase == 0))
+    if not len(rows):
+        return
+    from icv_envs.formation.targets import formation_length, interlaced_targets
+    from icv_envs.policies.platoon_common import Corridors
+
+    cor = Corridors.plain(world, rs)
+    lr, _, _, _ = cor.neighbours(rows, 3 * f.leg[rows] + rs.lane[rows], rs.s[rows])
+    lr0 = np.maximum(lr, 0)
+    bad = (lr >= 0) & (f.node[lr0] != f.node[rows]) & (rs.phase[lr0] == 0)
+    if not np.count_nonzero(bad):
+        return
+    # only a foreign vehicle between the node's first vehicle and this member counts
+    ids, mr, seg, _ = self._member_rows(f)
+    dmin = np.full(len(ids), np.inf)
+    np.minimum.at(dmin, seg, rs.dist[mr])
+    first_d = dict(zip(ids, dmin.tolist()))
+    fd = np.array([first_d.get(int(nd), np.inf) for nd in f.node[rows]])
+    bad &= (rs.dist[lr0] > fd + 1e-9) & (rs.dist[rows] > fd + 1e-9)
+    if not np.count_nonzero(bad):
+        return
+    for nid in sorted(set(f.node[rows[bad]].tolist())):
+        N = self.nodes.get(nid)
+        if N is None:
+            continue
+        mrows = f.rows(N["members"])
+        cut = float(rs.dist[rows[bad & (f.node[rows] == nid)]].min())
+        first = mrows[np.argmin(rs.dist[mrows])]
+        out = mrows[(rs.dist[mrows] >= cut) & (mrows != first)]
+        if not len(out):
+            continue
+        keep = [int(v) for v in f.vid[mrows] if v not in set(f.vid[out].tolist())]
+        N["members"] = keep
+        N["length"] = formation_length(len(keep), N["n_lanes"], self.p.gap_in)
+        n_out = len(out)
+        out = out[np.argsort(rs.dist[out])]
+        tx, _ = interlaced_targets(n_out, N["n_lanes"], self.p.gap_in)
+        f.ref[out] = f.vid[out[0]]
+        f.xg[out] = tx
+        f.ref[out[0]] = -1
+        self._new_node(world, [int(v) for v in f.vid[out]], N["mv"], N["n_lanes"],
+                       formation_length(n_out, N["n_lanes"], self.p.gap_in))
+        self.stats["detached"] += n_out
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 3000.0, 2), ("multi-vp", 3500.0, 0)])
+def test_detach_equals_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
+    """``_detach_inverted`` (its test one compiled call from stop 41,
+    ``detach_candidates``) against the frozen code, step by step: the same
+    nodes, members, order, fleet fields and counters."""
+    import copy
+
+    from icv_envs.policies.virtual_platoon import VirtualPlatoon
+
+    real = VirtualPlatoon._detach_inverted
+    seen = {"calls": 0, "detached": 0}
+
+    def checked(self, world, rs):
+        me2, w2, rs2 = copy.deepcopy((self, world, rs))
+        _old_detach_inverted(me2, w2, rs2)
+        real(self, world, rs)
+        assert self.nodes == me2.nodes and self.vp_order == me2.vp_order and self.stats == me2.stats
+        for name in ("node", "ref", "xg", "stage"):
+            assert _same(getattr(world.fleet, name), getattr(w2.fleet, name)), name
+        seen["calls"] += 1
+        seen["detached"] = self.stats["detached"]
+
+    monkeypatch.setattr(VirtualPlatoon, "_detach_inverted", checked)
+    _drive_intersection(method, throughput, seed, 120.0, 600)
+    assert seen["calls"] >= 500 and seen["detached"] > 0, seen
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_detach_candidates_equal_the_replaced_array_code(data):
+    """``detach_candidates`` against the array code of ``_detach_inverted``
+    it replaced, on random corridor indices with integer distances (ties with
+    the first vehicle's distance), leaders in the box, unlisted nodes and
+    vehicles of no node."""
+    from icv_envs.policies._kernels import corridor_neighbours, detach_candidates
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n = data.draw(st.integers(1, 25))
+    big = 1.0e5
+    K = data.draw(st.integers(1, 5))
+    ids = np.sort(rng.choice(20, K, replace=False)).astype(np.int64)
+    node = np.where(rng.random(n) < 0.7, rng.choice(np.concatenate([ids, [30]]), n), -1).astype(np.int64)
+    phase = (rng.random(n) < 0.2).astype(np.int64)
+    leg = rng.integers(0, 2, n).astype(np.int64)
+    lane = rng.integers(0, 2, n).astype(np.int64)
+    s = rng.integers(-20, 0, n).astype(float)
+    dist = rng.integers(0, 8, n).astype(float)
+    m = data.draw(st.integers(0, 2 * n))
+    e_rows = rng.integers(0, n, m).astype(np.int64)
+    e_corr = np.where(rng.random(m) < 0.7, 3 * leg[e_rows] + lane[e_rows], rng.integers(0, 6, m)).astype(np.int64)
+    e_coord = s[e_rows] + rng.choice([0.0, 0.0, 1.0], m)
+    o = np.lexsort((e_rows, e_corr * big + e_coord))
+    keys, corr, crows, coord = (e_corr * big + e_coord)[o], e_corr[o], e_rows[o], e_coord[o]
+    members = [np.flatnonzero(node == k) for k in ids]
+    mr = np.concatenate(members).astype(np.int64)
+    seg = np.repeat(np.arange(K), [len(x) for x in members]).astype(np.int64)
+    # the array code (b4c2680)
+    rows = np.flatnonzero((node >= 0) & (phase == 0))
+    want = np.zeros(len(rows), dtype=bool)
+    if len(rows):
+        q_corr = 3 * leg[rows] + lane[rows]
+        lr, _, _, _ = corridor_neighbours(keys, corr, crows, coord, rows.astype(np.int64), q_corr,
+                                          q_corr * big + s[rows])
+        lr0 = np.maximum(lr, 0)
+        want = (lr >= 0) & (node[lr0] != node[rows]) & (phase[lr0] == 0)
+        dmin = np.full(K, np.inf)
+        np.minimum.at(dmin, seg, dist[mr])
+        first_d = dict(zip(ids.tolist(), dmin.tolist()))
+        fd = np.array([first_d.get(int(nd), np.inf) for nd in node[rows]])
+        want &= (dist[lr0] > fd + 1e-9) & (dist[rows] > fd + 1e-9)
+    got_rows, got = detach_candidates(node, phase, leg, lane, s, dist, keys, corr, crows, coord, big, mr, seg, ids)
+    assert _same(got_rows, rows.astype(np.int64)) and _same(got, want)

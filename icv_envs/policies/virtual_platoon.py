@@ -13,7 +13,7 @@ import itertools
 import numpy as np
 
 from icv_envs.formation.targets import formation_length, interlaced_targets
-from icv_envs.policies._kernels import vp_references, vp_tree
+from icv_envs.policies._kernels import detach_candidates, vp_references, vp_tree
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors, same_objects
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 from icv_envs._ufuncs import flatnonzero
@@ -141,22 +141,17 @@ class VirtualPlatoon:
         from the centre leave the node and form a node of their own (ordered
         after the foreign vehicle)."""
         f = world.fleet
-        rows = flatnonzero((f.node >= 0) & (rs.phase == 0))
-        if not len(rows):
+        if not self.nodes:
             return
+        # the test compiled (policies/_kernels.detach_candidates, from stop
+        # 41; the array code it replaced is frozen in tests/test_expert_kernels.py):
+        # the members' leaders in their approach corridors, foreign and
+        # approaching, between the node's first vehicle and the member
         cor = Corridors.plain(world, rs)
-        lr, _, _, _ = cor.neighbours(rows, 3 * f.leg[rows] + rs.lane[rows], rs.s[rows])
-        lr0 = np.maximum(lr, 0)
-        bad = (lr >= 0) & (f.node[lr0] != f.node[rows]) & (rs.phase[lr0] == 0)
-        if not np.count_nonzero(bad):
-            return
-        # only a foreign vehicle between the node's first vehicle and this member counts
         ids, mr, seg, _ = self._member_rows(f)
-        dmin = np.full(len(ids), np.inf)
-        np.minimum.at(dmin, seg, rs.dist[mr])
-        first_d = dict(zip(ids, dmin.tolist()))
-        fd = np.array([first_d.get(int(nd), np.inf) for nd in f.node[rows]])
-        bad &= (rs.dist[lr0] > fd + 1e-9) & (rs.dist[rows] > fd + 1e-9)
+        rows, bad = detach_candidates(f.node, rs.phase, f.leg, rs.lane, rs.s, rs.dist, cor.keys, cor.corr, cor.rows,
+                                      cor.coord, float(cor.BIG), mr, seg,
+                                      np.fromiter(ids, dtype=np.int64, count=len(ids)))
         if not np.count_nonzero(bad):
             return
         for nid in sorted(set(f.node[rows[bad]].tolist())):

@@ -53,6 +53,7 @@ from icv_envs.policies._kernels.laws import normalised_actions
 from icv_envs.policies._kernels.platoon_control import box_steering, envelope_pairs, platoon_accelerations
 from icv_envs.policies._kernels.virtual_platoon import (
     anticipated_references,
+    detach_candidates,
     follow_references,
     node_heads,
     repair_order,
@@ -64,7 +65,7 @@ from icv_envs.policies._kernels.virtual_platoon import (
     vp_tree,
 )
 
-__all__ = ["anticipated_references", "box_steering", "node_heads", "corridor_index", "corridor_neighbours", "desired_lane_rows",
+__all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_heads", "corridor_index", "corridor_neighbours", "desired_lane_rows",
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
            "lane_change_starts", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "normalised_actions",

@@ -16,8 +16,9 @@ import numba as nb
 import numpy as np
 
 from icv_envs.platoon._kernels import depths_of
+from icv_envs.policies._kernels.corridors import corridor_neighbours
 
-__all__ = ["anticipated_references", "follow_references", "node_heads", "repair_order", "stop_flags",
+__all__ = ["anticipated_references", "detach_candidates", "follow_references", "node_heads", "repair_order", "stop_flags",
            "tree_layers", "tree_references", "virtual_caps", "vp_references", "vp_tree"]
 
 
@@ -623,3 +624,55 @@ def vp_references(fk, fk_rows, ref, vid, dist, klane, sig, phase, u, xg, speed, 
         Bo[1, i] = stop[i]
     counts[2] = held
     return mode, Fr, Bo, counts, zone, Z, adv, A, ant, AR, bound
+
+
+@nb.njit(cache=True)
+def detach_candidates(node, phase, leg, lane, s, dist, keys, corr, crows, coord, big, mr, seg, ids):
+    """The test of :meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._detach_inverted`,
+    compiled: the approaching node members (``node >= 0``, ``phase == 0``,
+    in row order) whose leader in their approach corridor ``3 leg + lane``
+    (:func:`~icv_envs.policies._kernels.corridor_neighbours` on the index
+    ``keys, corr, crows, coord`` at key ``corridor * big + s``) is an
+    approaching vehicle of another node or of none, further from the centre
+    than the first vehicle (least ``dist``) of the member's node by more than
+    1e-9 m, as the member is (nodes ``ids`` with their members' rows ``mr``,
+    ``seg`` the index into ``ids``; a node not among them counts as having
+    its first vehicle at ``inf``). Returns ``(rows, bad)``: the approaching
+    members and the test's answer per member."""
+    n = node.shape[0]
+    m = 0
+    for i in range(n):
+        if node[i] >= 0 and phase[i] == 0:
+            m += 1
+    rows = np.empty(m, dtype=np.int64)
+    q_corr = np.empty(m, dtype=np.int64)
+    qk = np.empty(m)
+    q = 0
+    for i in range(n):
+        if node[i] >= 0 and phase[i] == 0:
+            rows[q] = i
+            q_corr[q] = 3 * leg[i] + lane[i]
+            qk[q] = q_corr[q] * big + s[i]
+            q += 1
+    bad = np.zeros(m, dtype=np.bool_)
+    if m == 0:
+        return rows, bad
+    lr, _, _, _ = corridor_neighbours(keys, corr, crows, coord, rows, q_corr, qk)
+    K = ids.shape[0]
+    dmin = np.full(K, np.inf)
+    for j in range(mr.shape[0]):
+        d = dist[mr[j]]
+        if d < dmin[seg[j]]:
+            dmin[seg[j]] = d
+    for q in range(m):
+        r = rows[q]
+        a = lr[q]
+        if a < 0 or node[a] == node[r] or phase[a] != 0:
+            continue
+        fd = np.inf
+        for k in range(K):
+            if ids[k] == node[r]:
+                fd = dmin[k]
+                break
+        bad[q] = dist[a] > fd + 1e-9 and dist[r] > fd + 1e-9
+    return rows, bad
