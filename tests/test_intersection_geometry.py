@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from highway_env.road.lane import CircularLane, StraightLane
 
 from icv_envs.platoon import conflict_model, lane_path, path_length, required_layer_gap
@@ -143,3 +145,34 @@ def test_fleet_rows_equal_a_binary_search_after_adds_and_removals():
         assert np.array_equal(f.rows(probe.reshape(8, 5)), want.reshape(8, 5))
         assert np.array_equal(np.concatenate([f.rows(probe[i:i + 4].tolist()) for i in range(0, 40, 4)]), want)
         assert all((r == -1) == (v not in set(f.vid.tolist())) for v, r in zip(probe.tolist(), got.tolist()))
+
+
+@settings(max_examples=200, deadline=None)
+@given(k=st.integers(0, 4), scalar=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_fleet_add_fills_fields_as_the_broadcast_did(k, scalar, seed):
+    """Fleet.add (stop 41: one assignment per field's new rows) gives every
+    field the values and dtype ``np.broadcast_to(np.asarray(v, dtype), (k,))``
+    gave (floats into integer and bool fields included); an unknown field
+    raises naming it, before anything is added."""
+
+    from icv_envs.sim.intersection_world import Fleet
+
+    rng = np.random.default_rng(seed)
+    f = Fleet()
+    spec = {"x": (np.float64, 0.0), "lane": (np.int64, -1), "ok": (bool, False), "t": (np.float32, 1.5)}
+    for name, (dt, d) in spec.items():
+        f.define(name, dt, d)
+    f.add(2, x=1.0)
+    vals = {"x": rng.normal(size=k) * 10, "lane": rng.normal(size=k) * 3, "ok": rng.normal(size=k)}
+    if scalar:
+        vals = {n: (v[0] if k else 2.7) for n, v in vals.items()}
+    before = {n: getattr(f, n).copy() for n in spec}
+    f.add(k, **vals)
+    for name, (dt, d) in spec.items():
+        want = np.concatenate([before[name], np.broadcast_to(np.asarray(vals.get(name, d), dtype=dt), (k,))])
+        got = getattr(f, name)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), name
+    n0, next0 = f.n, f.next_vid
+    with pytest.raises(ValueError, match="unknown vehicle fields"):
+        f.add(1, x=0.0, nope=3)
+    assert f.n == n0 and f.next_vid == next0 and all(len(getattr(f, n)) == n0 for n in spec)

@@ -119,16 +119,24 @@ class Fleet:
         return len(self.vid)
 
     def add(self, k: int, **values) -> np.ndarray:
-        ids = np.arange(self.next_vid, self.next_vid + k, dtype=np.int64)
-        self.next_vid += k
-        self.vid = np.concatenate([self.vid, ids])
-        self._row_of = None
-        for name, (dtype, default) in self._fields.items():
-            v = np.broadcast_to(np.asarray(values.get(name, default), dtype=dtype), (k,))
-            setattr(self, name, np.concatenate([getattr(self, name), v]))
+        """Append ``k`` vehicles with new ids; each field takes its value from
+        ``values`` (a scalar, or ``k`` values) or its default. Unknown fields
+        raise before anything is added (from stop 41; before, after the
+        fields were extended). Each field's new rows are filled by one
+        assignment (the scalar or the ``k`` values cast to the field's dtype,
+        as ``np.asarray(v, dtype)`` broadcast did, at a third of its cost: a
+        spawn extends about forty fields)."""
         unknown = set(values) - set(self._fields)
         if unknown:
             raise ValueError(f"unknown vehicle fields {sorted(unknown)}")
+        ids = np.arange(self.next_vid, self.next_vid + k, dtype=np.int64)
+        self.next_vid += k
+        self.vid = np.concatenate((self.vid, ids))
+        self._row_of = None
+        for name, (dtype, default) in self._fields.items():
+            new = np.empty(k, dtype=dtype)
+            new[...] = values.get(name, default)
+            setattr(self, name, np.concatenate((getattr(self, name), new)))
         return ids
 
     def remove(self, mask) -> None:
