@@ -1188,3 +1188,57 @@ def test_detach_candidates_equal_the_replaced_array_code(data):
         want &= (dist[lr0] > fd + 1e-9) & (dist[rows] > fd + 1e-9)
     got_rows, got = detach_candidates(node, phase, leg, lane, s, dist, keys, corr, crows, coord, big, mr, seg, ids)
     assert _same(got_rows, rows.astype(np.int64)) and _same(got, want)
+
+
+def _old_lane_change_ready(klane, tlane, lc_lane, phase, stage, st_lc, vid, yv, ref_rows, u, xg, dist, speed, R1,
+                           slot_tolerance, want):
+    """The first part of Regrouping._start_lane_changes at b4c2680 (the yield
+    bookkeeping before it stays Python), with its _slot_error."""
+    want[:] = -1
+    need = (klane != tlane) & (lc_lane < 0) & (phase == 0) & (stage >= st_lc)
+    rows = np.flatnonzero(need)
+    yielding = np.fromiter((v in yv for v in vid[rows].tolist()), dtype=bool, count=len(rows))
+    ready = np.ones(len(rows), dtype=bool)
+    dv = stage[rows] == st_lc
+    if np.count_nonzero(dv):
+        r2 = rows[dv]
+        ref = ref_rows[r2]
+        ok = ref >= 0
+        err = np.zeros(len(r2))
+        err[ok] = u[r2[ok]] - (u[ref[ok]] - xg[r2[ok]])
+        ready[dv] = (np.abs(err) < slot_tolerance) | (yielding[dv] & (err < slot_tolerance))
+    nxt = klane[rows] + np.sign(tlane[rows] - klane[rows])
+    sig = ready & ((dist[rows] <= R1) | (speed[rows] < 2.0)) & ~yielding
+    want[rows[sig]] = nxt[sig]
+    return rows[ready], nxt[ready]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_lane_change_ready_equals_the_replaced_array_code(data):
+    """``lane_change_ready`` (stop 41) against the array code it replaced:
+    the same ready rows, next lanes and signals, with slot errors on a grid
+    (ties with the tolerance), yielding vehicles and missing references."""
+    from icv_envs.policies._kernels import lane_change_ready
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n = data.draw(st.integers(0, 25))
+    klane = rng.integers(0, 3, n).astype(np.int64)
+    tlane = rng.integers(0, 3, n).astype(np.int64)
+    lc_lane = np.where(rng.random(n) < 0.2, rng.integers(0, 3, n), -1).astype(np.int64)
+    phase = (rng.random(n) < 0.2).astype(np.int64)
+    stage = rng.integers(0, 4, n).astype(np.int64)
+    vid = rng.permutation(50)[:n].astype(np.int64)
+    yv = np.unique(np.concatenate([vid[rng.random(n) < 0.4], rng.choice(50, 2)])).astype(np.int64)
+    ref_rows = np.where(rng.random(n) < 0.7, rng.integers(0, max(n, 1), n), -1).astype(np.int64)
+    u = rng.integers(-40, 0, n).astype(float)
+    xg = rng.choice([0.0, 5.0, -5.0, 3.0], n)
+    dist = rng.choice([100.0, 285.0, 300.0], n)
+    speed = rng.choice([0.0, 1.9, 2.0, 8.0], n)
+    w1, w2 = rng.integers(-1, 3, n).astype(np.int64), None
+    w2 = w1.copy()
+    want = _old_lane_change_ready(klane, tlane, lc_lane, phase, stage, 1, vid, set(yv.tolist()), ref_rows, u, xg,
+                                  dist, speed, 285.0, 3.0, w1)
+    got = lane_change_ready(klane, tlane, lc_lane, phase, stage, 1, vid, yv, ref_rows, u, xg, dist, speed, 285.0,
+                            3.0, w2)
+    assert _same(got[0], want[0].astype(np.int64)) and _same(got[1], want[1]) and _same(w2, w1)

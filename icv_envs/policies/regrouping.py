@@ -13,6 +13,7 @@ import numpy as np
 from icv_envs.formation.assignment import assign_targets
 from icv_envs.formation.bezier import _lane_change_lateral_rows
 from icv_envs.formation.targets import interlaced_targets
+from icv_envs.policies._kernels import lane_change_ready
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors, same_objects
 from icv_envs.sim.traffic import idm_acceleration
 from icv_envs._ufuncs import clip as uclip, flatnonzero
@@ -47,35 +48,25 @@ class Regrouping:
         p = self.p
         f = world.fleet
         lay = world.layout
-        f.want[:] = -1
-        need = (f.klane != f.tlane) & (f.lc_lane < 0) & (rs.phase == 0) & (f.stage >= ST_LC)
         if self._yield:
             # yields end when the change started or is no longer needed, in
             # R1, when either vehicle left, or when both (nearly) stand: the
             # slot then moves the yielding one forward to open the gap
+            need = (f.klane != f.tlane) & (f.lc_lane < 0) & (rs.phase == 0) & (f.stage >= ST_LC)
             alive = set(f.vid[need & (rs.dist > lay.R1) & (f.speed >= 0.5)].tolist())
             moving = set(f.vid[f.speed >= 0.5].tolist())
             for vid in [v for v, b in self._yield.items() if v not in alive or b not in moving]:
                 del self._yield[vid]
-        if not np.count_nonzero(need):
-            return
-        rows = flatnonzero(need)
-        # vehicles in division start only near their slot; one that is
-        # yielding (below) may be any distance behind it
-        # (a set lookup per row: np.isin costs ~20 us on these few rows)
-        yv = self._yield
-        yielding = np.fromiter((v in yv for v in f.vid[rows].tolist()), dtype=bool, count=len(rows))
-        ready = np.ones(len(rows), dtype=bool)
-        dv = f.stage[rows] == ST_LC
-        if np.count_nonzero(dv):
-            err = self._slot_error(world, rs, rows[dv])
-            ready[dv] = (np.abs(err) < p.slot_tolerance) | (yielding[dv] & (err < p.slot_tolerance))
-        nxt = f.klane[rows] + np.sign(f.tlane[rows] - f.klane[rows])
-        # courtesy signal: a ready vehicle in the coordinating zone (or queued)
-        # is listed in the lane it needs, so the vehicle behind there makes room
-        sig = ready & ((rs.dist[rows] <= lay.R1) | (f.speed[rows] < 2.0)) & ~yielding
-        f.want[rows[sig]] = nxt[sig]
-        rows, nxt = rows[ready], nxt[ready]
+        # the vehicles that need a lane change; those in division start only
+        # near their slot, one that is yielding (below) any distance behind
+        # it; a ready one in the coordinating zone (or queued) is listed in
+        # the lane it needs (a courtesy signal), so the vehicle behind there
+        # makes room (compiled: policies/_kernels.lane_change_ready, from
+        # stop 41; the array code it replaced is frozen in tests/test_expert_kernels.py)
+        rows, nxt = lane_change_ready(f.klane, f.tlane, f.lc_lane, rs.phase, f.stage, ST_LC, f.vid,
+                                      np.fromiter(self._yield, dtype=np.int64, count=len(self._yield)),
+                                      f.rows(f.ref), rs.u, f.xg, rs.dist, f.speed, float(lay.R1),
+                                      float(p.slot_tolerance), f.want)
         if not len(rows):
             return
         v = f.speed[rows]

@@ -9,6 +9,7 @@ module per room of the paper's method, as the policies that call them:
   kernels in one call each);
 * :mod:`.lane_changes` -- that expert's lane-change decisions (Sec. 3.4):
   which lane changes start, which end or re-plan;
+* :mod:`.regrouping` -- the intersection's vehicle regrouping (Sec. 5): which lane changes are ready;
 * :mod:`.corridors` -- the intersection's corridor index (read by Sec. 5's regrouping and Sec. 4.2);
 * :mod:`.virtual_platoon` -- the improved virtual platoon (Sec. 4.2):
   passing-order repair, the virtual lane's caps, anticipation, tree-layers,
@@ -50,6 +51,7 @@ from icv_envs.policies._kernels.formation_expert import (
 )
 from icv_envs.policies._kernels.lane_changes import lane_change_starts, lane_changes_ended
 from icv_envs.policies._kernels.laws import normalised_actions
+from icv_envs.policies._kernels.regrouping import lane_change_ready
 from icv_envs.policies._kernels.platoon_control import box_steering, envelope_pairs, platoon_accelerations
 from icv_envs.policies._kernels.virtual_platoon import (
     anticipated_references,
@@ -68,6 +70,6 @@ from icv_envs.policies._kernels.virtual_platoon import (
 __all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_heads", "corridor_index", "corridor_neighbours", "desired_lane_rows",
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
-           "lane_change_starts", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "normalised_actions",
+           "lane_change_ready", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "normalised_actions",
            "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "stop_flags", "tree_layers",
            "tree_references", "virtual_caps", "vp_references", "vp_tree"]
