@@ -11,9 +11,12 @@ module per room of the paper's method, as the policies that call them:
   which lane changes start, which end or re-plan;
 * :mod:`.regrouping` -- the intersection's vehicle regrouping (Sec. 5): which lane changes are ready;
 * :mod:`.corridors` -- the intersection's corridor index (read by Sec. 5's regrouping and Sec. 4.2);
-* :mod:`.virtual_platoon` -- the improved virtual platoon (Sec. 4.2):
-  passing-order repair, the virtual lane's caps, anticipation, tree-layers,
-  references, stop flags;
+* :mod:`.virtual_platoon` -- the improved virtual platoon (Sec. 4.2), its
+  nodes and their order: node heads, passing-order repair, tree-layers,
+  members to detach;
+* :mod:`.vp_references` -- the references the virtual platoon gives its
+  vehicles (Sec. 4.2): formation following, the tree's references, the
+  advisories, anticipation, the virtual lane's caps, stop flags;
 * :mod:`.platoon_control` -- the intersection experts' control (Sec. 4.3, Sec. 5's controller):
   steering through the box, the safety envelope, the longitudinal law.
 
@@ -54,17 +57,19 @@ from icv_envs.policies._kernels.laws import normalised_actions
 from icv_envs.policies._kernels.regrouping import lane_change_ready
 from icv_envs.policies._kernels.platoon_control import box_steering, envelope_pairs, platoon_accelerations
 from icv_envs.policies._kernels.virtual_platoon import (
-    anticipated_references,
     detach_candidates,
-    follow_references,
     node_heads,
     repair_order,
-    stop_flags,
     tree_layers,
+    vp_tree,
+)
+from icv_envs.policies._kernels.vp_references import (
+    anticipated_references,
+    follow_references,
+    stop_flags,
     tree_references,
     virtual_caps,
     vp_references,
-    vp_tree,
 )
 
 __all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_heads", "corridor_index", "corridor_neighbours", "desired_lane_rows",
