@@ -194,3 +194,55 @@ def test_envelope_pairs_pass_signal_only_leaders_alongside_as_the_array_code():
             assert np.array_equal(cap, want[0]) and np.array_equal(cap_other, want[1]) and got == want[2]
             passed += got
     assert passed > 100
+
+
+def _frozen_stop_line(stop, u, length, speed, stop_margin, a_max, b, T, cap, cap_other, phase, acc_ref):
+    """The end of PlatoonControl._envelope at b4c2680 (the stop line's IDM cap, the box's binding counts)."""
+    from icv_envs.sim.traffic import idm_acceleration
+
+    st = np.flatnonzero(stop)
+    if len(st):
+        gap = -u[st] - 0.5 * length[st] - stop_margin
+        a_st = idm_acceleration(speed[st], 15.0, gap, speed[st], a_max, b, T, 0.5, free_term=False)
+        cap[st] = np.minimum(cap[st], a_st)
+    box = (phase == 1) & (cap < acc_ref - 0.5)
+    other = box & (cap_other < acc_ref - 0.5)
+    return np.count_nonzero(other), np.count_nonzero(box & ~other)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_stop_line_caps_equal_the_array_code(seed):
+    """``stop_line_caps`` (stop 41) against the array code it replaced:
+    caps equal bit for bit (ties with the current cap, gaps below 0.1 m,
+    standing vehicles; NaN caps and positions stay NaN) and the same binding
+    counts."""
+    from icv_envs.policies._kernels import stop_line_caps
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(0, 30))
+    stop = rng.random(n) < 0.5
+    u = rng.choice([-40.0, -3.0, -2.5, -0.1, 1.0], n) + rng.choice([0.0, 0.0, 0.37], n)
+    length = rng.choice([4.0, 5.0], n)
+    speed = rng.choice([0.0, 0.0, 3.0, 10.0], n) + rng.uniform(0, 1, n) * (rng.random(n) < 0.5)
+    cap = rng.choice([np.inf, 2.0, -1.0, -6.0, np.nan], n)
+    cap_other = rng.choice([np.inf, 2.0, -1.0], n)
+    phase = rng.integers(0, 3, n).astype(np.int64)
+    acc_ref = rng.choice([0.0, 1.0, 2.0, -0.5], n)
+    if n and seed % 4 == 0:
+        u[rng.integers(0, n)] = np.nan
+    margin, a_max, b, T = 1.0, 2.0, 3.0, 1.2
+    # a cap equal to the stop line's cap: the tie
+    if n:
+        i = int(rng.integers(0, n))
+        stop[i] = True
+        g = max(-u[i] - 0.5 * length[i] - margin, 0.1)
+        s_star = 0.5 + max(0.0, speed[i] * T + speed[i] * speed[i] / (2.0 * np.sqrt(a_max * b)))
+        cap[i] = a_max * (1.0 - (s_star / g) ** 2)
+    c1, c2 = cap.copy(), cap.copy()
+    want = _frozen_stop_line(stop, u, length, speed, margin, a_max, b, T, c1, cap_other, phase, acc_ref)
+    got = stop_line_caps(stop, u, length, speed, margin, a_max, float(np.sqrt(a_max * b)), T, 0.5, c2, cap_other,
+                         phase, acc_ref)
+    # (bit for bit where a number; a NaN stays a NaN, whose sign bit numpy's and the kernel's ops may set apart)
+    num = ~np.isnan(c1)
+    assert np.array_equal(np.isnan(c1), np.isnan(c2)) and c1[num].tobytes() == c2[num].tobytes()
+    assert tuple(got) == want

@@ -14,7 +14,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.policies._kernels import box_steering, envelope_pairs, normalised_actions, platoon_accelerations
+from icv_envs.policies._kernels import (
+    box_steering,
+    envelope_pairs,
+    normalised_actions,
+    platoon_accelerations,
+    stop_line_caps,
+)
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE, Corridors
 from icv_envs.sim.traffic import idm_acceleration
 from icv_envs._ufuncs import clip as uclip, flatnonzero
@@ -116,17 +122,16 @@ class PlatoonControl:
             np.minimum.at(cap, qi, safe)
             np.minimum.at(cap_other, qi, safe)
             self.stats["path_obstacle_binding"] += int((safe < 0).sum())
-        # stop line for vehicles that may not enter
-        st = flatnonzero(self._stop)
-        if len(st):
-            gap = -rs.u[st] - 0.5 * f.length[st] - p.stop_margin
-            a_st = idm_acceleration(f.speed[st], p.v_max, gap, f.speed[st], p.a_max, p.idm_b, p.idm_T, 0.5,
-                                    free_term=False)
-            cap[st] = np.minimum(cap[st], a_st)
-        box = (rs.phase == 1) & (cap < acc_ref - 0.5)
-        other = box & (cap_other < acc_ref - 0.5)
-        self.stats["envelope_box_binding"] += np.count_nonzero(other)
-        self.stats["envelope_box_binding_member"] += np.count_nonzero(box & ~other)
+        # stop line for vehicles that may not enter (the IDM's interaction
+        # term towards it, s0 = 0.5 m); then the in-box vehicles whose cap
+        # binds, towards another group's leader or a member's (compiled:
+        # policies/_kernels.stop_line_caps, from stop 41; the array code it
+        # replaced is frozen in tests/test_box_steering.py)
+        n_other, n_member = stop_line_caps(self._stop, rs.u, f.length, f.speed, float(p.stop_margin),
+                                           float(p.a_max), float(np.sqrt(p.a_max * p.idm_b)), float(p.idm_T), 0.5,
+                                           cap, cap_other, rs.phase, acc_ref)
+        self.stats["envelope_box_binding"] += n_other
+        self.stats["envelope_box_binding_member"] += n_member
         return cap
 
     def _envelope_pairs(self, f, rs, cor, in_box: bool, cap, cap_other) -> int:

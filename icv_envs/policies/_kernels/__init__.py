@@ -55,7 +55,12 @@ from icv_envs.policies._kernels.formation_expert import (
 from icv_envs.policies._kernels.lane_changes import lane_change_starts, lane_changes_ended
 from icv_envs.policies._kernels.laws import normalised_actions
 from icv_envs.policies._kernels.regrouping import lane_change_ready
-from icv_envs.policies._kernels.platoon_control import box_steering, envelope_pairs, platoon_accelerations
+from icv_envs.policies._kernels.platoon_control import (
+    box_steering,
+    envelope_pairs,
+    platoon_accelerations,
+    stop_line_caps,
+)
 from icv_envs.policies._kernels.virtual_platoon import (
     detach_candidates,
     node_heads,
@@ -76,5 +81,5 @@ __all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
            "lane_change_ready", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "normalised_actions",
-           "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "stop_flags", "tree_layers",
+           "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "stop_flags", "stop_line_caps", "tree_layers",
            "tree_references", "virtual_caps", "vp_references", "vp_tree"]

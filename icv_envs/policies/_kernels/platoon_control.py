@@ -19,7 +19,7 @@ import numpy as np
 from icv_envs.formation._kernels import clip1
 from icv_envs.policies._kernels.laws import _feedback1, _idm_free1
 
-__all__ = ["box_steering", "envelope_pairs", "platoon_accelerations"]
+__all__ = ["box_steering", "envelope_pairs", "platoon_accelerations", "stop_line_caps"]
 
 
 @nb.njit(cache=True)
@@ -138,7 +138,7 @@ def envelope_pairs(lead, coord, rows, signal_only, length, speed, grp, co, phase
         dv = v - speed[ld]
         x = v * T + v * dv / sqrt_ab2
         s_star = s0 + (x if x > 0.0 else 0.0)
-        g = gap if gap > 0.1 else 0.1
+        g = gap if (gap > 0.1 or gap != gap) else 0.1  # numpy's maximum(gap, 0.1): NaN kept
         r = s_star / g
         safe = a_max * (1.0 - r * r)
         room = gap - member_s0
@@ -192,3 +192,38 @@ def platoon_accelerations(v, free_pow, a_free, b, T, s0, mode, mode_follow, mode
                 binding += 1
             acc[i] = a if a < vc else vc
     return acc, binding
+
+
+@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
+def stop_line_caps(stop, u, length, speed, stop_margin, a_max, sqrt_ab, T, s0, cap, cap_other, phase, acc_ref):
+    """The end of :meth:`icv_envs.policies.platoon_control.PlatoonControl._envelope`:
+    every vehicle with ``stop`` gets the IDM interaction cap towards its stop
+    line (``idm_acceleration(v, ., gap, v, a_max, ., T, s0,
+    free_term=False)`` at the bumper gap ``-u - length / 2 - stop_margin``,
+    ``sqrt_ab = sqrt(a_max b)`` as numpy takes it), in place, the smaller of
+    it and ``cap`` (numpy's ``minimum``: the cap on a tie); then the in-box
+    vehicles whose cap binds (below ``acc_ref - 0.5``) are counted: those
+    bound towards a leader of another group too (``cap_other``) and the
+    others. Returns the two counts."""
+    n = u.shape[0]
+    for i in range(n):
+        if not stop[i]:
+            continue
+        gap = -u[i] - 0.5 * length[i] - stop_margin
+        v = speed[i]
+        z = v * T + v * v / (2.0 * sqrt_ab)
+        s_star = s0 + (z if not z < 0.0 else 0.0)
+        g = gap if (gap > 0.1 or gap != gap) else 0.1  # numpy's maximum(gap, 0.1): NaN kept
+        q = s_star / g
+        a = a_max * (1.0 - q * q)
+        c = cap[i]
+        cap[i] = c if (c < a or c != c) else a  # numpy's minimum(c, a): a on a tie, NaN kept
+    n_other = 0
+    n_member = 0
+    for i in range(n):
+        if phase[i] == 1 and cap[i] < acc_ref[i] - 0.5:
+            if cap_other[i] < acc_ref[i] - 0.5:
+                n_other += 1
+            else:
+                n_member += 1
+    return n_other, n_member
