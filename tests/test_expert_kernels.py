@@ -1242,3 +1242,120 @@ def test_lane_change_ready_equals_the_replaced_array_code(data):
     got = lane_change_ready(klane, tlane, lc_lane, phase, stage, 1, vid, yv, ref_rows, u, xg, dist, speed, 285.0,
                             3.0, w2)
     assert _same(got[0], want[0].astype(np.int64)) and _same(got[1], want[1]) and _same(w2, w1)
+
+
+# ----------------------------------------------------------------------------
+# Regrouping._adjusting and ._approach_and_division (their tests and slots
+# compiled from stop 41), frozen at b4c2680
+def _old_adjusting(self, world, rs) -> None:
+    from icv_envs.policies.platoon_common import ST_ADJUSTED
+
+    f = world.fleet
+    for sid, S in self.subs.items():
+        if S["state"] != "lc":
+            continue
+        rows = f.rows(S["members"])
+        self._swap_crossed_targets(S, f, rows)
+        if np.all((f.klane[rows] == f.tlane[rows]) & (f.lc_lane[rows] < 0)):
+            S["state"] = "adjusted"
+            f.stage[rows] = np.maximum(f.stage[rows], ST_ADJUSTED)
+            self._set_sub_targets(world, S)
+
+
+def _old_approach_and_division(self, world, rs) -> None:
+    f = world.fleet
+    for fid, F in list(self.formations.items()):
+        if F["divided"]:
+            continue
+        rows = f.rows(F["members"])
+        front = rows[np.argmax(rs.u[rows])]
+        if rs.dist[front] <= world.layout.R2:
+            self._divide(world, rs, F, rows)
+            continue
+        f.ref[rows] = f.vid[front]
+        f.xg[rows] = f.fslot[rows] - f.fslot[front]
+        f.ref[front] = -1
+        f.xg[front] = 0.0
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 3000.0, 2), ("single-vp", 4000.0, 0)])
+def test_regrouping_steps_equal_the_replaced_code_on_runs(monkeypatch, method, throughput, seed):
+    """``_adjusting`` and ``_approach_and_division`` (stop 41) against the
+    frozen methods, step by step on runs: the same groups, counters and
+    fleet fields (the crossed-targets swap and divisions included)."""
+    import copy
+
+    from icv_envs.policies.regrouping import Regrouping
+
+    fields = ("ref", "xg", "stage", "tlane", "tidx", "sub")
+    seen = {"adjusted": 0, "divisions": 0, "swaps": 0}
+
+    def check(real, old, tally):
+        def checked(self, world, rs):
+            me2, w2, rs2 = copy.deepcopy((self, world, rs))
+            old(me2, w2, rs2)
+            real(self, world, rs)
+            assert self.subs == me2.subs and self.formations == me2.formations and self.stats == me2.stats
+            for name in fields:
+                assert _same(getattr(world.fleet, name), getattr(w2.fleet, name)), name
+            tally(self)
+        return checked
+
+    def t_adj(self):
+        seen["adjusted"] = sum(S["state"] == "adjusted" for S in self.subs.values()) + seen["adjusted"]
+        seen["swaps"] = self.stats["crossed_targets_swapped"]
+
+    def t_app(self):
+        seen["divisions"] = self.stats["divisions"]
+
+    monkeypatch.setattr(Regrouping, "_adjusting", check(Regrouping._adjusting, _old_adjusting, t_adj))
+    monkeypatch.setattr(Regrouping, "_approach_and_division",
+                        check(Regrouping._approach_and_division, _old_approach_and_division, t_app))
+    _drive_intersection(method, throughput, seed, 90.0, 450)
+    assert seen["adjusted"] > 0 and seen["divisions"] > 0, seen
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_approach_fronts_and_lane_change_state_equal_the_array_code(data):
+    """``approach_fronts`` and ``lane_change_state`` against the per-group
+    array code they replaced, with tied ``u`` (the first maximum is the
+    front), fronts on ``R2`` and groups of one."""
+    from icv_envs.policies._kernels import approach_fronts, lane_change_state
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n = data.draw(st.integers(1, 30))
+    sizes = []
+    left = n
+    while left:
+        sizes.append(int(rng.integers(1, left + 1)))
+        left -= sizes[-1]
+    sizes = np.array(sizes, dtype=np.int64)
+    rows = rng.permutation(n).astype(np.int64)
+    u = rng.integers(-5, 0, n).astype(float)
+    dist = rng.choice([200.0, 500.0, 600.0], n)
+    vid = rng.permutation(100)[:n].astype(np.int64)
+    fslot = rng.integers(0, 5, n) * 6.0
+    ref, xg = rng.integers(-1, 50, n).astype(np.int64), rng.normal(size=n)
+    ref2, xg2 = ref.copy(), xg.copy()
+    start = np.cumsum(sizes) - sizes
+    want = np.zeros(len(sizes), dtype=bool)
+    for k in range(len(sizes)):
+        r = rows[start[k]:start[k] + sizes[k]]
+        front = r[np.argmax(u[r])]
+        if dist[front] <= 500.0:
+            want[k] = True
+            continue
+        ref[r] = vid[front]
+        xg[r] = fslot[r] - fslot[front]
+        ref[front] = -1
+        xg[front] = 0.0
+    got = approach_fronts(rows, sizes, u, dist, 500.0, vid, fslot, ref2, xg2)
+    assert _same(got, want) and _same(ref2, ref) and _same(xg2, xg)
+    klane, tlane = rng.integers(0, 3, n).astype(np.int64), rng.integers(0, 3, n).astype(np.int64)
+    lc_lane = np.where(rng.random(n) < 0.3, rng.integers(0, 3, n), -1).astype(np.int64)
+    pend, settled = lane_change_state(rows, sizes, klane, tlane, lc_lane)
+    for k in range(len(sizes)):
+        r = rows[start[k]:start[k] + sizes[k]]
+        assert pend[k] == len(np.flatnonzero((klane[r] != tlane[r]) & (lc_lane[r] < 0)))
+        assert settled[k] == np.all((klane[r] == tlane[r]) & (lc_lane[r] < 0))

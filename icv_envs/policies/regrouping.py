@@ -13,7 +13,7 @@ import numpy as np
 from icv_envs.formation.assignment import assign_targets
 from icv_envs.formation.bezier import _lane_change_lateral_rows
 from icv_envs.formation.targets import interlaced_targets
-from icv_envs.policies._kernels import lane_change_ready
+from icv_envs.policies._kernels import approach_fronts, lane_change_ready, lane_change_state
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors, same_objects
 from icv_envs.sim.traffic import idm_acceleration
 from icv_envs._ufuncs import clip as uclip, flatnonzero
@@ -170,20 +170,24 @@ class Regrouping:
 
     # ----------------------------------------------------- approach, division
     def _approach_and_division(self, world, rs) -> None:
+        """Formations not yet divided: members track the front with their
+        spawn slots while it approaches; once the front is within ``R2``
+        the formation divides (:meth:`_divide`). The fronts and slots of all
+        of them in one compiled call (policies/_kernels.approach_fronts, from
+        stop 41; each formation's rows are its own, so dividing after the
+        others' slots are set changes nothing)."""
         f = world.fleet
-        for fid, F in list(self.formations.items()):
-            if F["divided"]:
-                continue
-            rows = f.rows(F["members"])
-            front = rows[np.argmax(rs.u[rows])]
-            if rs.dist[front] <= world.layout.R2:
-                self._divide(world, rs, F, rows)
-                continue
-            # approaching: members track the front with their spawn slots
-            f.ref[rows] = f.vid[front]
-            f.xg[rows] = f.fslot[rows] - f.fslot[front]
-            f.ref[front] = -1
-            f.xg[front] = 0.0
+        todo = [F for F in self.formations.values() if not F["divided"]]
+        if not todo:
+            return
+        members = [F["members"] for F in todo]
+        sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(todo))
+        rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+        divide = approach_fronts(rows, sizes, rs.u, rs.dist, float(world.layout.R2), f.vid, f.fslot, f.ref, f.xg)
+        if np.count_nonzero(divide):
+            start = np.cumsum(sizes) - sizes
+            for k in flatnonzero(divide).tolist():
+                self._divide(world, rs, todo[k], rows[start[k]:start[k] + sizes[k]])
 
     def _divide(self, world, rs, F, rows) -> None:
         """Division (Sec. 5): split by movement, keep every lane's order, one file of slots ``gap_out`` apart."""
@@ -324,13 +328,29 @@ class Regrouping:
         return key
 
     def _adjusting(self, world, rs) -> None:
+        """Sub-formations changing lanes: two members waiting to change into
+        each other's lane swap targets (:meth:`_swap_crossed_targets`); once
+        every member is in its target lane with no change under way, the
+        sub-formation is adjusted (stage, in-zone targets). Which ones have
+        two members waiting and which are settled, in one compiled call
+        (policies/_kernels.lane_change_state, from stop 41; each
+        sub-formation changes only its own members' rows)."""
         f = world.fleet
-        for sid, S in self.subs.items():
-            if S["state"] != "lc":
-                continue
-            rows = f.rows(S["members"])
-            self._swap_crossed_targets(S, f, rows)
-            if np.all((f.klane[rows] == f.tlane[rows]) & (f.lc_lane[rows] < 0)):
+        lc = [S for S in self.subs.values() if S["state"] == "lc"]
+        if not lc:
+            return
+        members = [S["members"] for S in lc]
+        sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(lc))
+        rows_all = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+        pending, settled = lane_change_state(rows_all, sizes, f.klane, f.tlane, f.lc_lane)
+        start = np.cumsum(sizes) - sizes
+        for k, S in enumerate(lc):
+            rows = rows_all[start[k]:start[k] + sizes[k]]
+            done = settled[k]
+            if pending[k] >= 2:
+                self._swap_crossed_targets(S, f, rows)
+                done = np.all((f.klane[rows] == f.tlane[rows]) & (f.lc_lane[rows] < 0))
+            if done:
                 S["state"] = "adjusted"
                 f.stage[rows] = np.maximum(f.stage[rows], ST_ADJUSTED)
                 self._set_sub_targets(world, S)

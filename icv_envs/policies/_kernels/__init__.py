@@ -9,7 +9,7 @@ module per room of the paper's method, as the policies that call them:
   kernels in one call each);
 * :mod:`.lane_changes` -- that expert's lane-change decisions (Sec. 3.4):
   which lane changes start, which end or re-plan;
-* :mod:`.regrouping` -- the intersection's vehicle regrouping (Sec. 5): which lane changes are ready;
+* :mod:`.regrouping` -- the intersection's vehicle regrouping (Sec. 5): which lane changes are ready, the approach zone's fronts, the lane-change state;
 * :mod:`.corridors` -- the intersection's corridor index (read by Sec. 5's regrouping and Sec. 4.2);
 * :mod:`.virtual_platoon` -- the improved virtual platoon (Sec. 4.2), its
   nodes and their order: node heads, passing-order repair, tree-layers,
@@ -54,7 +54,7 @@ from icv_envs.policies._kernels.formation_expert import (
 )
 from icv_envs.policies._kernels.lane_changes import lane_change_starts, lane_changes_ended
 from icv_envs.policies._kernels.laws import normalised_actions
-from icv_envs.policies._kernels.regrouping import lane_change_ready
+from icv_envs.policies._kernels.regrouping import approach_fronts, lane_change_ready, lane_change_state
 from icv_envs.policies._kernels.platoon_control import (
     box_steering,
     envelope_pairs,
@@ -80,6 +80,6 @@ from icv_envs.policies._kernels.vp_references import (
 __all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_heads", "corridor_index", "corridor_neighbours", "desired_lane_rows",
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
-           "lane_change_ready", "lane_change_starts", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "normalised_actions",
+           "approach_fronts", "lane_change_ready", "lane_change_starts", "lane_change_state", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "normalised_actions",
            "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "stop_flags", "stop_line_caps", "tree_layers",
            "tree_references", "virtual_caps", "vp_references", "vp_tree"]

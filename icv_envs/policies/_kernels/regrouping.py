@@ -1,6 +1,8 @@
 """The intersection's vehicle regrouping, compiled loops (paper Sec. 5,
 :class:`icv_envs.policies.regrouping.Regrouping`): which lane changes are
-ready to start (:func:`lane_change_ready`). Rules:
+ready to start (:func:`lane_change_ready`), the approach zone's fronts
+(:func:`approach_fronts`), the sub-formations' lane-change state
+(:func:`lane_change_state`). Rules:
 :mod:`icv_envs.policies._kernels`.
 """
 
@@ -9,7 +11,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["lane_change_ready"]
+__all__ = ["approach_fronts", "lane_change_ready", "lane_change_state"]
 
 
 @nb.njit(cache=True)
@@ -58,3 +60,62 @@ def lane_change_ready(klane, tlane, lc_lane, phase, stage, st_lc, vid, yielding_
             nxt[q] = nx
             q += 1
     return rows[:q], nxt[:q]
+
+
+@nb.njit(cache=True)
+def approach_fronts(rows, sizes, u, dist, R2, vid, fslot, ref, xg):
+    """The approach zone of
+    :meth:`icv_envs.policies.regrouping.Regrouping._approach_and_division`
+    for the formations not yet divided (members in ``rows``, formation
+    ``k`` the next ``sizes[k] >= 1`` of them): its front (the member of
+    largest ``u``, the first on a tie, as ``argmax``); a formation whose
+    front is within ``R2`` of the centre is to be divided (returned mask);
+    the others' members track the front with their spawn slots (``ref``,
+    ``xg`` in place: the front's id and ``fslot - fslot[front]``; the front
+    none and 0)."""
+    K = sizes.shape[0]
+    divide = np.zeros(K, dtype=np.bool_)
+    q0 = 0
+    for k in range(K):
+        m = sizes[k]
+        if m < 1:
+            raise ValueError("approach_fronts: a formation without members")
+        b = q0
+        for q in range(q0 + 1, q0 + m):
+            if u[rows[q]] > u[rows[b]]:
+                b = q
+        front = rows[b]
+        if dist[front] <= R2:
+            divide[k] = True
+        else:
+            for q in range(q0, q0 + m):
+                ref[rows[q]] = vid[front]
+            for q in range(q0, q0 + m):
+                xg[rows[q]] = fslot[rows[q]] - fslot[front]
+            ref[front] = -1
+            xg[front] = 0.0
+        q0 += m
+    return divide
+
+
+@nb.njit(cache=True)
+def lane_change_state(rows, sizes, klane, tlane, lc_lane):
+    """Per sub-formation in its lane-change state (members in ``rows``,
+    sub-formation ``k`` the next ``sizes[k]``;
+    :meth:`icv_envs.policies.regrouping.Regrouping._adjusting`): how many
+    members still wait to start a lane change (not in their target lane,
+    none under way), and whether every member is in its target lane with
+    none under way. Returns ``(pending, settled)``."""
+    K = sizes.shape[0]
+    pending = np.zeros(K, dtype=np.int64)
+    settled = np.ones(K, dtype=np.bool_)
+    q0 = 0
+    for k in range(K):
+        for q in range(q0, q0 + sizes[k]):
+            r = rows[q]
+            if lc_lane[r] < 0 and klane[r] != tlane[r]:
+                pending[k] += 1
+            if not (klane[r] == tlane[r] and lc_lane[r] < 0):
+                settled[k] = False
+        q0 += sizes[k]
+    return pending, settled
