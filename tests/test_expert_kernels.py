@@ -1359,3 +1359,40 @@ def test_approach_fronts_and_lane_change_state_equal_the_array_code(data):
         r = rows[start[k]:start[k] + sizes[k]]
         assert pend[k] == len(np.flatnonzero((klane[r] != tlane[r]) & (lc_lane[r] < 0)))
         assert settled[k] == np.all((klane[r] == tlane[r]) & (lc_lane[r] < 0))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_lane_change_progress_equals_the_array_code(data):
+    """``lane_change_progress`` (stop 41) against the end of
+    ``Regrouping._lane_change_progress`` at b4c2680: the same kept and
+    changing lanes, with ends on the curve's end and the 0.4 m band,
+    strays on the tolerance, vehicles in the box."""
+    from icv_envs.policies._kernels import lane_change_progress
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n = data.draw(st.integers(1, 25))
+    lc_lane = np.where(rng.random(n) < 0.7, rng.integers(0, 3, n), -1).astype(np.int64)
+    klane = rng.integers(0, 3, n).astype(np.int64)
+    act = np.flatnonzero(lc_lane >= 0).astype(np.int64)
+    phase = (rng.random(n) < 0.2).astype(np.int64)
+    lane = rng.integers(0, 3, n).astype(np.int64)
+    u = rng.integers(-30, -20, n).astype(float)
+    lc_u0 = rng.integers(-40, -30, n).astype(float)
+    lc_len = rng.choice([5.0, 10.0, 15.0], n)
+    lc_lat1 = rng.choice([1.75, 5.25, 0.0], n)  # (0.0: lat_leg - lc_lat1 is exactly 0.4 or -0.4)
+    lat_leg = lc_lat1 + rng.choice([0.0, 0.4, -0.4, 0.2, 1.0], n)
+    lat_plan = lat_leg[act] + rng.choice([0.0, 0.5, -0.5, 2.0], len(act))
+    tol = 0.5
+    k1, c1 = klane.copy(), lc_lane.copy()
+    entered = phase[act] > 0
+    stray = np.abs(lat_plan - lat_leg[act]) > tol
+    done = (u[act] >= lc_u0[act] + lc_len[act]) & (np.abs(lat_leg[act] - lc_lat1[act]) < 0.4)
+    fin = act[done | entered]
+    k1[fin] = c1[fin]
+    bad = act[stray & ~done & ~entered]
+    k1[bad] = lane[bad]
+    c1[fin] = -1
+    c1[bad] = -1
+    lane_change_progress(act, lat_plan, lat_leg, u, phase, lane, lc_u0, lc_len, lc_lat1, tol, klane, lc_lane)
+    assert _same(klane, k1) and _same(lc_lane, c1)

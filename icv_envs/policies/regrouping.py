@@ -13,7 +13,12 @@ import numpy as np
 from icv_envs.formation.assignment import assign_targets
 from icv_envs.formation.bezier import _lane_change_lateral_rows
 from icv_envs.formation.targets import interlaced_targets
-from icv_envs.policies._kernels import approach_fronts, lane_change_ready, lane_change_state
+from icv_envs.policies._kernels import (
+    approach_fronts,
+    lane_change_progress,
+    lane_change_ready,
+    lane_change_state,
+)
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors, same_objects
 from icv_envs.sim.traffic import idm_acceleration
 from icv_envs._ufuncs import clip as uclip, flatnonzero
@@ -30,19 +35,15 @@ class Regrouping:
         act = flatnonzero(f.lc_lane >= 0)
         if not len(act):
             return
-        entered = rs.phase[act] > 0
-        u = rs.u[act]
         # (unchecked: lengths > 0 by PlatoonExpert._check_params, positions finite)
         # (the curve's arithmetic compiled around numpy's arcsinh and sinh: the same numbers as the array code)
         lat_plan, _ = _lane_change_lateral_rows(act, rs.u, f.lc_u0, f.lc_lat0, f.lc_lat1, f.lc_len)
-        stray = np.abs(lat_plan - rs.lat_leg[act]) > self.p.replan_tolerance
-        done = (u >= f.lc_u0[act] + f.lc_len[act]) & (np.abs(rs.lat_leg[act] - f.lc_lat1[act]) < 0.4)
-        fin = act[done | entered]
-        f.klane[fin] = f.lc_lane[fin]
-        bad = act[stray & ~done & ~entered]
-        f.klane[bad] = rs.lane[bad]
-        f.lc_lane[fin] = -1
-        f.lc_lane[bad] = -1
+        # finished (past the curve's end near the target lane's centre, or
+        # in the box) or strayed from the plan: the change ends (compiled:
+        # policies/_kernels.lane_change_progress, from stop 41; the array
+        # code it replaced is frozen in tests/test_expert_kernels.py)
+        lane_change_progress(act, lat_plan, rs.lat_leg, rs.u, rs.phase, rs.lane, f.lc_u0, f.lc_len, f.lc_lat1,
+                             float(self.p.replan_tolerance), f.klane, f.lc_lane)
 
     def _start_lane_changes(self, world, rs) -> None:
         p = self.p

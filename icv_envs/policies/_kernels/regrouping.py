@@ -2,7 +2,8 @@
 :class:`icv_envs.policies.regrouping.Regrouping`): which lane changes are
 ready to start (:func:`lane_change_ready`), the approach zone's fronts
 (:func:`approach_fronts`), the sub-formations' lane-change state
-(:func:`lane_change_state`). Rules:
+(:func:`lane_change_state`), the lane changes that end
+(:func:`lane_change_progress`). Rules:
 :mod:`icv_envs.policies._kernels`.
 """
 
@@ -11,7 +12,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["approach_fronts", "lane_change_ready", "lane_change_state"]
+__all__ = ["approach_fronts", "lane_change_progress", "lane_change_ready", "lane_change_state"]
 
 
 @nb.njit(cache=True)
@@ -119,3 +120,25 @@ def lane_change_state(rows, sizes, klane, tlane, lc_lane):
                 settled[k] = False
         q0 += sizes[k]
     return pending, settled
+
+
+@nb.njit(cache=True)
+def lane_change_progress(act, lat_plan, lat_leg, u, phase, lane, lc_u0, lc_len, lc_lat1, replan_tolerance, klane,
+                         lc_lane):
+    """The end of :meth:`icv_envs.policies.regrouping.Regrouping._lane_change_progress`,
+    in place: of the vehicles ``act`` changing lanes (``lat_plan`` their
+    planned lateral position), one past the curve's end and within 0.4 m of
+    the target lane's centre, or already in the box, has finished (its kept
+    lane is the target lane); one further than ``replan_tolerance`` from
+    the plan (and not finished) gives up (its kept lane is the lane it is
+    in); both end the change (``lc_lane = -1``)."""
+    for j in range(act.shape[0]):
+        i = act[j]
+        entered = phase[i] > 0
+        done = u[i] >= lc_u0[i] + lc_len[i] and abs(lat_leg[i] - lc_lat1[i]) < 0.4
+        if done or entered:
+            klane[i] = lc_lane[i]
+            lc_lane[i] = -1
+        elif abs(lat_plan[j] - lat_leg[i]) > replan_tolerance:
+            klane[i] = lane[i]
+            lc_lane[i] = -1
