@@ -1396,3 +1396,49 @@ def test_lane_change_progress_equals_the_array_code(data):
     c1[bad] = -1
     lane_change_progress(act, lat_plan, lat_leg, u, phase, lane, lc_u0, lc_len, lc_lat1, tol, klane, lc_lane)
     assert _same(klane, k1) and _same(lc_lane, c1)
+
+
+def _old_observation_references(self, world):
+    """PlatoonExpert.references at b4c2680 (after its update check)."""
+    from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE
+
+    f = world.fleet
+    rs = world.route()
+    has = self._mode != MODE_FREE
+    d = np.zeros(f.n)
+    k = self._mode == MODE_FOLLOW
+    d[k] = self._xref[k] - rs.u[k]
+    k = self._mode == MODE_TREE
+    d[k] = rs.X[k] - self._xref[k]
+    dv = np.where(has, self._vref - f.speed, self.p.v0 - f.speed)
+    adv, _, H, v_tree = self._zone_advised
+    d[adv] = -H
+    dv[adv] = v_tree - f.speed[adv]
+    go = (f.node >= 0) & ~self._stop
+    return has, d, dv, go
+
+
+@pytest.mark.parametrize("method,throughput,seed,steps", [("multi-vp", 2600.0, 3, 600), ("fcfs", 2600.0, 5, 300)])
+def test_observation_references_equal_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed, steps):
+    """``PlatoonExpert.references`` (stop 41: ``observation_references``)
+    against the array code it replaced, on every step of runs (followers,
+    tree vehicles, the advisory inside R1; FCFS's plans after it)."""
+    from icv_envs.policies.platoon_expert import PlatoonExpert
+
+    real = PlatoonExpert.references
+    seen = {"calls": 0, "adv": 0}
+
+    def checked(self, world):
+        got = real(self, world)
+        want = _old_observation_references(self, world)
+        for g, w in zip(got, want):
+            assert _same(g, w)
+        seen["calls"] += 1
+        seen["adv"] += len(self._zone_advised[0])
+        return got
+
+    monkeypatch.setattr(PlatoonExpert, "references", checked)
+    _drive_intersection(method, throughput, seed, steps / 5.0, steps)
+    assert seen["calls"] >= steps, seen
+    if method == "multi-vp":
+        assert seen["adv"] > 0, seen

@@ -144,6 +144,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from icv_envs.platoon.tree import DEFAULT_D_T
+from icv_envs.policies._kernels import observation_references
 from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
     MODE_FOLLOW,
@@ -471,18 +472,11 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         self._check_stamp(world)
         f = world.fleet
         rs = world.route()
-        has = self._mode != MODE_FREE
-        d = np.zeros(f.n)
-        k = self._mode == MODE_FOLLOW
-        d[k] = self._xref[k] - rs.u[k]
-        k = self._mode == MODE_TREE
-        d[k] = rs.X[k] - self._xref[k]
-        dv = np.where(has, self._vref - f.speed, self.p.v0 - f.speed)
         adv, _, H, v_tree = self._zone_advised
-        d[adv] = -H
-        dv[adv] = v_tree - f.speed[adv]
-        go = (f.node >= 0) & ~self._stop
-        return has, d, dv, go
+        # (compiled: policies/_kernels.observation_references, from stop 41;
+        # the array code it replaced is frozen in tests/test_expert_kernels.py)
+        return observation_references(self._mode, self._xref, self._vref, rs.u, rs.X, f.speed, float(self.p.v0), adv,
+                                      H, v_tree, f.node, self._stop, MODE_FREE, MODE_FOLLOW, MODE_TREE)
 
     def groups(self, world):
         """For rendering: ``[(kind, id, rows, depth)]`` with kind ``"node"``

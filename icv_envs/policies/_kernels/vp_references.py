@@ -5,7 +5,9 @@ formation following (:func:`follow_references`), the tree's references
 (:func:`tree_references`), the adjusting zone's anticipation
 (:func:`anticipated_references`), the virtual lane's Gipps caps
 (:func:`virtual_caps`) and the stop flags (:func:`stop_flags`), all in
-one call with the advisory inside ``R1`` (:func:`vp_references`). The
+one call with the advisory inside ``R1`` (:func:`vp_references`), and
+the references as the observation reports them
+(:func:`observation_references`). The
 nodes and their order: :mod:`icv_envs.policies._kernels.virtual_platoon`.
 Rules: :mod:`icv_envs.policies._kernels`.
 """
@@ -19,8 +21,8 @@ import numpy as np
 
 from icv_envs.policies._kernels.virtual_platoon import _layers_before
 
-__all__ = ["anticipated_references", "follow_references", "stop_flags", "tree_references", "virtual_caps",
-           "vp_references"]
+__all__ = ["anticipated_references", "follow_references", "observation_references", "stop_flags", "tree_references",
+           "virtual_caps", "vp_references"]
 
 
 @nb.njit(cache=True)
@@ -373,3 +375,33 @@ def vp_references(fk, fk_rows, ref, vid, dist, klane, sig, phase, u, xg, speed, 
         Bo[1, i] = stop[i]
     counts[2] = held
     return mode, Fr, Bo, counts, zone, Z, adv, A, ant, AR, bound
+
+
+@nb.njit(cache=True)
+def observation_references(mode, xref, vref, u, X, speed, v0, adv, adv_H, adv_vtree, node, stop, mode_free,
+                           mode_follow, mode_tree):
+    """:meth:`icv_envs.policies.platoon_expert.PlatoonExpert.references`
+    compiled: per vehicle whether it has a reference (``mode`` not free),
+    the position error to it along the route (``xref - u`` following,
+    ``X - xref`` in the tree, else 0), the speed error (``vref - speed``,
+    else ``v0 - speed``); the rows ``adv`` under the advisory inside ``R1``
+    report their hold ``-H`` and the tree's speed reference; whether it may
+    enter the box (in a node, not stopped). Returns ``(has, d, dv, go)``."""
+    n = mode.shape[0]
+    has = np.empty(n, dtype=np.bool_)
+    d = np.zeros(n)
+    dv = np.empty(n)
+    go = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        has[i] = mode[i] != mode_free
+        if mode[i] == mode_follow:
+            d[i] = xref[i] - u[i]
+        elif mode[i] == mode_tree:
+            d[i] = X[i] - xref[i]
+        dv[i] = (vref[i] - speed[i]) if has[i] else (v0 - speed[i])
+        go[i] = node[i] >= 0 and not stop[i]
+    for j in range(adv.shape[0]):
+        r = adv[j]
+        d[r] = -adv_H[j]
+        dv[r] = adv_vtree[j] - speed[r]
+    return has, d, dv, go
