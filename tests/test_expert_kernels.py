@@ -1442,3 +1442,27 @@ def test_observation_references_equal_the_replaced_array_code_on_runs(monkeypatc
     assert seen["calls"] >= steps, seen
     if method == "multi-vp":
         assert seen["adv"] > 0, seen
+
+
+@settings(max_examples=300, deadline=None)
+@given(sizes=st.lists(st.integers(1, 6), min_size=1, max_size=10), grid=st.booleans(), nan=st.booleans(),
+       seed=st.integers(0, 2**32 - 1))
+def test_segment_bounds_are_the_reduceat_bounds(sizes, grid, nan, seed):
+    """``segment_bounds`` (stop 41, ``Regrouping._sub_distances``) against
+    the ``minimum.reduceat`` / ``maximum.reduceat`` pair it replaced: the
+    same doubles, signed zeros and NaN included (a NaN stays a NaN)."""
+    from icv_envs.policies._kernels import segment_bounds
+
+    rng = np.random.default_rng(seed)
+    sizes = np.asarray(sizes, dtype=np.int64)
+    m = int(sizes.sum())
+    dist = rng.choice([0.0, -0.0, 1.0, 2.0], m + 2) if grid else rng.uniform(0, 300, m + 2)
+    if nan:
+        dist[rng.integers(0, m + 2)] = np.nan
+    rows = rng.integers(0, m + 2, m).astype(np.int64)
+    d = dist[rows]
+    start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    want = np.stack([np.minimum.reduceat(d, start), np.maximum.reduceat(d, start)])
+    got = segment_bounds(rows, sizes, dist)
+    num = ~np.isnan(want)
+    assert np.array_equal(np.isnan(got), np.isnan(want)) and got[num].tobytes() == want[num].tobytes()

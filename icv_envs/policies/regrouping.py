@@ -18,6 +18,7 @@ from icv_envs.policies._kernels import (
     lane_change_progress,
     lane_change_ready,
     lane_change_state,
+    segment_bounds,
 )
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors, same_objects
 from icv_envs.sim.traffic import idm_acceleration
@@ -407,9 +408,9 @@ class Regrouping:
         if np.count_nonzero(sizes) < len(sizes):
             raise ValueError(f"sub-formation {sids[int(np.argmin(sizes))]} has no members")
         rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
-        d = rs.dist[rows]
-        start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-        dmin, dmax = np.minimum.reduceat(d, start).tolist(), np.maximum.reduceat(d, start).tolist()
+        # (compiled: policies/_kernels.segment_bounds, from stop 41; the two
+        # reduceat calls it replaced are its reference in tests/test_expert_kernels.py)
+        dmin, dmax = segment_bounds(rows, sizes, rs.dist).tolist()
         self._sub_distances_kept = (key, (dmin, dmax))
         return sids, subs, dmin, dmax
 

@@ -3,7 +3,8 @@
 ready to start (:func:`lane_change_ready`), the approach zone's fronts
 (:func:`approach_fronts`), the sub-formations' lane-change state
 (:func:`lane_change_state`), the lane changes that end
-(:func:`lane_change_progress`). Rules:
+(:func:`lane_change_progress`), the sub-formations' distance bounds
+(:func:`segment_bounds`). Rules:
 :mod:`icv_envs.policies._kernels`.
 """
 
@@ -12,7 +13,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["approach_fronts", "lane_change_progress", "lane_change_ready", "lane_change_state"]
+__all__ = ["approach_fronts", "lane_change_progress", "lane_change_ready", "lane_change_state", "segment_bounds"]
 
 
 @nb.njit(cache=True)
@@ -142,3 +143,28 @@ def lane_change_progress(act, lat_plan, lat_leg, u, phase, lane, lc_u0, lc_len, 
         elif abs(lat_plan[j] - lat_leg[i]) > replan_tolerance:
             klane[i] = lane[i]
             lc_lane[i] = -1
+
+
+@nb.njit(cache=True)
+def segment_bounds(rows, sizes, dist):
+    """Per group (members in ``rows``, group ``k`` the next ``sizes[k] >=
+    1``) the least and the largest ``dist`` of its members, as
+    ``numpy.minimum.reduceat`` and ``maximum.reduceat`` give them (a NaN
+    kept): :meth:`icv_envs.policies.regrouping.Regrouping._sub_distances`.
+    Returns a ``(2, K)`` array: rows least, largest."""
+    K = sizes.shape[0]
+    out = np.empty((2, K))
+    q0 = 0
+    for k in range(K):
+        lo = dist[rows[q0]]
+        hi = lo
+        for q in range(q0 + 1, q0 + sizes[k]):
+            d = dist[rows[q]]
+            if d <= lo or d != d:  # (numpy's minimum: the later value on a tie)
+                lo = d
+            if d >= hi or d != d:
+                hi = d
+        out[0, k] = lo
+        out[1, k] = hi
+        q0 += sizes[k]
+    return out
