@@ -1466,3 +1466,33 @@ def test_segment_bounds_are_the_reduceat_bounds(sizes, grid, nan, seed):
     got = segment_bounds(rows, sizes, dist)
     num = ~np.isnan(want)
     assert np.array_equal(np.isnan(got), np.isnan(want)) and got[num].tobytes() == want[num].tobytes()
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_zone_orphans_and_nodes_cleared_equal_the_array_code(data):
+    """``zone_orphans`` and ``nodes_cleared`` (stop 41) against the array
+    code of ``VirtualPlatoon._coordinate`` they replaced (distances on
+    ``R1``, vehicles past the stop line, nodes of one member)."""
+    from icv_envs.policies._kernels import nodes_cleared, zone_orphans
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n = data.draw(st.integers(0, 30))
+    R1 = 285.0
+    dist = rng.choice([100.0, 285.0, 300.0], n)
+    node = np.where(rng.random(n) < 0.4, rng.integers(0, 5, n), -1).astype(np.int64)
+    sub = np.where(rng.random(n) < 0.4, rng.integers(0, 5, n), -1).astype(np.int64)
+    phase = rng.integers(0, 3, n).astype(np.int64)
+    cleared = rng.random(n) < 0.3
+    klane, tlane = rng.integers(0, 3, n).astype(np.int64), rng.integers(0, 3, n).astype(np.int64)
+    lc_lane = np.where(rng.random(n) < 0.3, rng.integers(0, 3, n), -1).astype(np.int64)
+    orphan = np.flatnonzero((dist <= R1) & (node < 0) & (sub < 0) & (phase < 2) & ~cleared)
+    if len(orphan):
+        orphan = orphan[(klane[orphan] == tlane[orphan]) & (lc_lane[orphan] < 0) | (phase[orphan] > 0)]
+    assert _same(zone_orphans(dist, R1, node, sub, phase, cleared, klane, tlane, lc_lane), orphan.astype(np.int64))
+    sizes = rng.integers(1, 4, data.draw(st.integers(1, 6))).astype(np.int64)
+    rows = rng.integers(0, max(n, 1), int(sizes.sum())).astype(np.int64)
+    cl = rng.random(max(n, 1)) < data.draw(st.sampled_from([0.3, 0.9]))
+    seg = np.repeat(np.arange(len(sizes)), sizes)
+    want = np.bincount(seg, weights=~cl[rows], minlength=len(sizes)) == 0
+    assert _same(nodes_cleared(rows, sizes, cl), want)

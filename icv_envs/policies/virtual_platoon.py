@@ -13,7 +13,7 @@ import itertools
 import numpy as np
 
 from icv_envs.formation.targets import formation_length, interlaced_targets
-from icv_envs.policies._kernels import detach_candidates, vp_references, vp_tree
+from icv_envs.policies._kernels import detach_candidates, nodes_cleared, vp_references, vp_tree, zone_orphans
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors, same_objects
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 from icv_envs._ufuncs import flatnonzero
@@ -93,16 +93,16 @@ class VirtualPlatoon:
                 else:
                     del self.subs[sid]
         # vehicles in the zone without a sub-formation (not expected, but safe)
-        orphan = flatnonzero((rs.dist <= R1) & (f.node < 0) & (f.sub < 0) & (rs.phase < 2) & ~f.cleared)
-        if len(orphan):
-            orphan = orphan[(f.klane[orphan] == f.tlane[orphan]) & (f.lc_lane[orphan] < 0) | (rs.phase[orphan] > 0)]
-        for r in orphan:
+        # (compiled from stop 41: policies/_kernels.zone_orphans, nodes_cleared;
+        # the array code they replaced is frozen in tests/test_expert_kernels.py)
+        for r in zone_orphans(rs.dist, float(R1), f.node, f.sub, rs.phase, f.cleared, f.klane, f.tlane,
+                              f.lc_lane).tolist():
             self._new_node(world, [int(f.vid[r])], int(f.mv[r]), n_lanes=1, length=0.0)
         if not single:
             self._detach_inverted(world, rs)
         if self.nodes:
             ids, rows, seg, sizes = self._member_rows(f)
-            done = np.bincount(seg, weights=~f.cleared[rows], minlength=len(ids)) == 0
+            done = nodes_cleared(rows, sizes, f.cleared)
             for k in flatnonzero(done).tolist():
                 r = rows[seg == k]
                 f.node[r] = -1

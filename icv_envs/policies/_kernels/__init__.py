@@ -70,9 +70,11 @@ from icv_envs.policies._kernels.platoon_control import (
 from icv_envs.policies._kernels.virtual_platoon import (
     detach_candidates,
     node_heads,
+    nodes_cleared,
     repair_order,
     tree_layers,
     vp_tree,
+    zone_orphans,
 )
 from icv_envs.policies._kernels.vp_references import (
     anticipated_references,
@@ -87,6 +89,6 @@ from icv_envs.policies._kernels.vp_references import (
 __all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_heads", "corridor_index", "corridor_neighbours", "desired_lane_rows",
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
-           "approach_fronts", "lane_change_progress", "lane_change_ready", "lane_change_starts", "lane_change_state", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "normalised_actions", "observation_references",
+           "approach_fronts", "lane_change_progress", "lane_change_ready", "lane_change_starts", "lane_change_state", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "nodes_cleared", "normalised_actions", "observation_references",
            "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "segment_bounds", "stop_flags", "stop_line_caps", "tree_layers",
-           "tree_references", "virtual_caps", "vp_references", "vp_tree"]
+           "tree_references", "virtual_caps", "vp_references", "vp_tree", "zone_orphans"]

@@ -4,7 +4,9 @@ each node's first and rear vehicle (:func:`node_heads`), the repair of the
 passing order (:func:`repair_order`), the tree-layers with their
 references and bounds (:func:`tree_layers`), all three in one call
 (:func:`vp_tree`), and the test for members to detach
-(:func:`detach_candidates`). The references the tree gives its vehicles:
+(:func:`detach_candidates`); the vehicles in the zone without a group
+(:func:`zone_orphans`) and the nodes whose members all cleared the box
+(:func:`nodes_cleared`). The references the tree gives its vehicles:
 :mod:`icv_envs.policies._kernels.vp_references`. Rules:
 :mod:`icv_envs.policies._kernels`.
 """
@@ -17,7 +19,7 @@ import numpy as np
 from icv_envs.platoon._kernels import depths_of
 from icv_envs.policies._kernels.corridors import corridor_neighbours
 
-__all__ = ["detach_candidates", "node_heads", "repair_order", "tree_layers", "vp_tree"]
+__all__ = ["detach_candidates", "node_heads", "nodes_cleared", "repair_order", "tree_layers", "vp_tree", "zone_orphans"]
 
 
 @nb.njit(cache=True)
@@ -322,3 +324,38 @@ def detach_candidates(node, phase, leg, lane, s, dist, keys, corr, crows, coord,
                 break
         bad[q] = dist[a] > fd + 1e-9 and dist[r] > fd + 1e-9
     return rows, bad
+
+
+@nb.njit(cache=True)
+def zone_orphans(dist, R1, node, sub, phase, cleared, klane, tlane, lc_lane):
+    """The vehicles inside ``R1`` in no node and no sub-formation, not yet
+    cleared nor departed, ready to be a node of their own: in their target
+    lane with no lane change under way, or already past the stop line
+    (:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._coordinate`),
+    in row order."""
+    n = dist.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if dist[i] <= R1 and node[i] < 0 and sub[i] < 0 and phase[i] < 2 and not cleared[i]:
+            if (klane[i] == tlane[i] and lc_lane[i] < 0) or phase[i] > 0:
+                out[m] = i
+                m += 1
+    return out[:m]
+
+
+@nb.njit(cache=True)
+def nodes_cleared(rows, sizes, cleared):
+    """Per node (members in ``rows``, node ``k`` the next ``sizes[k]``):
+    whether every member has cleared the box (the node then leaves the
+    virtual platoon, :meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._coordinate`)."""
+    K = sizes.shape[0]
+    done = np.ones(K, dtype=np.bool_)
+    q0 = 0
+    for k in range(K):
+        for q in range(q0, q0 + sizes[k]):
+            if not cleared[rows[q]]:
+                done[k] = False
+                break
+        q0 += sizes[k]
+    return done
