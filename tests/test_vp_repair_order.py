@@ -1,6 +1,8 @@
-"""The virtual platoon's order repair (:meth:`VirtualPlatoon._repair_order`,
-array form) against the pure-Python loop it replaced, on random nodes, and
-on one hand-built case."""
+"""The virtual platoon's order repair (compiled:
+:func:`icv_envs.policies._kernels.repair_order`, called by
+:meth:`VirtualPlatoon.tree` through ``vp_tree``; until stop 40 through
+``VirtualPlatoon._repair_order``) against the pure-Python loop it replaced,
+on random nodes, and on one hand-built case."""
 
 import types
 
@@ -8,7 +10,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from icv_envs.policies.virtual_platoon import VirtualPlatoon
+from icv_envs.policies._kernels import repair_order
 
 
 class _Fleet:
@@ -51,17 +53,24 @@ def _reference(nodes, leg_of, rs, order, rows_of):
 
 
 def _run(nodes, leg_of, rs, order, n):
+    """The repair as ``VirtualPlatoon.tree`` runs it: the kernel on every
+    node's member rows, the new order of the ids, then ``vp_order`` (the
+    repaired order, the ids it does not hold after it)."""
     vid = np.arange(n, dtype=np.int64) * 3
-    world = types.SimpleNamespace(fleet=_Fleet(vid), layout=types.SimpleNamespace(leg_of=leg_of))
+    fleet = _Fleet(vid)
     ids = list(nodes)
-    self = types.SimpleNamespace(nodes=nodes, stats={}, vp_order=list(order))
     members = [nodes[k]["members"] for k in ids]
-    seg = np.repeat(np.arange(len(ids)), [len(m) for m in members])
-    rows = world.fleet.rows(np.concatenate(members))
+    seg = np.repeat(np.arange(len(ids)), [len(m) for m in members]).astype(np.int64)
+    rows = fleet.rows(np.concatenate(members)).astype(np.int64)
     pos = {k: i for i, k in enumerate(ids)}
     o = np.array([pos[k] for k in order], dtype=np.int64)
-    out = VirtualPlatoon._repair_order(self, world, rs, o, ids, rows, seg)
-    return [ids[i] for i in out], self.stats.get("order_repaired", 0), self.vp_order, world.fleet.rows
+    mvs = np.array([nodes[k]["mv"] for k in ids], dtype=np.int64)
+    at, moves = repair_order(o, len(ids), rows, seg, np.asarray(rs.phase, dtype=np.int64),
+                             np.asarray(rs.lane, dtype=np.int64), np.asarray(rs.dist, dtype=np.float64),
+                             np.asarray(leg_of)[mvs])
+    new = [ids[i] for i in at]
+    vp_order = new + [k for k in order if k not in set(new)]
+    return new, moves, vp_order, fleet.rows
 
 
 def test_a_node_with_a_vehicle_ahead_in_the_shared_lane_moves_first():

@@ -57,8 +57,9 @@ def node_heads(rows, sizes, X, dist):
 
 @nb.njit(cache=True)
 def repair_order(at, K, rows, seg, phase, lane, dist, leg):
-    """:meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon._repair_order`'s
-    pair test and repair loop, compiled: per node (``seg``, 0..K-1) and approach
+    """The order repair of :meth:`icv_envs.policies.virtual_platoon.VirtualPlatoon.tree`
+    (``_repair_order`` until stop 40; :func:`vp_tree` calls it), its pair
+    test and repair loop compiled: per node (``seg``, 0..K-1) and approach
     lane the nearest and farthest member distance over the members still
     approaching (``rows >= 0`` with ``phase == 0``); node ``k`` must come before
     node ``i`` of its leg when in a shared lane its nearest member is ahead of

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Stop 41's figures (intersection only: the highway, batched and ring paths did not change).
+# Stop 41's figures: the intersection (the only path this stop changed), its other settings, the bench,
+# and the batched and ring cases as a check that their paths did not move.
 # Usage, from outside the checkout: run.sh REF TEST OUT  (REF: stop 40's final tree b4c2680)
 set -u
 REF=$1; TEST=$2; OUT=$3; D=$(cd "$(dirname "$0")" && pwd); S=$D/../../../../scripts
@@ -14,3 +15,6 @@ for setting in "multi-vp 3000 5" "single-vp 2200 2" "fcfs 2200 1"; do
   done
 done
 PYTHONPATH=$TEST python -m icv_envs.cli bench intersection > $OUT/bench_intersection.txt 2>&1
+for c in batched ring; do
+  python $S/bench_trees.py $REF $TEST --case $c --reps 2 --out $OUT/trees_$c.json > $OUT/trees_$c.txt 2>&1
+done
