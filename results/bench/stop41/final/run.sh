@@ -10,7 +10,7 @@ python $S/bench_trees.py $REF $TEST --case intersection --reps 5 --out $OUT/tree
 for setting in "multi-vp 3000 5" "single-vp 2200 2" "fcfs 2200 1"; do
   for rep in 1 2; do
     for t in $REF $TEST; do
-      echo "$(basename $t) $(PYTHONPATH=$t python $D/intersection_settings.py $setting)" >> $OUT/intersection_settings.txt
+      echo "$(basename $t) $(PYTHONPATH=$t python $D/../../stop40/other/intersection_settings.py $setting)" >> $OUT/intersection_settings.txt
     done
   done
 done
