@@ -663,7 +663,9 @@ def _old_references(self, world, rs) -> None:
         self.node_order = ids
         for k, nid in enumerate(ids):
             self.node_depth[nid] = int(depths[k + 1])
-        _, rows_all, kk, _ = self._member_rows(f, ids)
+        members = [self.nodes[nid]["members"] for nid in ids]  # (_member_rows(f, ids) until stop 40)
+        rows_all = f.rows(np.concatenate([np.asarray(m, dtype=np.int64) for m in members]))
+        kk = np.repeat(np.arange(len(ids)), [len(m) for m in members])
         live = ~f.cleared[rows_all]
         rows_all, kk = rows_all[live], kk[live]
         self._tree, self._tree_rows = T, (rows_all, kk)

@@ -247,7 +247,7 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         self._order_counter = 0
         self._tree = None
         self._tree_rows = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-        self._member_rows_kept = [None, None]  # VirtualPlatoon._member_rows: per order asked for
+        self._member_rows_kept = None  # VirtualPlatoon._member_rows: (key, answer)
         self._sub_distances_kept = None  # Regrouping._sub_distances: the last answer
         self._vcap = np.zeros(0)
         self._plan_vids: set | None = None  # set_plan_carriers; None: every vehicle

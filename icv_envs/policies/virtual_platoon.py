@@ -109,21 +109,21 @@ class VirtualPlatoon:
                 f.ref[r] = -1
                 del self.nodes[ids[k]]
 
-    def _member_rows(self, f, ids=None):
-        """Every node's member rows in one array, each node's in member order:
-        ``(node ids, rows, index into the ids of each row's node, node sizes)``
-        (one ``f.rows`` call instead of one per node); nodes ``ids`` in that
-        order (default: all, in insertion order). The arrays are read-only:
-        the last answer for each of the two orders asked for (insertion order,
-        a given order) is kept while the fleet's rows (``f.vid``, replaced by
-        every spawn and removal) and the member lists, in that order, are the
-        same objects (a node's list is replaced when its members change, never
-        changed in place); four calls a step, most of them answered so."""
-        slot = 0 if ids is None else 1
-        ids = list(self.nodes) if ids is None else ids
+    def _member_rows(self, f):
+        """Every node's member rows in one array, nodes in insertion order,
+        each node's in member order: ``(node ids, rows, index into the ids of
+        each row's node, node sizes)`` (one ``f.rows`` call instead of one per
+        node). The arrays are read-only: the last answer is kept while the
+        fleet's rows (``f.vid``, replaced by every spawn and removal) and the
+        member lists, in that order, are the same objects (a node's list is
+        replaced when its members change, never changed in place); three
+        calls a step, most of them answered so. (Until stop 40 it also
+        answered for a given order of the nodes; the tree now gives its
+        order's live members itself, ``T["live"]``.)"""
+        ids = list(self.nodes)
         members = [self.nodes[nid]["members"] for nid in ids]
         key = (f.vid, *members)
-        c = self._member_rows_kept[slot]
+        c = self._member_rows_kept
         if c is not None and same_objects(c[0], key):
             return (ids, *c[1])
         sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(ids))
@@ -131,7 +131,7 @@ class VirtualPlatoon:
         rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
         for arr in (rows, seg, sizes):
             arr.setflags(write=False)
-        self._member_rows_kept[slot] = (key, (rows, seg, sizes))
+        self._member_rows_kept = (key, (rows, seg, sizes))
         return ids, rows, seg, sizes
 
     def _detach_inverted(self, world, rs) -> None:
