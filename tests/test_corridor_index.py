@@ -184,3 +184,35 @@ def test_plain_corridors_are_shared_within_one_state_and_rebuilt_after_it():
         assert Corridors.plain(w, rs) is not b
         seen += w.fleet.n > 0
     assert seen > 100
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 3000.0, 0), ("single-vp", 4000.0, 1), ("fcfs", 2600.0, 3)])
+def test_an_index_with_signals_from_the_plain_one_is_the_full_build(method, throughput, seed):
+    """``Corridors.with_signals`` (stop 41: the plain index with the signal
+    entries merged in, ``corridor_add_signals``) gives the entries, order,
+    flags and leaders of a full build with the same signals, bit for bit:
+    on states of runs, with the expert's own signals and with random ones
+    (vehicles signalling into the lane they are already in, into lanes off
+    the road's three, or not at all)."""
+    env = parallel_env(method=method, throughput=throughput, duration=120.0)
+    obs, infos = env.reset(seed=seed)
+    core = env.core
+    w, ex = core.world, core.expert
+    rng = np.random.default_rng(seed)
+    names = ("rows", "corr", "coord", "keys", "signal_only", "lead")
+    added = 0
+    for step in range(400):
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+        if step % 4 or not w.fleet.n:
+            continue
+        rs = w.route()
+        n = w.fleet.n
+        for sig in (ex._signals(w.fleet), ex._signals(w.fleet, want=False), rng.integers(-1, 3, n),
+                    np.where(rng.random(n) < 0.5, rs.lane, -1)):
+            got = Corridors.with_signals(w, rs, sig)
+            want = Corridors(w, rs, sig)
+            for k in names:
+                g, x = getattr(got, k), getattr(want, k)
+                assert g.dtype == x.dtype and g.tobytes() == x.tobytes(), k
+            added += int(want.signal_only.sum())
+    assert added > 100

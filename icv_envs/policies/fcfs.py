@@ -179,7 +179,7 @@ class FcfsExpert(PlatoonExpert):
         if not len(cand):
             return
         cand = cand[np.argsort(f.order[cand], kind="stable")]
-        cor = Corridors(world, rs, np.full(f.n, -1))
+        cor = Corridors.plain(world, rs)
         lr, _, _, _ = cor.neighbours(cand, 3 * f.leg[cand] + klane[cand], rs.u[cand])
         k0 = world.step_count
         for r, lead in zip(cand.tolist(), lr.tolist()):

@@ -11,7 +11,7 @@ import operator
 
 import numpy as np
 
-from icv_envs.policies._kernels import corridor_index, corridor_neighbours
+from icv_envs.policies._kernels import corridor_add_signals, corridor_index, corridor_neighbours
 
 __all__ = ["Corridors", "same_objects", "MODE_FREE", "MODE_FOLLOW", "MODE_TREE", "MODE_PLAN", "ST_APPROACH", "ST_LC",
            "ST_ADJUSTED", "ST_COORD"]
@@ -116,6 +116,23 @@ class Corridors:
         if "plain" not in cache:
             cache["plain"] = cls(world, rs, np.full(world.fleet.n, -1))
         return cache["plain"]
+
+    @classmethod
+    def with_signals(cls, world, rs, signal_lane) -> "Corridors":
+        """The index with turn signals ``signal_lane`` (the default
+        ``diverge``): the same entries, order and leaders as
+        ``Corridors(world, rs, signal_lane)``, made from the index without
+        signals (:meth:`plain`, built once per state and shared) by adding
+        the signal entries (:func:`~icv_envs.policies._kernels.corridor_add_signals`,
+        from stop 41: a merge instead of a second build; the expert's
+        envelope and lane changes ask for it every step)."""
+        base = cls.plain(world, rs)
+        f = world.fleet
+        out = cls.__new__(cls)
+        out.rows, out.corr, out.coord, out.keys, out.signal_only, out.lead = corridor_add_signals(
+            base.rows, base.corr, base.coord, base.keys, rs.phase.astype(np.int64, copy=False),
+            f.leg.astype(np.int64, copy=False), rs.s, np.asarray(signal_lane, dtype=np.int64), cls.BIG)
+        return out
 
     def neighbours(self, q_rows, q_corr, q_coord):
         """Nearest other vehicle ahead (coordinate >) and behind (<=) in corridor ``q_corr``.

@@ -91,7 +91,7 @@ class PlatoonControl:
         p = self.p
         f = world.fleet
         n = f.n
-        cor = Corridors(world, rs, self._signals(f))
+        cor = Corridors.with_signals(world, rs, self._signals(f))
         cap = np.full(n, np.inf)
         cap_other = np.full(n, np.inf)
         # towards the leader in every corridor (compiled: policies/_kernels.envelope_pairs;

@@ -77,7 +77,7 @@ class Regrouping:
         room = -u - p.lc_stop_room
         length = np.minimum(length, room)
         ok = length >= p.lc_min_length * 0.75
-        cor = Corridors(world, rs, self._signals(f, want=False))
+        cor = Corridors.with_signals(world, rs, self._signals(f, want=False))
         lr, lc_, fr, fc = cor.neighbours(rows, 3 * f.leg[rows] + nxt, u)
         ln = f.length[rows]
         gap_f = np.where(lr >= 0, lc_ - u - 0.5 * (f.length[np.maximum(lr, 0)] + ln), np.inf)

@@ -38,7 +38,7 @@ Kernels added from stop 36 that divide use ``error_model="numpy"`` (IEEE
 ``inf``/``nan`` as NumPy's, no ``ZeroDivisionError``).
 """
 
-from icv_envs.policies._kernels.corridors import corridor_index, corridor_neighbours
+from icv_envs.policies._kernels.corridors import corridor_add_signals, corridor_index, corridor_neighbours
 from icv_envs.policies._kernels.formation_expert import (
     desired_lane_rows,
     exit_lanes,
@@ -86,7 +86,7 @@ from icv_envs.policies._kernels.vp_references import (
     vp_references,
 )
 
-__all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_heads", "corridor_index", "corridor_neighbours", "desired_lane_rows",
+__all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_heads", "corridor_add_signals", "corridor_index", "corridor_neighbours", "desired_lane_rows",
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
            "approach_fronts", "lane_change_progress", "lane_change_ready", "lane_change_starts", "lane_change_state", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "nodes_cleared", "normalised_actions", "observation_references",

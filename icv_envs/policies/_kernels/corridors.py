@@ -15,7 +15,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["corridor_index", "corridor_neighbours"]
+__all__ = ["corridor_add_signals", "corridor_index", "corridor_neighbours"]
 
 
 @nb.njit(cache=True)
@@ -144,3 +144,76 @@ def corridor_neighbours(keys, corr, rows, coord, q_rows, q_corr, qk):
                 fc[i] = coord[p]
                 break
     return lr, lc, fr, fc
+
+
+@nb.njit(cache=True)
+def corridor_add_signals(rows, corr, coord, keys, phase, leg, s, signal_lane, big):
+    """The entries of :func:`corridor_index` with turn signals, from those of
+    the index without (``signal_lane`` all -1, the same state): every
+    approaching vehicle (``phase`` 0) with ``signal_lane >= 0`` is listed in
+    approach corridor ``3 leg + signal_lane`` at ``s`` (``signal_only``)
+    unless it is listed there physically already; the entries stay sorted by
+    key then row and each entry's leader is the next one in its corridor.
+    The same entries, order and leaders as :func:`corridor_index` with the
+    signals: a signal can only repeat one of the vehicle's physical approach
+    entries (an approaching vehicle has no other), and the order by (key,
+    row) is total. Returns ``(rows, corr, coord, keys, signal_only, lead)``."""
+    n = phase.shape[0]
+    m = rows.shape[0]
+    add = np.zeros(n, dtype=np.bool_)
+    k = 0
+    for i in range(n):
+        if phase[i] == 0 and signal_lane[i] >= 0:
+            c = 3 * leg[i] + signal_lane[i]
+            listed = False
+            for a in range(m):
+                if rows[a] == i and corr[a] == c:
+                    listed = True
+                    break
+            if not listed:
+                add[i] = True
+                k += 1
+    o_rows = np.empty(m + k, dtype=np.int64)
+    o_corr = np.empty(m + k, dtype=np.int64)
+    o_coord = np.empty(m + k)
+    o_keys = np.empty(m + k)
+    o_sig = np.zeros(m + k, dtype=np.bool_)
+    # the new entries sorted by (key, row), then merged into the sorted old ones
+    nr = np.empty(k, dtype=np.int64)
+    nc = np.empty(k, dtype=np.int64)
+    nk = np.empty(k)
+    q = 0
+    for i in range(n):
+        if add[i]:
+            nr[q] = i
+            nc[q] = 3 * leg[i] + signal_lane[i]
+            nk[q] = nc[q] * big + s[i]
+            q += 1
+    o = np.argsort(nk, kind="mergesort")  # (rows ascending already: ties by row)
+    a = 0
+    b = 0
+    for p in range(m + k):
+        take_new = False
+        if b < k:
+            j = o[b]
+            if a >= m or nk[j] < keys[a] or (nk[j] == keys[a] and nr[j] < rows[a]):
+                take_new = True
+        if take_new:
+            j = o[b]
+            o_rows[p] = nr[j]
+            o_corr[p] = nc[j]
+            o_coord[p] = s[nr[j]]
+            o_keys[p] = nk[j]
+            o_sig[p] = True
+            b += 1
+        else:
+            o_rows[p] = rows[a]
+            o_corr[p] = corr[a]
+            o_coord[p] = coord[a]
+            o_keys[p] = keys[a]
+            a += 1
+    lead = np.full(m + k, -1, dtype=np.int64)
+    for p in range(m + k - 1):
+        if o_corr[p + 1] == o_corr[p]:
+            lead[p] = p + 1
+    return o_rows, o_corr, o_coord, o_keys, o_sig, lead
