@@ -7,14 +7,15 @@ Used by :mod:`icv_envs.policies.regrouping` (paper Sec. 5),
 
 from __future__ import annotations
 
+import itertools
 import operator
 
 import numpy as np
 
 from icv_envs.policies._kernels import corridor_add_signals, corridor_index, corridor_neighbours
 
-__all__ = ["Corridors", "same_objects", "MODE_FREE", "MODE_FOLLOW", "MODE_TREE", "MODE_PLAN", "ST_APPROACH", "ST_LC",
-           "ST_ADJUSTED", "ST_COORD"]
+__all__ = ["Corridors", "group_rows", "same_objects", "MODE_FREE", "MODE_FOLLOW", "MODE_TREE", "MODE_PLAN",
+           "ST_APPROACH", "ST_LC", "ST_ADJUSTED", "ST_COORD"]
 
 MODE_FREE, MODE_FOLLOW, MODE_TREE, MODE_PLAN = 0, 1, 2, 3
 # vehicle stages
@@ -30,6 +31,17 @@ def same_objects(a: tuple, b: tuple) -> bool:
     are replaced, never changed in place, when what they stand for changes.
     A kept key holds its objects, so none is freed and its id reused."""
     return len(a) == len(b) and all(map(operator.is_, a, b))
+
+
+def group_rows(f, members: list) -> tuple[np.ndarray, np.ndarray]:
+    """``(rows, sizes)``: the fleet rows of several groups' members (lists of
+    vehicle ids), the groups' in order and each group's in member order, in
+    one ``f.rows`` call, and each group's size: how the regrouping and the
+    virtual platoon hand their groups to a kernel (group ``k`` the next
+    ``sizes[k]`` rows)."""
+    sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(members))
+    rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+    return rows, sizes
 
 
 class Corridors:

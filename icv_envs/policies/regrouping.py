@@ -6,7 +6,6 @@ behaviour is documented in that module's docstring ("Adjusting zone").
 
 from __future__ import annotations
 
-import itertools
 
 import numpy as np
 
@@ -20,7 +19,15 @@ from icv_envs.policies._kernels import (
     lane_change_state,
     segment_bounds,
 )
-from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, ST_ADJUSTED, ST_LC, Corridors, same_objects
+from icv_envs.policies.platoon_common import (
+    MODE_FOLLOW,
+    MODE_FREE,
+    ST_ADJUSTED,
+    ST_LC,
+    Corridors,
+    group_rows,
+    same_objects,
+)
 from icv_envs.sim.traffic import idm_acceleration
 from icv_envs._ufuncs import clip as uclip, flatnonzero
 
@@ -182,9 +189,7 @@ class Regrouping:
         todo = [F for F in self.formations.values() if not F["divided"]]
         if not todo:
             return
-        members = [F["members"] for F in todo]
-        sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(todo))
-        rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+        rows, sizes = group_rows(f, [F["members"] for F in todo])
         divide = approach_fronts(rows, sizes, rs.u, rs.dist, float(world.layout.R2), f.vid, f.fslot, f.ref, f.xg)
         if np.count_nonzero(divide):
             start = np.cumsum(sizes) - sizes
@@ -341,9 +346,7 @@ class Regrouping:
         lc = [S for S in self.subs.values() if S["state"] == "lc"]
         if not lc:
             return
-        members = [S["members"] for S in lc]
-        sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(lc))
-        rows_all = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+        rows_all, sizes = group_rows(f, [S["members"] for S in lc])
         pending, settled = lane_change_state(rows_all, sizes, f.klane, f.tlane, f.lc_lane)
         start = np.cumsum(sizes) - sizes
         for k, S in enumerate(lc):
@@ -404,10 +407,9 @@ class Regrouping:
         c = self._sub_distances_kept
         if c is not None and same_objects(c[0], key):
             return (sids, subs, *c[1])
-        sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(subs))
+        rows, sizes = group_rows(f, members)
         if np.count_nonzero(sizes) < len(sizes):
             raise ValueError(f"sub-formation {sids[int(np.argmin(sizes))]} has no members")
-        rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
         # (compiled: policies/_kernels.segment_bounds, from stop 41; the two
         # reduceat calls it replaced are its reference in tests/test_expert_kernels.py)
         dmin, dmax = segment_bounds(rows, sizes, rs.dist).tolist()

@@ -8,13 +8,20 @@ The pure algorithms (tree depths, reference positions) are in
 
 from __future__ import annotations
 
-import itertools
 
 import numpy as np
 
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.policies._kernels import detach_candidates, nodes_cleared, vp_references, vp_tree, zone_orphans
-from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_FREE, MODE_TREE, ST_COORD, Corridors, same_objects
+from icv_envs.policies.platoon_common import (
+    MODE_FOLLOW,
+    MODE_FREE,
+    MODE_TREE,
+    ST_COORD,
+    Corridors,
+    group_rows,
+    same_objects,
+)
 from icv_envs.sim.intersection_metrics import QUEUE_GAP
 from icv_envs._ufuncs import flatnonzero
 
@@ -126,9 +133,8 @@ class VirtualPlatoon:
         c = self._member_rows_kept
         if c is not None and same_objects(c[0], key):
             return (ids, *c[1])
-        sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(ids))
+        rows, sizes = group_rows(f, members)
         seg = np.repeat(np.arange(len(ids)), sizes)
-        rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
         for arr in (rows, seg, sizes):
             arr.setflags(write=False)
         self._member_rows_kept = (key, (rows, seg, sizes))
@@ -359,7 +365,8 @@ class VirtualPlatoon:
         ``PlatoonParams.zone_advisory`` (env config ``vp_zone_advisory``)
         switches it off.
 
-        **Anticipation in the adjusting zone** (``_anticipate`` until stop 40): track the virtual platoon's reference from ``R2`` on (our addition;
+        **Anticipation in the adjusting zone** (``_anticipate`` until stop 40): track the
+        virtual platoon's reference from ``R2`` on (our addition;
         the paper is silent).
 
         A node is made when its first vehicle crosses ``R1``; if its reference
@@ -397,7 +404,8 @@ class VirtualPlatoon:
         forward.  ``PlatoonParams.anticipate`` (env config
         ``vp_anticipation``) switches both off.
 
-        **The virtual lane's cap** (``_virtual_cap`` until stop 40): a safe-speed cap in the virtual lane (Gipps): every not yet cleared
+        **The virtual lane's cap** (``_virtual_cap`` until stop 40): a safe-speed cap in the
+        virtual lane (Gipps): every not yet cleared
         vehicle of node ``k`` keeps ``X_v - X_rear,i >= D_safe`` to the rearmost
         vehicle of every earlier node ``i`` it conflicts with, even if that
         vehicle brakes at ``|a_min|`` from now on and this one reacts
