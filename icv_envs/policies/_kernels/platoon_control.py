@@ -18,6 +18,7 @@ import numpy as np
 
 from icv_envs.formation._kernels import clip1
 from icv_envs.policies._kernels.laws import _feedback1, _idm_free1
+from icv_envs.sim._kernels.physics import npy_maximum, npy_minimum
 
 __all__ = ["box_steering", "envelope_pairs", "platoon_accelerations", "stop_line_caps"]
 
@@ -212,12 +213,10 @@ def stop_line_caps(stop, u, length, speed, stop_margin, a_max, sqrt_ab, T, s0, c
         gap = -u[i] - 0.5 * length[i] - stop_margin
         v = speed[i]
         z = v * T + v * v / (2.0 * sqrt_ab)
-        s_star = s0 + (z if not z < 0.0 else 0.0)
-        g = gap if (gap > 0.1 or gap != gap) else 0.1  # numpy's maximum(gap, 0.1): NaN kept
-        q = s_star / g
+        s_star = s0 + npy_maximum(0.0, z)
+        q = s_star / npy_maximum(gap, 0.1)
         a = a_max * (1.0 - q * q)
-        c = cap[i]
-        cap[i] = c if (c < a or c != c) else a  # numpy's minimum(c, a): a on a tie, NaN kept
+        cap[i] = npy_minimum(cap[i], a)
     n_other = 0
     n_member = 0
     for i in range(n):

@@ -13,6 +13,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from icv_envs.sim._kernels.physics import npy_maximum, npy_minimum
+
 __all__ = ["approach_fronts", "lane_change_progress", "lane_change_ready", "lane_change_state", "segment_bounds"]
 
 
@@ -160,10 +162,8 @@ def segment_bounds(rows, sizes, dist):
         hi = lo
         for q in range(q0 + 1, q0 + sizes[k]):
             d = dist[rows[q]]
-            if d <= lo or d != d:  # (numpy's minimum: the later value on a tie)
-                lo = d
-            if d >= hi or d != d:
-                hi = d
+            lo = npy_minimum(lo, d)
+            hi = npy_maximum(hi, d)
         out[0, k] = lo
         out[1, k] = hi
         q0 += sizes[k]

@@ -20,6 +20,7 @@ import numba as nb
 import numpy as np
 
 from icv_envs.policies._kernels.virtual_platoon import _layers_before
+from icv_envs.sim._kernels.physics import npy_maximum
 
 __all__ = ["anticipated_references", "follow_references", "observation_references", "stop_flags", "tree_references",
            "virtual_caps", "vp_references"]
@@ -218,14 +219,6 @@ def stop_flags(phase, allowed, mv, klane, lc_lane, tlane, dist, R1, coordinated,
     return stop, held
 
 
-@nb.njit(cache=True, inline="always")
-def _np_maximum(a, b):
-    """``numpy.maximum(a, b)`` of two floats: NaN if either is, ``b`` on a tie."""
-    if a != a or b != b:
-        return a + b
-    return a if a > b else b
-
-
 @nb.njit(cache=True, error_model="numpy")
 def vp_references(fk, fk_rows, ref, vid, dist, klane, sig, phase, u, xg, speed, X, length, mv, leg, node, cleared,
                   has_tree, rows_all, kk, first_of, refs, lb_of, pred_of, rear_row, rear, U, t_ids, t_mvs, t_depths,
@@ -242,7 +235,7 @@ def vp_references(fk, fk_rows, ref, vid, dist, klane, sig, phase, u, xg, speed, 
     ``anticipate`` and ``has_tree``), the virtual lane's caps
     (:func:`virtual_caps`) and the stop flags (:func:`stop_flags`); the
     array code's operations in its order (numpy's ``maximum`` as
-    :func:`_np_maximum`, ``x ** 2`` as ``x * x``).
+    :func:`npy_maximum`, ``x ** 2`` as ``x * x``).
 
     Returns ``(mode, Fr (3, n): xref, vref, cap, Bo (2, n): tight, stop,
     counts, zone, Z (3, m), adv, A (2, m), ant, AR, bound)``: ``counts``
@@ -283,7 +276,7 @@ def vp_references(fk, fk_rows, ref, vid, dist, klane, sig, phase, u, xg, speed, 
             r = rows_all[j]
             H = xref[r] - X[r]
             room = speed[r] * speed[r] / den
-            L = _np_maximum(-u[r] - 0.5 * length[r] - stop_margin, 0.0)
+            L = npy_maximum(-u[r] - 0.5 * length[r] - stop_margin, 0.0)
             Hz[j] = H
             Lz[j] = L
             w[j] = phase[r] == 0 and H > room and L - room > queue_gap
@@ -339,8 +332,8 @@ def vp_references(fk, fk_rows, ref, vid, dist, klane, sig, phase, u, xg, speed, 
                 for j in range(nc):
                     if H[j] > room[j] and floor < v0:
                         c = cand[j]
-                        L = _np_maximum(dist[c] - R1, 0.0)
-                        va = _np_maximum(v0 * L / (L + _np_maximum(H[j], 1e-9)), floor)
+                        L = npy_maximum(dist[c] - R1, 0.0)
+                        va = npy_maximum(v0 * L / (L + npy_maximum(H[j], 1e-9)), floor)
                         mode[c] = mode_tree
                         xref[c] = X[c]
                         vref[c] = va

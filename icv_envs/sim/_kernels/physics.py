@@ -12,7 +12,7 @@ import numpy as np
 
 from icv_envs.formation._kernels import clip1
 
-__all__ = ["npy_mod", "lane_of1", "lane_of_rows", "controls_rows", "kinematic_substep", "road_check", "interval_ends",
+__all__ = ["npy_mod", "npy_maximum", "npy_minimum", "lane_of1", "lane_of_rows", "controls_rows", "kinematic_substep", "road_check", "interval_ends",
            "interval_ends_at", "lanes_available"]
 
 
@@ -32,6 +32,22 @@ def npy_mod(a, b):
     else:
         m = math.copysign(0.0, b)
     return m
+
+
+@nb.njit(cache=True, inline="always")
+def npy_maximum(a, b):
+    """``numpy.maximum`` of two floats: NaN if either is, ``b`` on a tie."""
+    if a != a or b != b:
+        return a + b
+    return a if a > b else b
+
+
+@nb.njit(cache=True, inline="always")
+def npy_minimum(a, b):
+    """``numpy.minimum`` of two floats: NaN if either is, ``b`` on a tie."""
+    if a != a or b != b:
+        return a + b
+    return a if a < b else b
 
 
 @nb.njit(cache=True)
