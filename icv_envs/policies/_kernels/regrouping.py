@@ -35,12 +35,8 @@ def lane_change_ready(klane, tlane, lc_lane, phase, stage, st_lc, vid, yielding_
     n = klane.shape[0]
     for i in range(n):
         want[i] = -1
-    m = 0
-    for i in range(n):
-        if klane[i] != tlane[i] and lc_lane[i] < 0 and phase[i] == 0 and stage[i] >= st_lc:
-            m += 1
-    rows = np.empty(m, dtype=np.int64)
-    nxt = np.empty(m, dtype=np.int64)
+    rows = np.empty(n, dtype=np.int64)
+    nxt = np.empty(n, dtype=np.int64)
     q = 0
     for i in range(n):
         if not (klane[i] != tlane[i] and lc_lane[i] < 0 and phase[i] == 0 and stage[i] >= st_lc):

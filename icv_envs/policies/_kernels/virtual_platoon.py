@@ -289,20 +289,17 @@ def detach_candidates(node, phase, leg, lane, s, dist, keys, corr, crows, coord,
     its first vehicle at ``inf``). Returns ``(rows, bad)``: the approaching
     members and the test's answer per member."""
     n = node.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    q_corr = np.empty(n, dtype=np.int64)
+    qk = np.empty(n)
     m = 0
     for i in range(n):
         if node[i] >= 0 and phase[i] == 0:
+            rows[m] = i
+            q_corr[m] = 3 * leg[i] + lane[i]
+            qk[m] = q_corr[m] * big + s[i]
             m += 1
-    rows = np.empty(m, dtype=np.int64)
-    q_corr = np.empty(m, dtype=np.int64)
-    qk = np.empty(m)
-    q = 0
-    for i in range(n):
-        if node[i] >= 0 and phase[i] == 0:
-            rows[q] = i
-            q_corr[q] = 3 * leg[i] + lane[i]
-            qk[q] = q_corr[q] * big + s[i]
-            q += 1
+    rows, q_corr, qk = rows[:m], q_corr[:m], qk[:m]
     bad = np.zeros(m, dtype=np.bool_)
     if m == 0:
         return rows, bad

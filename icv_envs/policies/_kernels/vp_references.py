@@ -303,18 +303,14 @@ def vp_references(fk, fk_rows, ref, vid, dist, klane, sig, phase, u, xg, speed, 
     AR = np.empty(0)
     bound = np.empty(0, dtype=np.int64)
     if anticipate and has_tree:
+        cand = np.empty(n, dtype=np.int64)
         nc = 0
         for i in range(n):
             if (mode[i] == mode_free and phase[i] == 0 and node[i] < 0 and dist[i] > R1 and dist[i] <= R2
                     and not cleared[i]):
+                cand[nc] = i
                 nc += 1
-        cand = np.empty(nc, dtype=np.int64)
-        q = 0
-        for i in range(n):
-            if (mode[i] == mode_free and phase[i] == 0 and node[i] < 0 and dist[i] > R1 and dist[i] <= R2
-                    and not cleared[i]):
-                cand[q] = i
-                q += 1
+        cand = cand[:nc]
         if nc > 0:
             aref, alb, apred, R, room, H = anticipated_references(cand, mv, leg, dist, X, speed, conflict, leg_of, t_mvs,
                                                                   rear_row, rear, t_depths, t_lens, refs[0], D_t, den)
