@@ -1498,3 +1498,143 @@ def test_zone_orphans_and_nodes_cleared_equal_the_array_code(data):
     seg = np.repeat(np.arange(len(sizes)), sizes)
     want = np.bincount(seg, weights=~cl[rows], minlength=len(sizes)) == 0
     assert _same(nodes_cleared(rows, sizes, cl), want)
+
+
+# ----------------------------------------------------------------------------
+# Regrouping._start_lane_changes at b40d6e3 (stop 41), frozen: its gap test
+# became policies/_kernels.lane_change_gaps at stop 42
+def _old_gap_block(rows, nxt, leg, speed, u_all, dist, vlen, neighbours, p, R1):
+    """The array code of the gap test (lengths, gaps, IDM, yields' pairs, the side-by-side drop)."""
+    from icv_envs._ufuncs import clip as uclip
+    from icv_envs._ufuncs import flatnonzero
+
+    v = speed[rows]
+    length = uclip(v * p["lc_duration"], p["lc_min_length"], p["lc_max_length"])
+    u = u_all[rows]
+    room = -u - p["lc_stop_room"]
+    length = np.minimum(length, room)
+    ok = length >= p["lc_min_length"] * 0.75
+    lr, lc_, fr, fc = neighbours(rows, 3 * leg[rows] + nxt, u)
+    ln = vlen[rows]
+    gap_f = np.where(lr >= 0, lc_ - u - 0.5 * (vlen[np.maximum(lr, 0)] + ln), np.inf)
+    gap_r = np.where(fr >= 0, u - fc - 0.5 * (vlen[np.maximum(fr, 0)] + ln), np.inf)
+    vl = np.where(lr >= 0, speed[np.maximum(lr, 0)], v)
+    vf = np.where(fr >= 0, speed[np.maximum(fr, 0)], 0.0)
+    own = idm_acceleration(v, p["v_max"], gap_f, v - vl, p["a_max"], p["idm_b"], p["member_T"], p["member_s0"],
+                           free_term=False)
+    fol = idm_acceleration(vf, p["v_max"], gap_r, vf - v, p["a_max"], p["idm_b"], p["member_T"], p["member_s0"],
+                           free_term=False)
+    possible = ok.copy()
+    ok &= (gap_f > p["lc_min_gap"]) & (gap_r > p["lc_min_gap"]) & (own > -p["b_safe"]) & (fol > -p["b_safe"])
+    refused = possible & ~ok
+    side_r = refused & (fr >= 0) & (gap_r <= p["lc_min_gap"])
+    side_f = refused & (lr >= 0) & (gap_f <= p["lc_min_gap"]) & ~side_r
+    moving = (dist[rows] > R1) & (speed[rows] >= 2.0)
+    yk = flatnonzero((side_r | side_f) & moving)
+    yo = np.where(side_r[yk], fr[yk], lr[yk])
+    cand = flatnonzero(ok)
+    if len(cand) > 1:
+        key = 3 * leg[rows[cand]] + nxt[cand]
+        o = cand[np.lexsort((-u[cand], key))]
+        ko = 3 * leg[rows[o]] + nxt[o]
+        close = (ko[1:] == ko[:-1]) & (np.abs(u[o][1:] - u[o][:-1]) < 12.0)
+        drop = np.zeros(len(o), dtype=bool)
+        for k in flatnonzero(close):
+            if not drop[k]:
+                drop[k + 1] = True
+        ok[o[drop]] = False
+    return length, ok, yk, yo
+
+
+def _gap_params(p) -> dict:
+    return {k: getattr(p, k) for k in ("lc_duration", "lc_min_length", "lc_max_length", "lc_stop_room", "v_max",
+                                       "a_max", "idm_b", "member_T", "member_s0", "lc_min_gap", "b_safe")}
+
+
+def _new_gap_block(rows, nxt, leg, speed, u_all, dist, vlen, cor, p, R1):
+    from icv_envs.policies._kernels import lane_change_gaps
+
+    return lane_change_gaps(rows, nxt, leg, speed, u_all, dist, vlen, cor.keys, cor.corr, cor.rows, cor.coord,
+                            float(cor.BIG), float(p["lc_duration"]), float(p["lc_min_length"]),
+                            float(p["lc_max_length"]), float(p["lc_stop_room"]), float(p["lc_min_length"] * 0.75),
+                            float(p["lc_min_gap"]), float(p["b_safe"]), float(p["a_max"]),
+                            float(2.0 * np.sqrt(p["a_max"] * p["idm_b"])), float(p["member_T"]),
+                            float(p["member_s0"]), float(R1))
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 3000.0, 2), ("single-vp", 3500.0, 0),
+                                                    ("fcfs", 2600.0, 5)])
+def test_lane_change_gaps_equal_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
+    """``lane_change_gaps`` (stop 42) against the frozen array block on every
+    call of ``_start_lane_changes`` with ready vehicles on runs: the same
+    lengths, accepted changes and yield pairs; the runs reach refusals,
+    yields and dropped side-by-side starts."""
+    import icv_envs.policies.regrouping as RG
+
+    real = RG.lane_change_gaps
+    seen = {"calls": 0, "refused": 0, "yields": 0, "started": 0}
+
+    def checked(rows, nxt, leg, speed, u, dist, vlen, keys, corr, crow, coord, big, *rest):
+        out = real(rows, nxt, leg, speed, u, dist, vlen, keys, corr, crow, coord, big, *rest)
+        from icv_envs.policies.platoon_common import Corridors
+
+        cor = Corridors.__new__(Corridors)
+        cor.keys, cor.corr, cor.rows, cor.coord = keys, corr, crow, coord
+        (lcd, lmin, lmax, stop_room, _, min_gap, b_safe, a_max, _, mT, ms0, R1) = rest
+        # (a_max and idm_b back from the expert's params; the kernel takes 2 sqrt(a_max b))
+        p = {"lc_duration": lcd, "lc_min_length": lmin, "lc_max_length": lmax, "lc_stop_room": stop_room,
+             "v_max": 0.0, "a_max": a_max, "idm_b": params.idm_b, "member_T": mT, "member_s0": ms0,
+             "lc_min_gap": min_gap, "b_safe": b_safe}
+        ref = _old_gap_block(rows, nxt, leg, speed, u, dist, vlen, cor.neighbours, p, R1)
+        for a, b in zip(out, ref):
+            assert _same(np.asarray(a), np.asarray(b, dtype=np.asarray(a).dtype))
+        seen["calls"] += 1
+        seen["refused"] += int(np.count_nonzero(~out[1]))
+        seen["yields"] += len(out[2])
+        seen["started"] += int(np.count_nonzero(out[1]))
+        return out
+
+    from icv_envs.policies.platoon_expert import PlatoonParams
+
+    params = PlatoonParams()
+    monkeypatch.setattr(RG, "lane_change_gaps", checked)
+    _drive_intersection(method, throughput, seed, 120.0, 600)
+    assert seen["calls"] > 20 and seen["refused"] > 0 and seen["started"] > 0, seen
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_lane_change_gaps_equal_the_array_code(data):
+    """``lane_change_gaps`` against the frozen array block on random states
+    pushed onto its boundaries: lengths at the clip's and the room's
+    bounds, gaps at ``lc_min_gap``, vehicles side by side in one corridor
+    at 12 m and closer (ties in ``u``), leaders and followers missing."""
+    from icv_envs.policies.platoon_common import Corridors
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n = data.draw(st.integers(1, 14))
+    leg = rng.integers(0, 2, n).astype(np.int64)
+    lane = rng.integers(0, 3, n).astype(np.int64)
+    u = -rng.choice([20.0, 25.0, 30.0, 37.0, 42.0, 80.0, 300.0], n) - rng.choice([0.0, 0.0, 4.0, 12.0, 6.5], n)
+    speed = rng.choice([0.0, 1.0, 2.0, 4.0, 10.0, 15.0], n)
+    vlen = rng.choice([4.0, 5.0], n)
+    dist = -u + 10.0
+    # a plain corridor index of these vehicles: each listed in its lane at u
+    corr = 3 * leg + lane
+    order = np.lexsort((np.arange(n), u, corr))
+    cor = Corridors.__new__(Corridors)
+    cor.rows = order.astype(np.int64)
+    cor.corr = corr[order].astype(np.int64)
+    cor.coord = u[order].astype(np.float64)
+    cor.keys = cor.corr * Corridors.BIG + cor.coord
+    k = data.draw(st.integers(1, n))
+    rows = np.sort(rng.choice(n, k, replace=False)).astype(np.int64)
+    nxt = np.clip(lane[rows] + rng.choice([-1, 1], k), 0, 2).astype(np.int64)
+    p = {"lc_duration": 3.0, "lc_min_length": 20.0, "lc_max_length": 40.0, "lc_stop_room": 10.0, "v_max": 15.0,
+         "a_max": 3.0, "idm_b": 2.0, "member_T": 0.6, "member_s0": 2.0,
+         "lc_min_gap": float(data.draw(st.sampled_from([1.0, 3.0, 4.0]))), "b_safe": 4.0}
+    R1 = float(data.draw(st.sampled_from([30.0, 285.0])))
+    got = _new_gap_block(rows, nxt, leg, speed, u, dist, vlen, cor, p, R1)
+    ref = _old_gap_block(rows, nxt, leg, speed, u, dist, vlen, cor.neighbours, p, R1)
+    for a, b in zip(got, ref):
+        assert _same(np.asarray(a), np.asarray(b, dtype=np.asarray(a).dtype))

@@ -14,6 +14,7 @@ from icv_envs.formation.bezier import _lane_change_lateral_rows
 from icv_envs.formation.targets import interlaced_targets
 from icv_envs.policies._kernels import (
     approach_fronts,
+    lane_change_gaps,
     lane_change_progress,
     lane_change_ready,
     lane_change_state,
@@ -28,8 +29,7 @@ from icv_envs.policies.platoon_common import (
     group_rows,
     same_objects,
 )
-from icv_envs.sim.traffic import idm_acceleration
-from icv_envs._ufuncs import clip as uclip, flatnonzero
+from icv_envs._ufuncs import flatnonzero
 
 __all__ = ["Regrouping"]
 
@@ -78,37 +78,21 @@ class Regrouping:
                                       float(p.slot_tolerance), f.want)
         if not len(rows):
             return
-        v = f.speed[rows]
-        length = uclip(v * p.lc_duration, p.lc_min_length, p.lc_max_length)
-        u = rs.u[rows]
-        room = -u - p.lc_stop_room
-        length = np.minimum(length, room)
-        ok = length >= p.lc_min_length * 0.75
+        # the manoeuvre's length, the gaps and IDM's interaction term towards
+        # the target lane's leader and follower, the refused changes beside a
+        # vehicle there (the yields, below) and the changes that must not
+        # start side by side, in one compiled call (policies/_kernels.lane_change_gaps,
+        # from stop 42; the array code it replaced is frozen in tests/test_expert_kernels.py)
         cor = Corridors.with_signals(world, rs, self._signals(f, want=False))
-        lr, lc_, fr, fc = cor.neighbours(rows, 3 * f.leg[rows] + nxt, u)
-        ln = f.length[rows]
-        gap_f = np.where(lr >= 0, lc_ - u - 0.5 * (f.length[np.maximum(lr, 0)] + ln), np.inf)
-        gap_r = np.where(fr >= 0, u - fc - 0.5 * (f.length[np.maximum(fr, 0)] + ln), np.inf)
-        vl = np.where(lr >= 0, f.speed[np.maximum(lr, 0)], v)
-        vf = np.where(fr >= 0, f.speed[np.maximum(fr, 0)], 0.0)
-        own = idm_acceleration(v, p.v_max, gap_f, v - vl, p.a_max, p.idm_b, p.member_T, p.member_s0, free_term=False)
-        fol = idm_acceleration(vf, p.v_max, gap_r, vf - v, p.a_max, p.idm_b, p.member_T, p.member_s0,
-                               free_term=False)
-        possible = ok.copy()  # the manoeuvre fits here; only the gaps may refuse it
-        ok &= (gap_f > p.lc_min_gap) & (gap_r > p.lc_min_gap) & (own > -p.b_safe) & (fol > -p.b_safe)
-        self._note_yields(world, rs, rows, possible & ~ok, lr, gap_f, fr, gap_r)
-        # two vehicles must not start into the same lane side by side in one step
-        cand = flatnonzero(ok)
-        if len(cand) > 1:
-            key = 3 * f.leg[rows[cand]] + nxt[cand]
-            o = cand[np.lexsort((-u[cand], key))]
-            ko = 3 * f.leg[rows[o]] + nxt[o]
-            close = (ko[1:] == ko[:-1]) & (np.abs(u[o][1:] - u[o][:-1]) < 12.0)
-            drop = np.zeros(len(o), dtype=bool)
-            for k in flatnonzero(close):
-                if not drop[k]:
-                    drop[k + 1] = True
-            ok[o[drop]] = False
+        length, ok, yk, yo = lane_change_gaps(
+            rows, nxt, f.leg, f.speed, rs.u, rs.dist, f.length, cor.keys, cor.corr, cor.rows, cor.coord,
+            float(cor.BIG), float(p.lc_duration), float(p.lc_min_length), float(p.lc_max_length),
+            float(p.lc_stop_room), float(p.lc_min_length * 0.75), float(p.lc_min_gap), float(p.b_safe),
+            float(p.a_max), float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(p.member_T), float(p.member_s0),
+            float(lay.R1))
+        if len(yk):
+            self._note_yields(f.vid[rows[yk]].tolist(), f.vid[yo].tolist())
+        u = rs.u[rows]
         start = rows[ok]
         if len(start):
             f.lc_lane[start] = nxt[ok]
@@ -118,7 +102,7 @@ class Regrouping:
             f.lc_len[start] = length[ok]
             self.stats["lane_changes"] += len(start)
 
-    def _note_yields(self, world, rs, rows, refused, lr, gap_f, fr, gap_r) -> None:
+    def _note_yields(self, me_vids: list, other_vids: list) -> None:
         """Yield to a vehicle beside the gap (our rule; the paper is silent).
 
         A ready vehicle in the adjusting zone whose lane change is refused
@@ -138,15 +122,12 @@ class Regrouping:
         swapping lanes would both drop back to a standstill). Yields start
         only above 2 m/s (slower, the courtesy signal makes room) and end
         when both vehicles (nearly) stand; inside ``R1``
-        :meth:`PlatoonExpert._reroute_stuck` decides."""
-        f = world.fleet
-        lay = world.layout
-        side_r = refused & (fr >= 0) & (gap_r <= self.p.lc_min_gap)
-        side_f = refused & (lr >= 0) & (gap_f <= self.p.lc_min_gap) & ~side_r
-        moving = (rs.dist[rows] > lay.R1) & (f.speed[rows] >= 2.0)
-        for k in flatnonzero((side_r | side_f) & moving):
-            me = int(f.vid[rows[k]])
-            other = int(f.vid[int(fr[k]) if side_r[k] else int(lr[k])])
+        :meth:`PlatoonExpert._reroute_stuck` decides.
+
+        ``me_vids`` yield to ``other_vids`` (pairs in row order: the refused
+        changes beside a vehicle of the target lane, outside ``R1`` and at 2
+        m/s or more; :func:`~icv_envs.policies._kernels.lane_change_gaps`)."""
+        for me, other in zip(me_vids, other_vids):
             if other in self._yield:
                 # never yield to a vehicle that yields itself: two vehicles
                 # swapping lanes would each drop back behind the other to a

@@ -2,7 +2,8 @@
 :class:`icv_envs.policies.regrouping.Regrouping`): which lane changes are
 ready to start (:func:`lane_change_ready`), the approach zone's fronts
 (:func:`approach_fronts`), the sub-formations' lane-change state
-(:func:`lane_change_state`), the lane changes that end
+(:func:`lane_change_state`), the gap test of the lane changes that are
+ready (:func:`lane_change_gaps`), the lane changes that end
 (:func:`lane_change_progress`), the sub-formations' distance bounds
 (:func:`segment_bounds`). Rules:
 :mod:`icv_envs.policies._kernels`.
@@ -13,9 +14,11 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from icv_envs.policies._kernels.corridors import corridor_neighbours
 from icv_envs.sim._kernels.physics import npy_maximum, npy_minimum
 
-__all__ = ["approach_fronts", "lane_change_progress", "lane_change_ready", "lane_change_state", "segment_bounds"]
+__all__ = ["approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_state",
+           "segment_bounds"]
 
 
 @nb.njit(cache=True)
@@ -164,3 +167,109 @@ def segment_bounds(rows, sizes, dist):
         out[1, k] = hi
         q0 += sizes[k]
     return out
+
+
+@nb.njit(cache=True, inline="always")
+def _idm_interaction(v, gap, dv, s0, T, sqrt_ab2, a_max):
+    """IDM's acceleration without the free-road term, as
+    :func:`icv_envs.sim.traffic.idm_acceleration` with ``free_term=False``
+    computes it elementwise: ``s* = s0 + max(0, v T + v dv / sqrt_ab2)``
+    (``sqrt_ab2 = 2 sqrt(a_max b)``), ``a_max (1 - (s* / max(gap, 0.1))^2)``
+    (numpy's maximum, numpy's square: one product)."""
+    s_star = s0 + npy_maximum(0.0, v * T + v * dv / sqrt_ab2)
+    r = s_star / npy_maximum(gap, 0.1)
+    return a_max * (1.0 - r * r)
+
+
+@nb.njit(cache=True)
+def lane_change_gaps(rows, nxt, leg, speed, u, dist, vlen, keys, corr, crow, coord, big, lc_duration, lc_min_length,
+                     lc_max_length, lc_stop_room, min_length_ok, lc_min_gap, b_safe, a_max, sqrt_ab2, member_T, member_s0,
+                     R1):
+    """The gap test of
+    :meth:`icv_envs.policies.regrouping.Regrouping._start_lane_changes` for
+    the ready vehicles ``rows`` changing into lanes ``nxt`` (from stop 42;
+    the array code it replaced is frozen in ``tests/test_expert_kernels.py``):
+
+    * the manoeuvre's length ``clip(v lc_duration, lc_min_length,
+      lc_max_length)``, at most the room before the stop line ``-u -
+      lc_stop_room``; it fits when at least ``min_length_ok``;
+    * the leader and follower in the target lane's corridor
+      (:func:`~icv_envs.policies._kernels.corridor_neighbours` on the index
+      ``keys, corr, crow, coord``, key ``corr * big + u``), the bumper gaps
+      to them (``inf`` without) and IDM's interaction term of this vehicle
+      behind the leader and of the follower behind this vehicle (member
+      time gap and standstill distance); the change is accepted when both
+      gaps exceed ``lc_min_gap`` and neither deceleration exceeds
+      ``b_safe``;
+    * the refused ones that fit and are beside a vehicle of the target lane
+      (the follower's gap first, then the leader's, at most ``lc_min_gap``),
+      outside ``R1`` and at 2 m/s or more: ``(k, other row)`` pairs in row
+      order, for the yields (:meth:`Regrouping._note_yields`);
+    * of accepted changes into one corridor within 12 m of each other
+      (ordered by corridor, then ``u`` descending, ties in row order, as
+      ``lexsort``), every second of a run is dropped.
+
+    Returns ``(length, ok, yield_k, yield_other)``."""
+    k = rows.shape[0]
+    length = np.empty(k)
+    ok = np.empty(k, dtype=np.bool_)
+    q_corr = np.empty(k, dtype=np.int64)
+    qk = np.empty(k)
+    for q in range(k):
+        r = rows[q]
+        x = speed[r] * lc_duration
+        if x < lc_min_length:
+            x = lc_min_length
+        elif x > lc_max_length:
+            x = lc_max_length
+        length[q] = npy_minimum(x, -u[r] - lc_stop_room)
+        ok[q] = length[q] >= min_length_ok
+        q_corr[q] = 3 * leg[r] + nxt[q]
+        qk[q] = q_corr[q] * big + u[r]
+    lr, lc, fr, fc = corridor_neighbours(keys, corr, crow, coord, rows, q_corr, qk)
+    yk = np.empty(k, dtype=np.int64)
+    yo = np.empty(k, dtype=np.int64)
+    ny = 0
+    for q in range(k):
+        r = rows[q]
+        v = speed[r]
+        ln = vlen[r]
+        gap_f = lc[q] - u[r] - 0.5 * (vlen[lr[q]] + ln) if lr[q] >= 0 else np.inf
+        gap_r = u[r] - fc[q] - 0.5 * (vlen[fr[q]] + ln) if fr[q] >= 0 else np.inf
+        vl = speed[lr[q]] if lr[q] >= 0 else v
+        vf = speed[fr[q]] if fr[q] >= 0 else 0.0
+        own = _idm_interaction(v, gap_f, v - vl, member_s0, member_T, sqrt_ab2, a_max)
+        fol = _idm_interaction(vf, gap_r, vf - v, member_s0, member_T, sqrt_ab2, a_max)
+        possible = ok[q]
+        ok[q] = possible and gap_f > lc_min_gap and gap_r > lc_min_gap and own > -b_safe and fol > -b_safe
+        if possible and not ok[q] and dist[r] > R1 and speed[r] >= 2.0:
+            side_r = fr[q] >= 0 and gap_r <= lc_min_gap
+            side_f = lr[q] >= 0 and gap_f <= lc_min_gap
+            if side_r or side_f:
+                yk[ny] = q
+                yo[ny] = fr[q] if side_r else lr[q]
+                ny += 1
+    # runs of accepted changes into one corridor within 12 m: every second one waits
+    o = np.empty(k, dtype=np.int64)
+    m = 0
+    for q in range(k):
+        if ok[q]:
+            # (insertion by corridor, then u descending; equal keys keep row order)
+            p = m
+            while p > 0 and (q_corr[o[p - 1]] > q_corr[q]
+                             or (q_corr[o[p - 1]] == q_corr[q] and -u[rows[o[p - 1]]] > -u[rows[q]])):
+                o[p] = o[p - 1]
+                p -= 1
+            o[p] = q
+            m += 1
+    if m > 1:
+        drop = np.zeros(m, dtype=np.bool_)
+        for p in range(m - 1):
+            a = o[p]
+            b = o[p + 1]
+            if q_corr[a] == q_corr[b] and abs(u[rows[b]] - u[rows[a]]) < 12.0 and not drop[p]:
+                drop[p + 1] = True
+        for p in range(m):
+            if drop[p]:
+                ok[o[p]] = False
+    return length, ok, yk[:ny], yo[:ny]
