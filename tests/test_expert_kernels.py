@@ -1638,3 +1638,112 @@ def test_lane_change_gaps_equal_the_array_code(data):
     ref = _old_gap_block(rows, nxt, leg, speed, u, dist, vlen, cor.neighbours, p, R1)
     for a, b in zip(got, ref):
         assert _same(np.asarray(a), np.asarray(b, dtype=np.asarray(a).dtype))
+
+
+def _old_merging(self, world, rs) -> None:
+    """Regrouping._merging at b40d6e3 (stop 41), frozen: its loop became
+    policies/_kernels.merge_pairs at stop 42."""
+    p = self.p
+    f = world.fleet
+    lay = world.layout
+    if not self.subs:
+        return
+    sids, subs, dmin, dmax = self._sub_distances(f, rs)
+    info = [(sid, S["leg"], S["mv"], a, b, S["state"]) for sid, S, a, b in zip(sids, subs, dmin, dmax)]
+    info.sort(key=lambda t: (t[1], t[3]))
+    merged = set()
+    for i, (sa, leg, mv, xa0, xa1, st) in enumerate(info):
+        if st != "adjusted" or sa in merged or xa0 <= lay.R1:
+            continue
+        A = self.subs[sa]
+        for sb, legb, mvb, xb0, xb1, stb in info[i + 1:]:
+            if legb != leg:
+                break
+            if sb in merged:
+                continue
+            if mvb != mv:
+                if lay.conflict[mv, mvb]:
+                    break
+                continue
+            B = self.subs[sb]
+            if stb == "adjusted" and xb0 > lay.R1 and xb0 - xa1 <= p.merge_range \
+                    and len(A["members"]) + len(B["members"]) <= p.max_node_size:
+                self._merge(world, rs, A, B)
+                merged.add(sb)
+                xa1 = max(xa1, xb1)
+            else:
+                break
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 3000.0, 2), ("multi-vp", 2200.0, 7)])
+def test_merging_equals_the_replaced_code_on_runs(monkeypatch, method, throughput, seed):
+    """``_merging`` (stop 42: ``merge_pairs``) against the frozen method,
+    step by step on runs: the same groups, counters and fleet fields; the
+    runs reach merges (several into one taker included)."""
+    import copy
+
+    from icv_envs.policies.regrouping import Regrouping
+
+    real = Regrouping._merging
+    fields = ("ref", "xg", "stage", "tlane", "tidx", "sub", "form")
+    seen = {"merges": 0}
+
+    def checked(self, world, rs):
+        me2, w2, rs2 = copy.deepcopy((self, world, rs))
+        _old_merging(me2, w2, rs2)
+        real(self, world, rs)
+        assert self.subs == me2.subs and self.stats == me2.stats
+        for name in fields:
+            assert _same(getattr(world.fleet, name), getattr(w2.fleet, name)), name
+        seen["merges"] = self.stats["merges"]
+
+    monkeypatch.setattr(Regrouping, "_merging", checked)
+    _drive_intersection(method, throughput, seed, 150.0, 750)
+    assert seen["merges"] > 0, seen
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_merge_pairs_equal_the_replaced_loop(data):
+    """``merge_pairs`` against the frozen loop on random sub-formations:
+    ties in the least distance, distances at ``R1`` and at ``merge_range``
+    from the rear, sizes at ``max_node_size``, conflicting and
+    non-conflicting movements between them."""
+    from icv_envs.policies._kernels import merge_pairs
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    K = data.draw(st.integers(0, 12))
+    leg = rng.integers(0, 2, K).astype(np.int64)
+    mv = (3 * leg + rng.integers(0, 3, K)).astype(np.int64)
+    dmin = rng.choice([100.0, 150.0, 160.0, 200.0, 210.0, 260.0], K)
+    dmax = dmin + rng.choice([0.0, 10.0, 50.0], K)
+    adjusted = rng.random(K) < 0.8
+    size = rng.integers(1, 8, K).astype(np.int64)
+    conflict = rng.random((12, 12)) < 0.5
+    R1, rng_m, cap = 150.0, 50.0, 10
+    # the loop, frozen (ids = positions)
+    info = [(k, int(leg[k]), int(mv[k]), float(dmin[k]), float(dmax[k]), bool(adjusted[k])) for k in range(K)]
+    info.sort(key=lambda t: (t[1], t[3]))
+    sizes = size.tolist()
+    merged, want = set(), []
+    for i, (sa, lg, m, xa0, xa1, st_) in enumerate(info):
+        if not st_ or sa in merged or xa0 <= R1:
+            continue
+        for sb, legb, mvb, xb0, xb1, stb in info[i + 1:]:
+            if legb != lg:
+                break
+            if sb in merged:
+                continue
+            if mvb != m:
+                if conflict[m, mvb]:
+                    break
+                continue
+            if stb and xb0 > R1 and xb0 - xa1 <= rng_m and sizes[sa] + sizes[sb] <= cap:
+                want.append((sa, sb))
+                sizes[sa] += sizes[sb]
+                merged.add(sb)
+                xa1 = max(xa1, xb1)
+            else:
+                break
+    got = merge_pairs(leg, mv, dmin, dmax, adjusted, size, conflict, R1, rng_m, cap)
+    assert [tuple(x) for x in got.tolist()] == want

@@ -18,6 +18,7 @@ from icv_envs.policies._kernels import (
     lane_change_progress,
     lane_change_ready,
     lane_change_state,
+    merge_pairs,
     segment_bounds,
 )
 from icv_envs.policies.platoon_common import (
@@ -404,30 +405,21 @@ class Regrouping:
         if not self.subs:
             return
         sids, subs, dmin, dmax = self._sub_distances(f, rs)
-        info = [(sid, S["leg"], S["mv"], a, b, S["state"]) for sid, S, a, b in zip(sids, subs, dmin, dmax)]
-        info.sort(key=lambda t: (t[1], t[3]))
-        merged = set()
-        for i, (sa, leg, mv, xa0, xa1, st) in enumerate(info):
-            if st != "adjusted" or sa in merged or xa0 <= lay.R1:
-                continue
-            A = self.subs[sa]
-            for sb, legb, mvb, xb0, xb1, stb in info[i + 1:]:
-                if legb != leg:
-                    break
-                if sb in merged:
-                    continue
-                if mvb != mv:
-                    if lay.conflict[mv, mvb]:
-                        break  # something conflicting lies between them
-                    continue
-                B = self.subs[sb]
-                if stb == "adjusted" and xb0 > lay.R1 and xb0 - xa1 <= p.merge_range \
-                        and len(A["members"]) + len(B["members"]) <= p.max_node_size:
-                    self._merge(world, rs, A, B)
-                    merged.add(sb)
-                    xa1 = max(xa1, xb1)
-                else:
-                    break  # the nearest same-movement sub-formation behind decides
+        # which sub-formation takes which, in order (compiled:
+        # policies/_kernels.merge_pairs, from stop 42; the loop it replaced is
+        # frozen in tests/test_expert_kernels.py), then the merges in that order
+        # (a merge changes only the taker's members and state, which the
+        # order's test reads as they were, the taker's size as it grows)
+        K = len(subs)
+        i64 = np.int64
+        pairs = merge_pairs(np.fromiter([S["leg"] for S in subs], dtype=i64, count=K),
+                            np.fromiter([S["mv"] for S in subs], dtype=i64, count=K),
+                            np.array(dmin, dtype=np.float64), np.array(dmax, dtype=np.float64),
+                            np.fromiter([S["state"] == "adjusted" for S in subs], dtype=bool, count=K),
+                            np.fromiter([len(S["members"]) for S in subs], dtype=i64, count=K), lay.conflict,
+                            float(lay.R1), float(p.merge_range), int(p.max_node_size))
+        for a, b in pairs.tolist():
+            self._merge(world, rs, subs[a], subs[b])
 
     def _merge(self, world, rs, A, B) -> None:
         p = self.p

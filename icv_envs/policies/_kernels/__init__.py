@@ -10,7 +10,7 @@ module per room of the paper's method, as the policies that call them:
 * :mod:`.lane_changes` -- that expert's lane-change decisions (Sec. 3.4):
   which lane changes start, which end or re-plan;
 * :mod:`.regrouping` -- the intersection's vehicle regrouping (Sec. 5): which lane changes are ready and
-  their gap test, the approach zone's fronts, the lane-change state;
+  their gap test, the approach zone's fronts, the lane-change state, the merging;
 * :mod:`.corridors` -- the intersection's corridor index (read by Sec. 5's regrouping and Sec. 4.2);
 * :mod:`.virtual_platoon` -- the improved virtual platoon (Sec. 4.2), its
   nodes and their order: node heads, passing-order repair, tree-layers,
@@ -61,6 +61,7 @@ from icv_envs.policies._kernels.regrouping import (
     lane_change_progress,
     lane_change_ready,
     lane_change_state,
+    merge_pairs,
     segment_bounds,
 )
 from icv_envs.policies._kernels.platoon_control import (
@@ -91,6 +92,6 @@ from icv_envs.policies._kernels.vp_references import (
 __all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_heads", "corridor_add_signals", "corridor_index", "corridor_neighbours", "desired_lane_rows",
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
-           "approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_starts", "lane_change_state", "lane_changes_ended", "lane_end_escape", "lane_speed_rows", "nodes_cleared", "normalised_actions", "observation_references",
+           "approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_starts", "lane_change_state", "lane_changes_ended", "lane_end_escape", "merge_pairs", "lane_speed_rows", "nodes_cleared", "normalised_actions", "observation_references",
            "platoon_accelerations", "preview_points", "repair_order", "safety_cap", "segment_bounds", "stop_flags", "stop_line_caps", "tree_layers",
            "tree_references", "virtual_caps", "vp_references", "vp_tree", "zone_orphans"]

@@ -3,7 +3,8 @@
 ready to start (:func:`lane_change_ready`), the approach zone's fronts
 (:func:`approach_fronts`), the sub-formations' lane-change state
 (:func:`lane_change_state`), the gap test of the lane changes that are
-ready (:func:`lane_change_gaps`), the lane changes that end
+ready (:func:`lane_change_gaps`), the merging (:func:`merge_pairs`), the
+lane changes that end
 (:func:`lane_change_progress`), the sub-formations' distance bounds
 (:func:`segment_bounds`). Rules:
 :mod:`icv_envs.policies._kernels`.
@@ -18,7 +19,7 @@ from icv_envs.policies._kernels.corridors import corridor_neighbours
 from icv_envs.sim._kernels.physics import npy_maximum, npy_minimum
 
 __all__ = ["approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_state",
-           "segment_bounds"]
+           "merge_pairs", "segment_bounds"]
 
 
 @nb.njit(cache=True)
@@ -273,3 +274,60 @@ def lane_change_gaps(rows, nxt, leg, speed, u, dist, vlen, keys, corr, crow, coo
             if drop[p]:
                 ok[o[p]] = False
     return length, ok, yk[:ny], yo[:ny]
+
+
+@nb.njit(cache=True)
+def merge_pairs(leg, mv, dmin, dmax, adjusted, size, conflict, R1, merge_range, max_node_size):
+    """The merging of :meth:`icv_envs.policies.regrouping.Regrouping._merging`
+    (paper Sec. 5; compiled from stop 42, the Python loop it replaced is
+    frozen in ``tests/test_expert_kernels.py``) over the sub-formations in
+    ``self.subs`` order (their legs, movements, least and largest member
+    distance to the centre, adjusted or not, sizes), in order of leg, then
+    least distance (ties in ``subs`` order, as Python's stable sort): an
+    adjusted one entirely outside ``R1`` and not merged takes the
+    sub-formations behind it on its leg, skipping other movements that do
+    not conflict with its own (one that conflicts ends the search) and
+    those already merged, while the next one of its movement is adjusted,
+    outside ``R1``, starts within ``merge_range`` of its rear (the largest
+    distance of it and of what it took so far) and the two fit in
+    ``max_node_size``; the first that does not ends the search. Returns the
+    ``(taker, taken)`` pairs in the order they merge, as indices into the
+    arrays."""
+    K = leg.shape[0]
+    o = np.empty(K, dtype=np.int64)
+    for q in range(K):
+        p = q
+        while p > 0 and (leg[o[p - 1]] > leg[q] or (leg[o[p - 1]] == leg[q] and dmin[o[p - 1]] > dmin[q])):
+            o[p] = o[p - 1]
+            p -= 1
+        o[p] = q
+    merged = np.zeros(K, dtype=np.bool_)
+    pairs = np.empty((K, 2), dtype=np.int64)
+    m = 0
+    for i in range(K):
+        a = o[i]
+        if not adjusted[a] or merged[a] or dmin[a] <= R1:
+            continue
+        rear = dmax[a]
+        n_a = size[a]
+        for j in range(i + 1, K):
+            b = o[j]
+            if leg[b] != leg[a]:
+                break
+            if merged[b]:
+                continue
+            if mv[b] != mv[a]:
+                if conflict[mv[a], mv[b]]:
+                    break  # something conflicting lies between them
+                continue
+            if adjusted[b] and dmin[b] > R1 and dmin[b] - rear <= merge_range and n_a + size[b] <= max_node_size:
+                pairs[m, 0] = a
+                pairs[m, 1] = b
+                m += 1
+                merged[b] = True
+                n_a += size[b]
+                if dmax[b] > rear:
+                    rear = dmax[b]
+            else:
+                break  # the nearest same-movement sub-formation behind decides
+    return pairs[:m]
