@@ -62,7 +62,6 @@ from icv_envs.sim.intersection_metrics import (
 )
 from icv_envs.sim._kernels.frames import intersection_frames
 from icv_envs.sim._kernels.intersection import box_collision_pairs, route_rows, rows_of_ids
-from icv_envs.sim._kernels.stats import motion_sums_add
 from icv_envs._ufuncs import clip as uclip, flatnonzero
 
 __all__ = [
@@ -330,35 +329,30 @@ class IntersectionWorld:
         top = int(f.vid.max()) + 1
         self.motion.reserve(top)
         lo, hi, occ, path, busy = self.pet.tables(top)
-        (ran, event, S, sums, stopped, min_box, trans, busy, B, i, j, jam_rows) = intersection_frames(
+        m = self.motion
+        stt = self.stats
+        vs, ssum, rea, com, sst = m.totals()
+        (ran, event, S, times, acc, counts, trans, busy, B, i, j, jam_rows) = intersection_frames(
             n, f.x, f.y, f.heading, f.speed, accel, steer, f.crashed, self.dt, self.wheelbase, self.v_max, self.time,
             f.vid, f.leg, f.mv, f.length, f.width, f.tlane, f.entered, f.departed, f.cleared, f.wrong_exit,
             f.exit_leg, f.plane, f.enter_time, _OUT, lay.app_dir, lay.app_right, lay.dep_right, lay.exit_of,
             lay.box_half, lay.lane_width, N_LANES, _OFFROAD_MARGIN, -(lay.R3 - lay.box_half + 50.0),
             lay.departure_length, lay.P0, lay.D0, lay.P1, lay.D1, lay.L, lay.arc, lay.C, lay.TH0, lay.R, lay.SGN,
-            STOPPED_SPEED, *self.motion.moments(), lo, hi, occ, path, busy, self.jams.standing_times(top),
-            JAM_SECONDS)
+            STOPPED_SPEED, *m.moments(), lo, hi, occ, path, busy, self.jams.standing_times(top),
+            JAM_SECONDS, vs, ssum, rea, com, sst, float(stt["speed_sum"]), float(stt["abs_accel_sum"]),
+            float(stt["min_speed_in_box"]))
         # (the state and the last frame's events as row views of two arrays)
         f.x, f.y, f.heading, f.speed, f.accel, f.steer, cx, cy, u, lat_leg = S
         crash, new_wrong, clear_now, removed, left = B
-        stt = self.stats
         nv = f.n
-        # the clock, the run statistics and the PET events, frame by frame as
-        # single steps add them (the same additions of the same doubles, in
-        # order; the motion accumulators in one compiled pass,
-        # sim/_kernels.motion_sums_add, as MotionStats.add adds them)
-        m = self.motion
-        m.set_totals(*motion_sums_add(ran, nv, sums, stopped, self.dt, *m.totals()))
-        dt = self.dt
-        t = self.time
-        times = []
-        ss, sa, mn = stt["speed_sum"], stt["abs_accel_sum"], stt["min_speed_in_box"]
-        for (sv, _, a), mb in zip(sums[:ran].tolist(), min_box[:ran].tolist()):
-            t += dt
-            times.append(t)
-            ss += sv
-            sa += a
-            mn = min(mn, mb)
+        # the clock, the motion totals and the run statistics, added frame by
+        # frame inside as single steps add them (the same additions of the
+        # same doubles, in order), and the PET events frame by frame
+        ssum, rea, com, ss, sa, mn = acc.tolist()
+        vs, sst = counts.tolist()
+        m.set_totals(vs, ssum, rea, com, sst)
+        times = times.tolist()
+        t = times[-1]
         self.time = t
         self.step_count += ran
         stt["vehicle_steps"] += nv * ran

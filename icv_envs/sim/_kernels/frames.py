@@ -148,7 +148,8 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
                         enter_time, out, app_dir, app_right, dep_right, exit_of, box_half, lane_width, n_lanes,
                         off_margin, left_u, departure_length, P0, D0, P1, D1, L, arc, C, TH0, R, SGN,
                         stopped_speed, m_count, m_s1, m_s2, pet_lo, pet_hi, pet_occ, pet_path, pet_busy, jam_sf,
-                        jam_seconds):
+                        jam_seconds, vehicle_steps, speed_sum, realised, commanded, stopped_steps, st_speed_sum,
+                        st_abs_accel_sum, st_min_speed_in_box):
     """Up to ``n_frames`` frames of ``IntersectionWorld.substep`` with the
     same controls, each in that method's order: the integration
     (:func:`~icv_envs.sim._kernels.physics.kinematic_substep`: a crashed
@@ -175,12 +176,23 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     ``jam_sf`` (all indexed by id; they must hold every id) are updated in
     place.
 
-    Returns ``(k, event, S, sums (k, 3), stopped (k,), min_box (k,),
+    The run's accumulators are added to frame by frame, as single steps add
+    them (the same additions of the same doubles, in order; from stop 42,
+    before in Python and :func:`~icv_envs.sim._kernels.motion_sums_add`):
+    the motion totals ``vehicle_steps, speed_sum, realised, commanded,
+    stopped_steps`` (``MotionStats.totals``) and the world's statistics
+    ``speed_sum``, ``abs_accel_sum`` (``|commanded|``) and
+    ``min_speed_in_box`` (Python's ``min``: the old value on a tie).
+
+    Returns ``(k, event, S, times (k,), acc (6,), counts (2,),
     transitions (m, 4), pet_busy, B, i, j, jam_rows)``: ``k`` frames ran;
     ``S (10, n)`` the state after the last and its centres and approach
     coordinates by rows ``x, y, heading, speed, accel, steer, cx, cy, u,
-    lat_leg``; per frame the sums of :func:`motion_record`, the number
-    standing and the least speed in the box; the PET transitions ``(frame,
+    lat_leg``; the clock after each frame (``t + dt``, ``+ dt``, ...); the
+    accumulators after the last, ``acc`` = ``speed_sum, realised,
+    commanded`` (the motion totals'), ``speed_sum, abs_accel_sum,
+    min_speed_in_box`` (the world's) and ``counts`` = ``vehicle_steps,
+    stopped_steps``; the PET transitions ``(frame,
     0 left / 1 entered, path, slot)`` in the order ``PetStats.record``
     handles them; ``B (5, n)`` the last frame's events by rows ``crash,
     new_wrong, clear_now, removed, left``; its collision pairs and the rows
@@ -188,9 +200,7 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     arrays, not fifteen: numba boxes each returned array for about 0.35 us,
     a view of a row costs 0.1)."""
     n = x.shape[0]
-    sums = np.zeros((n_frames, 3))
-    stopped = np.zeros(n_frames, dtype=np.int64)
-    min_box = np.zeros(n_frames)
+    times = np.zeros(n_frames)
     trans = np.empty((16, 4), dtype=np.int64)
     m = 0
     dummy = np.zeros(n)
@@ -200,17 +210,23 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
         x, y, heading, speed, acc, st, _, cx, cy = kinematic_substep(
             x, y, heading, speed, accel, steer, crashed, dummy, wheelbase, -1.0, dt, v_max, -1.0)
         t = t + dt
+        times[fr] = t
         sv, sdv, sa, ns, _ = motion_record(vid, v_before, speed, acc, stopped_speed, m_count, m_s1, m_s2)
-        sums[fr, 0] = sv
-        sums[fr, 1] = sdv
-        sums[fr, 2] = sa
-        stopped[fr] = ns
+        # (MotionStats.add's order, then the world's statistics')
+        vehicle_steps += n
+        speed_sum += sv
+        realised += sdv / dt
+        commanded += sa
+        stopped_steps += ns
+        st_speed_sum += sv
+        st_abs_accel_sum += sa
         (u, lat_leg, crash, new_wrong, clear_now, removed, left, pet_rows, pet_pid, pet_s, pet_arc,
          mb) = intersection_events(cx, cy, speed, leg, mv, length, crashed, tlane, entered, departed, cleared,
                                    wrong_exit, exit_leg, plane, enter_time, out, app_dir, app_right, dep_right,
                                    exit_of, box_half, lane_width, n_lanes, off_margin, left_u, departure_length, t,
                                    P0, D0, P1, D1, L, arc)
-        min_box[fr] = mb
+        if mb < st_min_speed_in_box:
+            st_min_speed_in_box = mb
         npet = pet_rows.shape[0]
         pvid = np.empty(npet, dtype=np.int64)
         plen = np.empty(npet)
@@ -253,5 +269,15 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
             B[2] = clear_now
             B[3] = removed
             B[4] = left
-            return (k, event, S, sums[:k], stopped[:k], min_box[:k], trans[:m], pet_busy, B, i, j, jam_rows)
+            acc_out = np.empty(6)
+            acc_out[0] = speed_sum
+            acc_out[1] = realised
+            acc_out[2] = commanded
+            acc_out[3] = st_speed_sum
+            acc_out[4] = st_abs_accel_sum
+            acc_out[5] = st_min_speed_in_box
+            counts = np.empty(2, dtype=np.int64)
+            counts[0] = vehicle_steps
+            counts[1] = stopped_steps
+            return (k, event, S, times[:k], acc_out, counts, trans[:m], pet_busy, B, i, j, jam_rows)
     raise ValueError("n_frames must be >= 1")
