@@ -1747,3 +1747,92 @@ def test_merge_pairs_equal_the_replaced_loop(data):
                 break
     got = merge_pairs(leg, mv, dmin, dmax, adjusted, size, conflict, R1, rng_m, cap)
     assert [tuple(x) for x in got.tolist()] == want
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_stuck_in_zone_equals_the_array_expression(data):
+    """``stuck_in_zone`` (stop 42) against ``_reroute_stuck``'s array
+    expression at b40d6e3: distances at ``R1``, every flag on and off."""
+    from icv_envs.policies._kernels import stuck_in_zone
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    n = data.draw(st.integers(0, 30))
+    phase = rng.integers(0, 3, n).astype(np.int64)
+    lc_lane = rng.integers(-1, 3, n).astype(np.int64)
+    R1 = 285.0
+    dist = rng.choice([100.0, 285.0, np.nextafter(285.0, np.inf), 400.0], n)
+    co = rng.random(n) < 0.3
+    klane = rng.integers(0, 3, n).astype(np.int64)
+    tlane = rng.integers(0, 3, n).astype(np.int64)
+    want = np.flatnonzero((phase == 0) & (lc_lane < 0) & (dist <= R1) & ~co & (klane != tlane))
+    assert _same(stuck_in_zone(phase, lc_lane, dist, R1, co, klane, tlane), want)
+
+
+def _old_reroute_stuck(self, world, rs):
+    """PlatoonExpert._reroute_stuck at b40d6e3 (stop 41), frozen."""
+    from icv_envs._ufuncs import clip as uclip
+    from icv_envs._ufuncs import flatnonzero
+
+    f = world.fleet
+    lay = world.layout
+    stuck = ((rs.phase == 0) & (f.lc_lane < 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
+             & (f.klane != f.tlane))
+    if not np.count_nonzero(stuck):
+        return rs
+    served = lay.allowed[f.mv, uclip(f.klane, 0, 2)]
+    keep = flatnonzero(stuck & served)
+    if len(keep):
+        f.tlane[keep] = f.klane[keep]
+        f.want[keep] = -1
+        self.stats["kept_lane_in_R1"] += len(keep)
+    k = flatnonzero(stuck & ~served)
+    if not len(k):
+        return rs
+    lane = uclip(f.klane[k], 0, 2)
+    new = np.full(len(k), -1, dtype=np.int64)
+    for turn in (1, 0, 2):
+        m = 3 * f.leg[k] + turn
+        ok = (new < 0) & lay.allowed[m, lane]
+        new[ok] = m[ok]
+    k, new = k[new >= 0], new[new >= 0]
+    if len(k):
+        world.reroute(k, new)
+        f.tlane[k] = f.klane[k]
+        f.want[k] = -1
+        gone = set(f.vid[k].tolist())
+        self._keep_members(lambda v: v not in gone, (self.formations, self.subs))
+        f.sub[k] = -1
+        f.ref[k] = -1
+        f.xg[k] = 0.0
+        rs = world.route()
+    return rs
+
+
+@pytest.mark.parametrize("method,throughput,seed", [("single-vp", 3000.0, 0), ("fcfs", 3000.0, 0)])
+def test_reroute_stuck_equals_the_replaced_code_on_runs(monkeypatch, method, throughput, seed):
+    """``_reroute_stuck`` (stop 42: ``stuck_in_zone``) against the frozen
+    method, step by step on the runs where it once locked the intersection
+    up (its docstring): the same fleet, groups and counters, lane keeping
+    and rerouting reached."""
+    import copy
+
+    from icv_envs.policies.platoon_expert import PlatoonExpert
+
+    real = PlatoonExpert._reroute_stuck
+    seen = {"kept": 0, "rerouted": 0}
+
+    def checked(self, world, rs):
+        me2, w2, rs2 = copy.deepcopy((self, world, rs))
+        _old_reroute_stuck(me2, w2, rs2)
+        out = real(self, world, rs)
+        assert self.stats == me2.stats and self.subs == me2.subs and self.formations == me2.formations
+        for name in ("vid", *world.fleet._fields):
+            assert _same(getattr(world.fleet, name), getattr(w2.fleet, name)), name
+        seen["kept"] = self.stats["kept_lane_in_R1"]
+        seen["rerouted"] = world.stats.get("rerouted", seen["rerouted"])
+        return out
+
+    monkeypatch.setattr(PlatoonExpert, "_reroute_stuck", checked)
+    _drive_intersection(method, throughput, seed, 120.0, 600)
+    assert seen["kept"] > 0 and seen["rerouted"] > 0, seen

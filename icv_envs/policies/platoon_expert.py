@@ -144,7 +144,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from icv_envs.platoon.tree import DEFAULT_D_T
-from icv_envs.policies._kernels import observation_references
+from icv_envs.policies._kernels import observation_references, stuck_in_zone
 from icv_envs.policies._params import check_steering_and_gains, real_param
 from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
     MODE_FOLLOW,
@@ -341,10 +341,13 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         2000 veh/h, seed 0: 229 jammed)."""
         f = world.fleet
         lay = world.layout
-        stuck = ((rs.phase == 0) & (f.lc_lane < 0) & (rs.dist <= lay.R1) & ~self._coordinated(f)
-                 & (f.klane != f.tlane))
-        if not np.count_nonzero(stuck):
+        # (compiled: policies/_kernels.stuck_in_zone, from stop 42; the array
+        # expression it replaced is frozen in tests/test_expert_kernels.py)
+        rows = stuck_in_zone(rs.phase, f.lc_lane, rs.dist, float(lay.R1), self._coordinated(f), f.klane, f.tlane)
+        if not len(rows):
             return rs
+        stuck = np.zeros(f.n, dtype=bool)
+        stuck[rows] = True
         served = lay.allowed[f.mv, uclip(f.klane, 0, 2)]
         # in a lane that serves its movement (not the expected one): it keeps it
         keep = flatnonzero(stuck & served)

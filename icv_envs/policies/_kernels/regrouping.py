@@ -4,6 +4,7 @@ ready to start (:func:`lane_change_ready`), the approach zone's fronts
 (:func:`approach_fronts`), the sub-formations' lane-change state
 (:func:`lane_change_state`), the gap test of the lane changes that are
 ready (:func:`lane_change_gaps`), the merging (:func:`merge_pairs`), the
+vehicles stuck out of their lane inside ``R1`` (:func:`stuck_in_zone`), the
 lane changes that end
 (:func:`lane_change_progress`), the sub-formations' distance bounds
 (:func:`segment_bounds`). Rules:
@@ -19,7 +20,7 @@ from icv_envs.policies._kernels.corridors import corridor_neighbours
 from icv_envs.sim._kernels.physics import npy_maximum, npy_minimum
 
 __all__ = ["approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_state",
-           "merge_pairs", "segment_bounds"]
+           "merge_pairs", "segment_bounds", "stuck_in_zone"]
 
 
 @nb.njit(cache=True)
@@ -331,3 +332,20 @@ def merge_pairs(leg, mv, dmin, dmax, adjusted, size, conflict, R1, merge_range, 
             else:
                 break  # the nearest same-movement sub-formation behind decides
     return pairs[:m]
+
+
+@nb.njit(cache=True)
+def stuck_in_zone(phase, lc_lane, dist, R1, coordinated, klane, tlane):
+    """The test of :meth:`icv_envs.policies.platoon_expert.PlatoonExpert._reroute_stuck`
+    (from stop 42; the array expression it replaced is frozen in
+    ``tests/test_expert_kernels.py``): approaching vehicles inside ``R1``
+    (``dist <= R1``), not coordinated, not in their expected lane and with
+    no lane change under way. Returns their rows."""
+    n = phase.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if phase[i] == 0 and lc_lane[i] < 0 and dist[i] <= R1 and not coordinated[i] and klane[i] != tlane[i]:
+            out[m] = i
+            m += 1
+    return out[:m]
