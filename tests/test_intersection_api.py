@@ -231,3 +231,107 @@ def test_full_lock_cannot_circle_at_the_intersection(action):
         assert term and info["crashed"], (switch, t)
         assert t - switch <= 20, (switch, t)
     env.close()
+
+
+@pytest.mark.parametrize("config, random_share", [
+    ({"method": "multi-vp", "throughput": 3000.0}, 0.4),  # collisions from random actions
+    ({"method": "fcfs", "throughput": 2600.0}, 0.1),
+    ({"method": "single-vp", "observation": {"type": "Kinematics", "vehicles_count": 1}}, 0.1),  # no neighbours
+    ({"observation": {"type": "Kinematics", "vehicles_count": 2}}, 0.1),  # one neighbour
+    ({"observation": {"type": "Kinematics", "absolute": True, "normalize": False,
+                      "features": ["presence", "x", "vy", "ref_dx", "go"]}}, 0.2),
+    ({"observation": {"type": "Kinematics", "clip": False, "perception_distance": 30.0, "vehicles_count": 4},
+      "reward": {"progress": 0.3, "safety": 2.0, "comfort": 0.05, "tracking": 0.7},
+      "reward_speed_range": [2.0, 12.0]}, 0.2),
+])
+def test_intersection_post_rows_equal_the_separate_calls(config, random_share):
+    """The intersection env's one-pass ``_post_rows`` (features, rewards and
+    ``Kinematics`` observations in one compiled call, stop 42) gives the
+    separate methods' rewards, reward components and observations bit for
+    bit, step after step (where it is taken: counted), with crashes and
+    other observation and reward settings."""
+    import icv_envs.envs.intersection_rows as ir
+    from icv_envs.envs.base import IcvAgentsEnv
+
+    env = intersection_v0.parallel_env(duration=80.0, **config)
+    obs, infos = env.reset(seed=3)
+    core = env.core
+    rng = np.random.default_rng(3)
+    fused = ir.IntersectionRows._post_rows
+    seen = {"steps": 0, "crashed": 0, "fused": 0}
+    kernel = ir.intersection_post_rows
+
+    def counted(*args):
+        seen["fused"] += 1
+        return kernel(*args)
+
+    def checked(self, rows, crashed_now):
+        got = fused(self, rows, crashed_now)
+        want = IcvAgentsEnv._post_rows(self, rows, crashed_now)
+        assert got[0].tobytes() == np.asarray(want[0], dtype=np.float64).tobytes()
+        assert list(got[1]) == list(want[1])
+        for k in want[1]:
+            assert got[1][k].tobytes() == np.asarray(want[1][k], dtype=np.float64).tobytes()
+        assert got[2].dtype == want[2].dtype and got[2].shape == want[2].shape
+        assert got[2].tobytes() == want[2].tobytes()
+        seen["steps"] += 1
+        seen["crashed"] += int(np.sum(crashed_now))
+        return got
+
+    ir.intersection_post_rows = counted
+    try:
+        core._post_rows = checked.__get__(core)
+        while env.agents:
+            acts = {a: (rng.uniform(-1, 1, 2).astype(np.float32) if rng.random() < random_share
+                        else infos[a]["expert_action"]) for a in env.agents}
+            obs, rew, term, trunc, infos = env.step(acts)
+    finally:
+        ir.intersection_post_rows = kernel
+    assert seen["steps"] > 300 and seen["fused"] == seen["steps"], seen
+    if random_share >= 0.4:
+        assert seen["crashed"] > 0
+
+
+def test_intersection_post_rows_not_taken_where_it_does_not_apply():
+    """The one-pass path is left for the separate calls with the leader
+    columns in the observation, with another observation type, and when a
+    hook is overridden (on a subclass, on the class or on the instance):
+    none of them reaches the kernel."""
+    import icv_envs.envs.intersection_rows as ir
+
+    calls = []
+    kernel = ir.intersection_post_rows
+    ir.intersection_post_rows = lambda *a: calls.append(1) or kernel(*a)
+
+    def run(env, steps=3):
+        obs, infos = env.reset(seed=0)
+        for _ in range(steps):
+            obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+
+    try:
+        run(intersection_v0.parallel_env(observation={"type": "Kinematics",
+                                                      "features": ["presence", "x", "y", "lead_gap", "lead_dv"]}))
+        run(intersection_v0.parallel_env(observation={"type": "OccupancyGrid"}))
+        env = intersection_v0.parallel_env()
+        env.core._leaders = type(env.core)._leaders.__get__(env.core)  # an instance override
+        run(env)
+
+        class Sub(IntersectionEnv):
+            def _rewards_rows(self, rows, crashed_now, F):
+                return super()._rewards_rows(rows, crashed_now, F)
+
+        sub = Sub()
+        sub.ma_reset(seed=0)
+        sub.ma_step({f"icv_{v}": a for v, a in zip(sub.world.fleet.vid.tolist(), sub.expert_actions())})
+        orig = IntersectionEnv._neighbours  # a replacement on the class itself
+        env = intersection_v0.parallel_env()
+        IntersectionEnv._neighbours = lambda self, *a: orig(self, *a)
+        try:
+            run(env)
+        finally:
+            IntersectionEnv._neighbours = orig
+        assert not calls
+        run(intersection_v0.parallel_env(), 1)  # (and the default env takes it)
+        assert calls
+    finally:
+        ir.intersection_post_rows = kernel

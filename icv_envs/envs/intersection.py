@@ -46,15 +46,15 @@ from icv_envs.envs.intersection_config import (  # noqa: F401  (METHODS, FCFS_TI
 )
 from icv_envs.envs.intersection_render import IntersectionRendering
 from icv_envs.envs.intersection_report import IntersectionReport
+from icv_envs.envs.intersection_rows import POST_HOOK_NAMES, IntersectionRows
+from icv_envs._hooks import hook_table
 from icv_envs.envs.observations import merge_observation_config
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon.conflicts import required_layer_gap
 from icv_envs.platoon.geometry import LEGS, movement_name
 from icv_envs.policies.fcfs import FcfsExpert
-from icv_envs.policies.platoon_expert import Corridors, PlatoonExpert, PlatoonParams
+from icv_envs.policies.platoon_expert import PlatoonExpert, PlatoonParams
 from icv_envs.sim.intersection_world import IntersectionLayout, IntersectionWorld, StepEvents, validate_radii
-from icv_envs.sim._kernels import (corridor_leaders, intersection_feature_rows, intersection_reward_pre,
-                                   intersection_reward_rows, nearest_euclidean)
 from icv_envs._ufuncs import clip as uclip
 
 __all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "OBS_EXTRA_FEATURES", "MAX_THROUGHPUT"]
@@ -84,7 +84,7 @@ STATE_FEATURES = OBS_FEATURES
 #: the leader's (0 when there is none)
 OBS_EXTRA_FEATURES = ("lead_gap", "lead_dv")
 
-class IntersectionEnv(IntersectionReport, IntersectionRendering, IcvAgentsEnv):
+class IntersectionEnv(IntersectionRows, IntersectionReport, IntersectionRendering, IcvAgentsEnv):
     """Four-leg, three-lane unsignalized intersection with the paper's coordination methods.
 
     See :mod:`icv_envs.envs.intersection_v0` for the full documentation.
@@ -337,103 +337,6 @@ class IntersectionEnv(IntersectionReport, IntersectionRendering, IcvAgentsEnv):
 
     # ------------------------------------------------------------------ spaces
 
-    # ------------------------------------------------------------ observations
-    def _features(self) -> np.ndarray:
-        """Per-vehicle absolute features (n, F) before normalisation."""
-        w = self.world
-        f = w.fleet
-        lay = self.layout
-        rs = w.route()
-        has, d, dv, go = self.expert.references(w)
-        # (compiled: sim/_kernels/observation.intersection_feature_rows, the
-        # heading's cosine and sine from numpy; the array code it replaced is
-        # frozen in tests/test_expert_kernels.py)
-        F = intersection_feature_rows(rs.cx, rs.cy, f.speed, np.cos(f.heading), np.sin(f.heading), rs.dist,
-                                      np.asarray(has, dtype=bool), np.asarray(d, dtype=np.float64),
-                                      np.asarray(dv, dtype=np.float64), rs.phase, rs.lat_leg, f.klane,
-                                      float(lay.lane_width), rs.lat, f.mv, float(lay.R1), float(lay.R2),
-                                      np.asarray(go, dtype=np.float64))
-        if getattr(self._obs_type, "extra", ()):  # OBS_EXTRA_FEATURES, in that order
-            pd = self._perception_distance()
-            gap, dv = self._leaders()
-            has = np.isfinite(gap)
-            F = np.column_stack([F, np.where(has, np.minimum(gap, pd), pd), np.where(has, dv, 0.0)])
-        return F
-
-    PERCEPTION_DISTANCE = 100.0
-
-    def _scales(self, relative: bool) -> np.ndarray:
-        c = self.config
-        lay = self.layout
-        vmax = float(c["speed_range"][1])
-        pd = self._perception_distance()
-        pos = pd if relative else lay.R3
-        scales = [1.0, pos, pos, vmax, vmax, 1.0, 1.0, lay.R3, 100.0, vmax, lay.lane_width * 3, 1.0, 1.0, 1.0]
-        if getattr(self._obs_type, "extra", ()):
-            scales += [pd, vmax]  # lead_gap, lead_dv
-        return np.array(scales)
-
-    def _perception_distance(self) -> float:
-        return float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE
-
-    def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
-        out = self._scales(False), self._scales(True)
-        for arr in out:  # read-only, as the highway env's kept scales (one numba specialisation of kinematics_rows)
-            arr.flags.writeable = False
-        return out
-
-    def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
-        """The up-to-``K`` nearest vehicles (Euclidean distance of body centres) within ``pd``, nearest first,
-        ties by row (compiled: :func:`icv_envs.sim._kernels.nearest_euclidean`). Until stop 40 the order of
-        exactly tied distances (formations spawn symmetric about a vehicle) was ``np.argpartition``'s, which
-        depends on the CPU's SIMD path."""
-        K = min(K, len(F) - 1)
-        return nearest_euclidean(np.ascontiguousarray(F[:, 1]), np.ascontiguousarray(F[:, 2]),
-                                 np.asarray(rows, dtype=np.int64), K, float(pd))
-
-    def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
-        """Per agent: progress (speed / v_max, or with ``reward_speed_range``
-        = [lo, hi] highway-env's ``clip((v - lo) / (hi - lo), 0, 1)``), safety (-1 on a collision, else
-        ``-max(0, 1 - gap / (2 m + v * 1 s))`` towards the leader in its
-        corridors), comfort (``-(u_a^2 + u_s^2) / 2``), tracking
-        (``exp(-(dx / 10 m)^2)`` of the reference error for vehicles with a
-        reference, else 0)."""
-        c = self.config
-        w = self.world
-        f = w.fleet
-        wts = c["reward"]
-        lo, hi = c["reward_speed_range"] or (0.0, c["speed_range"][1])
-        gap = self._leaders()[0]
-        rows = np.asarray(rows, dtype=np.int64)
-        ua = self._last_actions[rows] if len(self._last_actions) == f.n else np.zeros((len(rows), 2))
-        # (compiled: sim/_kernels/observation.intersection_reward_rows, the
-        # tracking term's exp from numpy; frozen in tests/test_expert_kernels.py)
-        ex = np.exp(intersection_reward_pre(rows, F))
-        total, progress, safety, comfort, track = intersection_reward_rows(
-            rows, f.speed, float(lo), float(hi) - float(lo), gap, np.asarray(crashed_now, dtype=bool),
-            np.ascontiguousarray(ua, dtype=np.float64), F, ex, float(wts["progress"]), float(wts["safety"]),
-            float(wts["comfort"]), float(wts["tracking"]))
-        return total, {"progress": progress, "safety": safety, "comfort": comfort, "tracking": track}
-
-    def _leaders(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per vehicle: bumper gap to the nearest leader over its corridors
-        (inf without one) and its speed minus that leader's (0 without one)."""
-        key = self._expert_key()  # the world, its clock and its vehicles: one state
-        cached = getattr(self, "_leaders_cache", None)
-        if cached is not None and cached[0] == key:
-            return cached[1]
-        w = self.world
-        f = w.fleet
-        if f.n < 2:
-            out = (np.full(f.n, np.inf), np.zeros(f.n))
-        else:
-            # (compiled: sim/_kernels.corridor_leaders; the leader of the smallest gap, ties: the first
-            # corridor listed)
-            cor = Corridors.plain(w, w.route())
-            out = corridor_leaders(cor.lead, cor.rows, cor.coord, f.length, f.speed, f.n)
-        self._leaders_cache = (key, out)
-        return out
-
     def global_state(self, slots: list[str]) -> np.ndarray:
         """One row per possible agent (slot order), absolute normalised features, zeros for absent vehicles."""
         out = np.zeros((len(slots), len(STATE_FEATURES)), dtype=np.float32)
@@ -517,3 +420,6 @@ class IntersectionEnv(IntersectionReport, IntersectionRendering, IcvAgentsEnv):
             "D_t": float(self.D_t), "required_layer_gap": float(lay.model_gap),
         }
 
+
+# the one-pass _post_rows is taken while these hooks are this class's own (intersection_rows)
+IntersectionEnv._post_hooks = hook_table(IntersectionEnv, *POST_HOOK_NAMES)

@@ -75,8 +75,9 @@ from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs,
                                               build_lane_index_pair, leader_entries,
                                               leader_rows, own_lane_gap_rows)
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_post_rows, formation_reward_terms,
-                                               intersection_feature_rows, intersection_reward_pre,
-                                               intersection_reward_rows, kinematics_rows, nearest_along_road,
+                                               intersection_feature_rows, intersection_post_rows,
+                                               intersection_reward_pre, intersection_reward_rows,
+                                               intersection_tracking_pre, kinematics_rows, nearest_along_road,
                                                nearest_euclidean, corridor_leaders)
 from icv_envs.sim._kernels.physics import (controls_rows, npy_mod, kinematic_substep, road_check, interval_ends,
                                            lanes_available)
@@ -101,6 +102,8 @@ __all__ = [
     "nearest_euclidean",
     "corridor_leaders",
     "intersection_feature_rows",
+    "intersection_post_rows",
+    "intersection_tracking_pre",
     "intersection_reward_pre",
     "intersection_reward_rows",
     "kinematics_rows",

@@ -416,3 +416,54 @@ def intersection_reward_rows(rows, speed, lo, span, gap, crashed, ua, F, ex, w_p
         track[k] = tr
         total[k] = w_progress * p + w_safety * sf + w_comfort * cf + w_tracking * tr
     return total, progress, safety, comfort, track
+
+
+@nb.njit(cache=True)
+def intersection_tracking_pre(rows, has, d):
+    """:func:`intersection_reward_pre` from the expert's references before
+    the feature rows exist: the feature ``F[:, 8]`` is ``d`` where ``has``,
+    else 0 (:func:`intersection_feature_rows`), so ``-(F[rows, 8] / 10)^2``
+    is the same number."""
+    m = rows.shape[0]
+    q = np.empty(m)
+    for k in range(m):
+        i = rows[k]
+        e = (d[i] if has[i] else 0.0) / 10.0
+        q[k] = -(e * e)
+    return q
+
+
+@nb.njit(cache=True, error_model="numpy")
+def intersection_post_rows(cx, cy, speed, c, s, dist, has, d, dv, phase, lat_leg, klane, lane_width, lat, mv, R1, R2,
+                           go, rows, lo, span, gap, crashed, ua, ex, w_progress, w_safety, w_comfort, w_tracking, K, pd,
+                           idx, V, s_abs, s_rel, absolute, normalize, clip, o_period):
+    """What the intersection env's step builds from the state after its
+    physics and coordination, in one call (from stop 42), each kernel with
+    the arguments its separate call gets, in their order:
+    :func:`intersection_feature_rows` (``cx`` .. ``go``),
+    :func:`intersection_reward_rows` of ``rows`` (``rows`` .. ``w_tracking``,
+    the tracking term's ``exp`` from NumPy: ``ex``, of
+    :func:`intersection_tracking_pre`), and the ``Kinematics``
+    observations: when ``V > 1`` and there are two vehicles or more,
+    :func:`nearest_euclidean` of the ``K`` nearest on contiguous copies of
+    the centre columns, then :func:`kinematics_rows` (``idx`` ..
+    ``o_period``). For ``IntersectionEnv._post_rows`` (the observation
+    without the leader columns). Returns ``(T, obs)``, ``T`` the reward
+    terms by rows ``total, progress, safety, comfort, tracking``."""
+    F = intersection_feature_rows(cx, cy, speed, c, s, dist, has, d, dv, phase, lat_leg, klane, lane_width, lat, mv,
+                                  R1, R2, go)
+    total, progress, safety, comfort, track = intersection_reward_rows(
+        rows, speed, lo, span, gap, crashed, ua, F, ex, w_progress, w_safety, w_comfort, w_tracking)
+    if V > 1 and cx.shape[0] > 1:
+        sel, present = nearest_euclidean(F[:, 1].copy(), F[:, 2].copy(), rows, K, pd)
+    else:
+        sel = np.zeros((rows.shape[0], 0), dtype=np.int64)
+        present = np.zeros((rows.shape[0], 0), dtype=np.bool_)
+    obs = kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, normalize, clip, o_period)
+    T = np.empty((5, rows.shape[0]))
+    T[0] = total
+    T[1] = progress
+    T[2] = safety
+    T[3] = comfort
+    T[4] = track
+    return T, obs
