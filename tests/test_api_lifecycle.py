@@ -196,6 +196,50 @@ def test_gym_reset_keeps_the_space_objects():
     assert all(np.array_equal(x, ref.sample()) for x in first)
 
 
+
+@pytest.mark.parametrize("env_id", ["icv_envs/HighwayFormation-v0", "icv_envs/Intersection-v0",
+                                    "icv_envs/HighwayRamps-v0"])
+def test_configure_then_reset_applies_the_observation_and_action_config(env_id):
+    """highway-env's convention, ``env.unwrapped.configure(...)`` then
+    ``reset()``, applies a new observation and action config (until stop
+    42 the types built at construction stayed: a new perception distance
+    or action type was accepted and ignored). The observations equal those
+    of an env made with that config; a new action type gives its space."""
+    change = {"observation": {"type": "Kinematics", "perception_distance": 40.0, "vehicles_count": 4}}
+    made = gym.make(env_id, config=dict(change))
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    env.unwrapped.configure(dict(change))
+    outs = []
+    for e in (made, env):
+        obs, _ = e.reset(seed=3)
+        steps = [obs]
+        for _ in range(4):
+            obs, *_ = e.step(np.zeros(2, dtype=np.float32))
+            steps.append(obs)
+        outs.append(steps)
+    assert env.unwrapped._obs_type.pd == 40.0 and env.unwrapped.observation_space.shape[0] == 4
+    assert all(np.array_equal(a, b) for a, b in zip(*outs))
+    env.unwrapped.configure({"action": {"type": "DiscreteMetaAction"}})
+    env.reset(seed=4)
+    assert isinstance(env.unwrapped.action_space, gym.spaces.Discrete)
+
+
+def test_parallel_env_refuses_a_core_config_that_changes_its_spaces():
+    """A PettingZoo env's spaces are fixed at construction: a config given
+    to its core that changes them raises at reset, naming both ways in;
+    one that keeps them (a new perception distance) is applied."""
+    env = intersection_v0.parallel_env()
+    env.reset(seed=0)
+    space = env.observation_space(env.possible_agents[0])
+    env.core.configure({"observation": {"type": "Kinematics", "perception_distance": 40.0}})
+    env.reset(seed=1)
+    assert env.core._obs_type.pd == 40.0 and env.observation_space(env.possible_agents[0]) is space
+    env.core.configure({"observation": {"type": "Kinematics", "vehicles_count": 3}})
+    with pytest.raises(ValueError, match=r"or core.configure\(\)\) may not change the observation or action space"):
+        env.reset(seed=2)
+
+
 # ------------------------------------------- item 11: duration and traffic
 def test_ramps_traffic_does_not_depend_on_duration():
     short = highway_ramps_v0.parallel_env(duration=60.0, vgr=0.5, max_vehicles=400)

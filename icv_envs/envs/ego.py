@@ -22,15 +22,19 @@ class EgoEnv:
         gym.Env.reset(self, seed=seed, options=options)
         if options and "config" in options:
             self.configure(options["config"])
-            # spaces are created once: keep the same objects (and their
-            # seeded RNGs) unless the new config changes them
-            old = (self.observation_space, self.action_space)
-            self.define_spaces()
-            if old[0] is not None and old[0] == self.observation_space:
-                self.observation_space = old[0]
-            if old[1] is not None and old[1] == self.action_space:
-                self.action_space = old[1]
-            self.possible_agents = [f"icv_{i}" for i in range(self._n_possible_agents())]
+        # the observation and action types of the config as it is now, as
+        # highway-env's reset rebuilds them: a config changed by reset's
+        # options or by configure() since (before stop 42, configure() then
+        # reset() kept the old types: a new perception distance or action
+        # type was accepted and ignored). Spaces are created once: keep the
+        # same objects (and their seeded RNGs) unless the config changes them
+        old = (self.observation_space, self.action_space)
+        self.define_spaces()
+        if old[0] is not None and old[0] == self.observation_space:
+            self.observation_space = old[0]
+        if old[1] is not None and old[1] == self.action_space:
+            self.action_space = old[1]
+        self.possible_agents = [f"icv_{i}" for i in range(self._n_possible_agents())]
         self.update_metadata()
         self.time = self.steps = 0
         self.done = False

@@ -76,10 +76,11 @@ class CoreParallelEnv(ParallelEnv):
                 )
         obs, infos = self.core.ma_reset(seed=seed, options=options)
         if list(self.core.possible_agents) != self.possible_agents:
-            raise ValueError("options['config'] may not change the number of possible agents of a PettingZoo env")
+            raise ValueError("options['config'] (or core.configure()) may not change the number of possible agents of a "
+                             "PettingZoo env")
         if self.core.observation_space is not self._obs_space or self.core.action_space is not self._act_space:
-            raise ValueError("options['config'] may not change the observation or action type of a PettingZoo env "
-                             "(its spaces are fixed at construction)")
+            raise ValueError("options['config'] (or core.configure()) may not change the observation or action space of "
+                             "a PettingZoo env (its spaces are fixed at construction)")
         self._cycles = 0
         self.agents = list(obs)
         return obs, infos
