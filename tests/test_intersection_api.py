@@ -335,3 +335,27 @@ def test_intersection_post_rows_not_taken_where_it_does_not_apply():
         assert calls
     finally:
         ir.intersection_post_rows = kernel
+
+
+@pytest.mark.parametrize("change", [{"speed_range": [0.0, 20.0]},
+                                    {"observation": {"type": "Kinematics", "perception_distance": 40.0}},
+                                    {"R3": 600.0}])
+def test_kept_observation_scales_follow_a_config_change(change):
+    """The observation's scales are kept between steps (stop 42); a config
+    change after a run (top speed, perception distance, the radii) gives
+    the observations of an env made with that config from the start."""
+    made = IntersectionEnv(config=dict(change))
+    reconfigured = IntersectionEnv()
+    reconfigured.ma_reset(seed=1)
+    for _ in range(3):
+        reconfigured.ma_step({f"icv_{v}": a for v, a in zip(reconfigured.world.fleet.vid.tolist(),
+                                                              reconfigured.expert_actions())})
+    reconfigured.configure(dict(change))
+    outs = []
+    for env in (made, reconfigured):
+        obs, _ = env.ma_reset(seed=2)
+        for _ in range(5):
+            obs, *_ = env.ma_step({f"icv_{v}": a for v, a in zip(env.world.fleet.vid.tolist(), env.expert_actions())})
+        outs.append(obs)
+    assert outs[0].keys() == outs[1].keys() and outs[0]
+    assert all(np.array_equal(outs[0][a], outs[1][a]) for a in outs[0])

@@ -67,9 +67,18 @@ class IntersectionRows:
         return float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE
 
     def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_scales` absolute and relative, read-only (one numba
+        specialisation of ``kinematics_rows``), kept while the layout (a new
+        one with every config change), the observation type and the top
+        speed are the same (from stop 42; every step asked for new ones)."""
+        key = (self.layout, self._obs_type, float(self.config["speed_range"][1]))
+        kept = getattr(self, "_obs_scales_kept", None)
+        if kept is not None and kept[0][0] is key[0] and kept[0][1] is key[1] and kept[0][2] == key[2]:
+            return kept[1]
         out = self._scales(False), self._scales(True)
-        for arr in out:  # read-only, as the highway env's kept scales (one numba specialisation of kinematics_rows)
+        for arr in out:
             arr.flags.writeable = False
+        self._obs_scales_kept = (key, out)
         return out
 
     def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
