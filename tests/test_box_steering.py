@@ -246,3 +246,22 @@ def test_stop_line_caps_equal_the_array_code(seed):
     num = ~np.isnan(c1)
     assert np.array_equal(np.isnan(c1), np.isnan(c2)) and c1[num].tobytes() == c2[num].tobytes()
     assert tuple(got) == want
+
+
+def test_box_obstacle_rows_equal_the_array_expression():
+    """``box_obstacle_rows`` (stop 42) against ``_path_obstacles``'
+    expression at b40d6e3 on random states with every phase, speeds at
+    ``v_stopped`` and positions 10 m past the exit and around it, NaN
+    included."""
+    from icv_envs.policies._kernels import box_obstacle_rows
+
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        n = int(rng.integers(0, 30))
+        phase = rng.integers(0, 3, n).astype(np.int64)
+        L = rng.choice([20.0, 30.0], n)
+        s = L + rng.choice([-5.0, 9.0, 10.0, np.nextafter(10.0, 0.0), 11.0, np.nan], n)
+        speed = rng.choice([0.0, 0.5, 1.0, np.nextafter(1.0, 0.0), 3.0], n)
+        want = np.flatnonzero(((phase == 1) | ((phase == 2) & (s - L < 10.0))) & (speed < 1.0))
+        got = box_obstacle_rows(phase, s, L, speed, 1.0)
+        assert got.dtype == np.int64 and np.array_equal(got, want)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from icv_envs.policies._kernels import (
+    box_obstacle_rows,
     box_steering,
     envelope_pairs,
     normalised_actions,
@@ -173,7 +174,9 @@ class PlatoonControl:
         lay = world.layout
         e = np.zeros(0, dtype=np.int64)
         empty = (e, e, np.zeros(0), np.zeros(0))
-        obs = flatnonzero(((rs.phase == 1) | ((rs.phase == 2) & (rs.s - rs.L < 10.0))) & (f.speed < v_stopped))
+        # (compiled: policies/_kernels.box_obstacle_rows, from stop 42; the array
+        # expression it replaced is frozen in tests/test_box_steering.py)
+        obs = box_obstacle_rows(rs.phase, rs.s, rs.L, f.speed, float(v_stopped))
         if not len(obs):
             return empty
         q = flatnonzero((((rs.phase == 0) & (rs.u > -40.0)) | (rs.phase == 1)) & ~f.crashed)

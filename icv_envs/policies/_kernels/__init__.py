@@ -66,6 +66,7 @@ from icv_envs.policies._kernels.regrouping import (
     stuck_in_zone,
 )
 from icv_envs.policies._kernels.platoon_control import (
+    box_obstacle_rows,
     box_steering,
     envelope_pairs,
     platoon_accelerations,
@@ -90,7 +91,7 @@ from icv_envs.policies._kernels.vp_references import (
     vp_references,
 )
 
-__all__ = ["anticipated_references", "detach_candidates", "box_steering", "node_heads", "corridor_add_signals", "corridor_index", "corridor_neighbours", "desired_lane_rows",
+__all__ = ["anticipated_references", "detach_candidates", "box_obstacle_rows", "box_steering", "node_heads", "corridor_add_signals", "corridor_index", "corridor_neighbours", "desired_lane_rows",
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
            "approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_starts", "lane_change_state", "lane_changes_ended", "lane_end_escape", "merge_pairs", "lane_speed_rows", "nodes_cleared", "normalised_actions", "observation_references",

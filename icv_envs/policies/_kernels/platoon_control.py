@@ -5,7 +5,8 @@ forty numpy calls before; its ``sin``, ``cos``, ``arctan``, ``sinh``,
 ``arcsinh`` and ``hypot`` are libm's, as NumPy's float64 loops up to AVX2,
 the level the reference fingerprints are pinned at, see
 :mod:`icv_envs.sim._kernels`), :func:`envelope_pairs` the safety envelope
-towards the leader in every corridor, :func:`platoon_accelerations` the
+towards the leader in every corridor (and :func:`box_obstacle_rows` the
+vehicles stopped across the paths), :func:`platoon_accelerations` the
 longitudinal law. Rules: :mod:`icv_envs.policies._kernels`.
 """
 
@@ -20,7 +21,7 @@ from icv_envs.formation._kernels import clip1
 from icv_envs.policies._kernels.laws import _feedback1, _idm_free1
 from icv_envs.sim._kernels.physics import npy_maximum, npy_minimum
 
-__all__ = ["box_steering", "envelope_pairs", "platoon_accelerations", "stop_line_caps"]
+__all__ = ["box_obstacle_rows", "box_steering", "envelope_pairs", "platoon_accelerations", "stop_line_caps"]
 
 
 @nb.njit(cache=True)
@@ -226,3 +227,21 @@ def stop_line_caps(stop, u, length, speed, stop_margin, a_max, sqrt_ab, T, s0, c
             else:
                 n_member += 1
     return n_other, n_member
+
+
+@nb.njit(cache=True)
+def box_obstacle_rows(phase, s, L, speed, v_stopped):
+    """The candidate obstacles of
+    :meth:`icv_envs.policies.platoon_control.PlatoonControl._path_obstacles`
+    (from stop 42; the array expression it replaced is frozen in
+    ``tests/test_box_steering.py``): vehicles slower than ``v_stopped`` in
+    the box (``phase`` 1) or within 10 m past its exit (``phase`` 2, ``s -
+    L < 10``), in row order."""
+    n = phase.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if (phase[i] == 1 or (phase[i] == 2 and s[i] - L[i] < 10.0)) and speed[i] < v_stopped:
+            out[m] = i
+            m += 1
+    return out[:m]
