@@ -137,6 +137,8 @@ def test_fleet_rows_equal_a_binary_search_after_adds_and_removals():
         f.add(int(rng.integers(0, 6)))
         if f.n:
             f.remove(rng.random(f.n) < 0.3)
+        # the rows stay sorted by id (IntersectionWorld.substeps reads the largest id as the last)
+        assert np.all(np.diff(f.vid) > 0)
         probe = rng.integers(-2, f.next_vid + 3, size=40)
         got = f.rows(probe)
         r = np.minimum(np.searchsorted(f.vid, probe), max(f.n - 1, 0))

@@ -326,7 +326,7 @@ class IntersectionWorld:
         if accel.shape != (f.n,) or steer.shape != (f.n,):
             raise ValueError(f"accel and steer must have shape ({f.n},) (one per vehicle); got {accel.shape} and "
                              f"{steer.shape}")
-        top = int(f.vid.max()) + 1
+        top = int(f.vid[-1]) + 1  # (rows sorted by id: Fleet.add appends new ids, remove keeps the order)
         self.motion.reserve(top)
         lo, hi, occ, path, busy = self.pet.tables(top)
         m = self.motion
