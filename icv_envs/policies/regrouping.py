@@ -330,8 +330,14 @@ class Regrouping:
             return
         rows_all, sizes = group_rows(f, [S["members"] for S in lc])
         pending, settled = lane_change_state(rows_all, sizes, f.klane, f.tlane, f.lc_lane)
+        # (only those with two members waiting or settled have anything to do:
+        # most steps none, from stop 42)
+        act = flatnonzero((pending >= 2) | settled)
+        if not len(act):
+            return
         start = np.cumsum(sizes) - sizes
-        for k, S in enumerate(lc):
+        for k in act.tolist():
+            S = lc[k]
             rows = rows_all[start[k]:start[k] + sizes[k]]
             done = settled[k]
             if pending[k] >= 2:
