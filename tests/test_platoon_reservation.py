@@ -197,3 +197,63 @@ def test_bad_arguments():
         simulate_path_occupancy(NS, -20.0, -1.0)
     with pytest.raises(ValueError, match="heading"):
         footprint_mask(np.zeros((3, 2)), np.zeros(2), 5.0, 2.0)
+
+
+@pytest.mark.parametrize("throughput,seed", [(2200.0, 1), (3000.0, 0)])
+def test_fcfs_requests_are_what_the_checks_would_make_of_them(throughput, seed):
+    """The FCFS expert asks its table through ``request_prepared`` (stop 42:
+    no checks): on runs, every request it sends is one the checked
+    ``request`` takes unchanged (the same int64 steps, >= the table's clock,
+    distinct; the same sorted, distinct tile ids in range), and is granted
+    or refused as the checked path would (a copy of the table answers it)."""
+    import copy
+
+    from icv_envs.envs.intersection_v0 import parallel_env
+    from icv_envs.platoon.reservation import ReservationTable
+
+    real = ReservationTable.request_prepared
+    seen = {"requests": 0, "granted": 0, "refused": 0}
+
+    def checked(self, vehicle_id, steps, tiles):
+        twin = copy.deepcopy(self)
+        s2, t2 = self._check_request(steps, tiles)
+        assert s2.dtype == steps.dtype == np.int64 and np.array_equal(s2, steps)
+        assert all(a.dtype == b.dtype == np.int64 and np.array_equal(a, b) for a, b in zip(t2, tiles))
+        want = real(twin, vehicle_id, s2, t2)  # (request's own path: the checked arrays)
+        got = real(self, vehicle_id, steps, tiles)
+        assert got == want and self._occ.keys() == twin._occ.keys()
+        assert all(np.array_equal(self._occ[k], twin._occ[k]) for k in self._occ) and self._held == twin._held
+        seen["requests"] += 1
+        seen["granted" if got else "refused"] += 1
+        return got
+
+    ReservationTable.request_prepared = checked
+    try:
+        env = parallel_env(method="fcfs", throughput=throughput, duration=150.0)
+        obs, infos = env.reset(seed=seed)
+        while env.agents:
+            obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    finally:
+        ReservationTable.request_prepared = real
+    assert seen["granted"] > 10 and seen["refused"] > 10, seen
+
+
+def test_fcfs_coordinated_mask_equals_isin():
+    """``FcfsExpert._coordinated`` (stop 42: the plan holders' rows) is the
+    mask ``np.isin(f.vid, plan ids)`` it replaced, through adds and
+    removals, with plans of vehicles no longer on the road."""
+    from icv_envs.policies.fcfs import FcfsExpert
+    from icv_envs.sim.intersection_world import Fleet
+
+    f = Fleet()
+    rng = np.random.default_rng(3)
+    me = FcfsExpert.__new__(FcfsExpert)
+    for _ in range(40):
+        f.add(int(rng.integers(0, 5)))
+        if f.n:
+            f.remove(rng.random(f.n) < 0.3)
+        ids = rng.integers(0, f.next_vid + 2, size=int(rng.integers(0, 8)))
+        me.plans = {int(v): {} for v in ids}
+        want = np.isin(f.vid, np.fromiter(me.plans, dtype=np.int64, count=len(me.plans)))
+        got = me._coordinated(f)
+        assert got.dtype == bool and np.array_equal(got, want)

@@ -173,7 +173,7 @@ class FcfsExpert(PlatoonExpert):
         lay = world.layout
         klane = np.clip(f.klane, 0, 2)
         ok_lane = lay.allowed[f.mv, klane] & (f.klane == f.tlane) & (f.lc_lane < 0)
-        has_plan = np.isin(f.vid, np.fromiter(self.plans, dtype=np.int64, count=len(self.plans)))
+        has_plan = self._coordinated(f)
         cand = np.flatnonzero((f.stage == ST_COORD) & (rs.phase == 0) & ~has_plan & ok_lane
                               & (rs.u >= -self.request_distance) & ~f.crashed)
         if not len(cand):
@@ -201,7 +201,7 @@ class FcfsExpert(PlatoonExpert):
                 continue
             steps, tiles = self._tiles(pid, s, k0)
             self.stats["requests"] += 1
-            if self.table.request(vid, steps, tiles):
+            if self.table.request_prepared(vid, steps, tiles):  # (_tiles' output: int64 steps, sorted tile ids)
                 self.plans[vid] = {"k0": k0, "s": s, "v": v, "a": acc, "pid": pid, "length": float(f.length[r])}
                 self.stats["granted"] += 1
             else:
@@ -290,7 +290,14 @@ class FcfsExpert(PlatoonExpert):
         return np.where(f.stage == ST_COORD, -1 - f.vid, super()._group(f))
 
     def _coordinated(self, f) -> np.ndarray:
-        return np.isin(f.vid, np.fromiter(self.plans, dtype=np.int64, count=len(self.plans)))
+        # the rows of the vehicles holding a plan (plans of vehicles no longer
+        # on the road have no row); the same mask as np.isin(f.vid, plan ids),
+        # which sorted both for it (from stop 42)
+        out = np.zeros(f.n, dtype=bool)
+        if self.plans:
+            r = f.rows(np.fromiter(self.plans, dtype=np.int64, count=len(self.plans)))
+            out[r[r >= 0]] = True
+        return out
 
     def references(self, world):
         self._check_stamp(world)
