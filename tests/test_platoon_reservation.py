@@ -257,3 +257,26 @@ def test_fcfs_coordinated_mask_equals_isin():
         want = np.isin(f.vid, np.fromiter(me.plans, dtype=np.int64, count=len(me.plans)))
         got = me._coordinated(f)
         assert got.dtype == bool and np.array_equal(got, want)
+
+
+def test_fcfs_asks_a_replaced_request():
+    """A table whose ``request`` is replaced (on a subclass or on the
+    table) is asked through it, not through ``request_prepared``."""
+    from icv_envs.envs.intersection_v0 import parallel_env
+    from icv_envs.platoon.reservation import ReservationTable
+
+    asked = []
+
+    class Counting(ReservationTable):
+        def request(self, vehicle_id, time_steps, tiles_per_step):
+            asked.append(vehicle_id)
+            return super().request(vehicle_id, time_steps, tiles_per_step)
+
+    env = parallel_env(method="fcfs", throughput=2200.0, duration=120.0)
+    obs, infos = env.reset(seed=1)
+    old = env.core.expert.table
+    tab = Counting(old.tile, old.box_half, old.dt, old.time_buffer)
+    env.core.expert.table = tab
+    for _ in range(400):
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    assert asked and tab.vehicles
