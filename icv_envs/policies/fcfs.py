@@ -114,17 +114,21 @@ class FcfsExpert(PlatoonExpert):
                 if not S["members"]:
                     del self.subs[sid]
             f.sub[new] = -1
-        # release the plans of vehicles that cleared the box (or left)
-        alive = set(f.vid.tolist())
-        for vid in list(self.plans):
-            r = f.rows([vid])[0]
-            if vid not in alive or f.cleared[r]:
+        # release the plans of vehicles that cleared the box (or left); the
+        # plan holders' rows in one lookup (-1: no longer on the road; from
+        # stop 42, one f.rows call per plan and loop before)
+        ids = list(self.plans)
+        row_of = dict(zip(ids, f.rows(np.asarray(ids, dtype=np.int64)).tolist())) if ids else {}
+        cleared = f.cleared
+        for vid in ids:
+            r = row_of[vid]
+            if r < 0 or cleared[r]:
                 self.table.release(vid)
                 del self.plans[vid]
         # a reservation that its vehicle can no longer keep (more than
         # plan_tolerance off its plan before the stop line) is given up
         for vid in list(self.plans):
-            r = int(f.rows([vid])[0])
+            r = row_of[vid]
             P = self.plans[vid]
             k = min(world.step_count - P["k0"], len(P["s"]) - 1)
             if rs.phase[r] == 0 and abs(rs.s[r] - P["s"][k]) > self.plan_tolerance:
