@@ -138,7 +138,9 @@ line (and signals into the lane it needs).
 
 from __future__ import annotations
 
+import itertools
 import math
+import operator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -166,6 +168,8 @@ __all__ = ["PlatoonParams", "PlatoonExpert", "VP_METHODS", "Corridors", "MODE_FR
            "MODE_TREE", "MODE_PLAN"]
 
 VP_METHODS = ("multi-vp", "single-vp")
+
+_MEMBERS = operator.itemgetter("members")  # (a group's member list: _prune's test)
 
 
 @dataclass
@@ -397,9 +401,12 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         member list each step)."""
         key = (id(f), f.n, f.next_vid)
         last, self._pruned = self._pruned, key
+        # (the groups' and the order's tests as C-level maps: the same truth
+        # values, short-circuited as the generators were; from stop 42)
         if (last is not None and last[0] == key[0] and f.n - last[1] == f.next_vid - last[2]
-                and all(g["members"] for store in (self.formations, self.subs, self.nodes) for g in store.values())
-                and all(k in self.nodes for k in self.vp_order)):
+                and all(map(_MEMBERS, itertools.chain(self.formations.values(), self.subs.values(),
+                                                      self.nodes.values())))
+                and all(map(self.nodes.__contains__, self.vp_order))):
             return
         alive = set(f.vid.tolist())
         self._keep_members(alive.__contains__, (self.formations, self.subs, self.nodes))
