@@ -178,9 +178,10 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
 
     The run's accumulators are added to frame by frame, as single steps add
     them (the same additions of the same doubles, in order; from stop 42,
-    before in Python and :func:`~icv_envs.sim._kernels.motion_sums_add`):
-    the motion totals ``vehicle_steps, speed_sum, realised, commanded,
-    stopped_steps`` (``MotionStats.totals``) and the world's statistics
+    before in Python): the motion totals ``vehicle_steps, speed_sum,
+    realised, commanded, stopped_steps`` (``MotionStats.totals``, by
+    :func:`~icv_envs.sim._kernels.motion_sums_add` as in
+    :func:`quiet_substeps`) and the world's statistics
     ``speed_sum``, ``abs_accel_sum`` (``|commanded|``) and
     ``min_speed_in_box`` (Python's ``min``: the old value on a tie).
 
@@ -201,6 +202,8 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     a view of a row costs 0.1)."""
     n = x.shape[0]
     times = np.zeros(n_frames)
+    sums = np.zeros((n_frames, 3))
+    stopped = np.zeros(n_frames, dtype=np.int64)
     trans = np.empty((16, 4), dtype=np.int64)
     m = 0
     dummy = np.zeros(n)
@@ -212,12 +215,10 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
         t = t + dt
         times[fr] = t
         sv, sdv, sa, ns, _ = motion_record(vid, v_before, speed, acc, stopped_speed, m_count, m_s1, m_s2)
-        # (MotionStats.add's order, then the world's statistics')
-        vehicle_steps += n
-        speed_sum += sv
-        realised += sdv / dt
-        commanded += sa
-        stopped_steps += ns
+        sums[fr, 0] = sv
+        sums[fr, 1] = sdv
+        sums[fr, 2] = sa
+        stopped[fr] = ns
         st_speed_sum += sv
         st_abs_accel_sum += sa
         (u, lat_leg, crash, new_wrong, clear_now, removed, left, pet_rows, pet_pid, pet_s, pet_arc,
@@ -262,6 +263,9 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
                 break
         if event or fr == n_frames - 1:
             k = fr + 1
+            # (the motion totals as quiet_substeps adds them: motion_sums_add)
+            vehicle_steps, speed_sum, realised, commanded, stopped_steps = motion_sums_add(
+                k, n, sums, stopped, dt, vehicle_steps, speed_sum, realised, commanded, stopped_steps)
             S = _rows10(x, y, heading, speed, acc, st, cx, cy, u, lat_leg)
             B = np.empty((5, n), dtype=np.bool_)
             B[0] = crash
