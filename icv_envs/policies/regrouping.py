@@ -6,7 +6,6 @@ behaviour is documented in that module's docstring ("Adjusting zone").
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from icv_envs.formation.assignment import assign_targets
@@ -380,17 +379,22 @@ class Regrouping:
 
     def _sub_distances(self, f, rs) -> tuple[list, list, list, list]:
         """``(ids, sub-formations, least, largest distance to the centre of
-        their members)``, in ``self.subs`` order: one row lookup for all
-        members, one reduction per bound (``min``/``max`` of each one's
-        ``rs.dist``, as a loop over them would give)."""
+        their members)``, in ``self.subs`` order (:meth:`_sub_table`)."""
+        return self._sub_table(f, rs)[:4]
+
+    def _sub_table(self, f, rs) -> tuple:
+        """:meth:`_sub_distances` and the same bounds as a ``(2, K)`` array
+        with the sub-formations' sizes (the merging's kernel takes them):
+        one row lookup for all members, one reduction per bound (``min``/``max``
+        of each one's ``rs.dist``, as a loop over them would give)."""
         sids, subs = list(self.subs), list(self.subs.values())
         if not subs:
-            return [], [], [], []
+            return [], [], [], [], np.zeros((2, 0)), np.zeros(0, dtype=np.int64)
         members = [S["members"] for S in subs]
         # the last answer, while the fleet's rows, the route state and the
         # member lists (replaced when members change, never changed in place)
         # are the same objects, in the same order (two calls a step, the
-        # merging's and the coordinating zone's; the lists returned are only read)
+        # merging's and the coordinating zone's; what it returns is only read)
         key = (f.vid, rs, *members)
         c = self._sub_distances_kept
         if c is not None and same_objects(c[0], key):
@@ -400,9 +404,12 @@ class Regrouping:
             raise ValueError(f"sub-formation {sids[int(np.argmin(sizes))]} has no members")
         # (compiled: policies/_kernels.segment_bounds, from stop 41; the two
         # reduceat calls it replaced are its reference in tests/test_expert_kernels.py)
-        dmin, dmax = segment_bounds(rows, sizes, rs.dist).tolist()
-        self._sub_distances_kept = (key, (dmin, dmax))
-        return sids, subs, dmin, dmax
+        bounds = segment_bounds(rows, sizes, rs.dist)
+        dmin, dmax = bounds.tolist()
+        for arr in (bounds, sizes):  # (kept: read-only)
+            arr.setflags(write=False)
+        self._sub_distances_kept = (key, (dmin, dmax, bounds, sizes))
+        return sids, subs, dmin, dmax, bounds, sizes
 
     def _merging(self, world, rs) -> None:
         p = self.p
@@ -410,7 +417,7 @@ class Regrouping:
         lay = world.layout
         if not self.subs:
             return
-        sids, subs, dmin, dmax = self._sub_distances(f, rs)
+        _, subs, _, _, bounds, sizes = self._sub_table(f, rs)
         # which sub-formation takes which, in order (compiled:
         # policies/_kernels.merge_pairs, from stop 42; the loop it replaced is
         # frozen in tests/test_expert_kernels.py), then the merges in that order
@@ -420,10 +427,9 @@ class Regrouping:
         i64 = np.int64
         pairs = merge_pairs(np.fromiter([S["leg"] for S in subs], dtype=i64, count=K),
                             np.fromiter([S["mv"] for S in subs], dtype=i64, count=K),
-                            np.array(dmin, dtype=np.float64), np.array(dmax, dtype=np.float64),
-                            np.fromiter([S["state"] == "adjusted" for S in subs], dtype=bool, count=K),
-                            np.fromiter([len(S["members"]) for S in subs], dtype=i64, count=K), lay.conflict,
-                            float(lay.R1), float(p.merge_range), int(p.max_node_size))
+                            bounds[0], bounds[1],
+                            np.fromiter([S["state"] == "adjusted" for S in subs], dtype=bool, count=K), sizes,
+                            lay.conflict, float(lay.R1), float(p.merge_range), int(p.max_node_size))
         for a, b in pairs.tolist():
             self._merge(world, rs, subs[a], subs[b])
 
