@@ -199,43 +199,123 @@ def test_bad_arguments():
         footprint_mask(np.zeros((3, 2)), np.zeros(2), 5.0, 2.0)
 
 
+def _old_check_request(table, time_steps, tiles_per_step):
+    """ReservationTable._check_request at b40d6e3 (stop 41), frozen: every
+    step's tile array checked and made unique on its own."""
+    steps = np.asarray(time_steps)
+    if steps.ndim != 1 or (steps.size and not np.issubdtype(steps.dtype, np.integer)):
+        raise ValueError(f"time_steps must be a 1-D array of integer steps, got {time_steps!r}")
+    steps = steps.astype(np.int64)
+    if len(tiles_per_step) != steps.size:
+        raise ValueError(
+            f"tiles_per_step must hold one tile array per time step: got "
+            f"{len(tiles_per_step)} for {steps.size} steps"
+        )
+    if steps.size and steps.min() < table.now:
+        raise ValueError(f"time_steps must be >= now = {table.now}, got step {int(steps.min())}")
+    if np.unique(steps).size != steps.size:
+        raise ValueError(f"time_steps must be distinct, got {steps.tolist()}")
+    tiles = []
+    for t in tiles_per_step:
+        a = np.asarray(t)
+        if a.size == 0:
+            tiles.append(np.zeros(0, dtype=np.int64))
+            continue
+        if a.ndim != 1 or not np.issubdtype(a.dtype, np.integer) or a.min() < 0 \
+                or a.max() >= table.n_tiles:
+            raise ValueError(
+                f"tile ids must be 1-D integers in 0..{table.n_tiles - 1}, got {a.tolist()}"
+            )
+        tiles.append(np.unique(a.astype(np.int64)))
+    return steps, tiles
+
+
+def _outcome(fn, *args):
+    try:
+        steps, tiles = fn(*args)
+    except ValueError as exc:
+        return ("error", str(exc))
+    return ("ok", steps.dtype.str, steps.tolist(), [(t.dtype.str, t.tolist()) for t in tiles])
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.data())
+def test_check_request_equals_the_per_step_checks(data):
+    """``_check_request`` (stop 42: all steps' tiles checked at once when
+    they are sorted int64 ids in range, the per-step checks otherwise)
+    against the per-step checks it replaced: the same arrays (values and
+    dtype) or the same error, on sorted, unsorted and repeated ids, empty
+    steps of any shape, other integer and non-integer dtypes, 2-D arrays
+    and ids at and past the grid's ends."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    table = ReservationTable(tile=2.0, box_half=5.0)  # a 5 x 5 grid
+    n = table.n_tiles
+    k = data.draw(st.integers(0, 6))
+    steps = np.arange(k, dtype=np.int64) + data.draw(st.sampled_from([0, 3]))
+    tiles = []
+    for _ in range(k):
+        kind = data.draw(st.sampled_from(["sorted", "sorted", "unsorted", "repeat", "empty", "empty2d", "int32",
+                                          "uint", "bool", "float", "2d", "edge", "past", "negative", "list"]))
+        a = np.sort(rng.choice(n, int(rng.integers(1, 6)), replace=False)).astype(np.int64)
+        if kind == "unsorted":
+            a = a[::-1].copy()
+        elif kind == "repeat":
+            a = np.concatenate([a, a[:1]])
+        elif kind == "empty":
+            a = np.zeros(0, dtype=np.int64)
+        elif kind == "empty2d":
+            a = np.zeros((0, 3))
+        elif kind == "int32":
+            a = a.astype(np.int32)
+        elif kind == "uint":
+            a = a.astype(np.uint64)
+        elif kind == "bool":
+            a = np.ones(3, dtype=bool)
+        elif kind == "float":
+            a = a.astype(float)
+        elif kind == "2d":
+            a = a.reshape(1, -1)
+        elif kind == "edge":
+            a = np.array([0, n - 1], dtype=np.int64)
+        elif kind == "past":
+            a = np.array([1, n], dtype=np.int64)
+        elif kind == "negative":
+            a = np.array([-1, 2], dtype=np.int64)
+        elif kind == "list":
+            a = a.tolist()
+        tiles.append(a)
+    want = _outcome(_old_check_request, table, steps, tiles)
+    assert _outcome(table._check_request, steps, tiles) == want
+
+
 @pytest.mark.parametrize("throughput,seed", [(2200.0, 1), (3000.0, 0)])
-def test_fcfs_requests_are_what_the_checks_would_make_of_them(throughput, seed):
-    """The FCFS expert asks its table through ``request_prepared`` (stop 42:
-    no checks): on runs, every request it sends is one the checked
-    ``request`` takes unchanged (the same int64 steps, >= the table's clock,
-    distinct; the same sorted, distinct tile ids in range), and is granted
-    or refused as the checked path would (a copy of the table answers it)."""
-    import copy
-
+def test_fcfs_requests_take_the_one_pass_check(throughput, seed):
+    """The FCFS expert's requests (``np.flatnonzero`` of tile masks) are
+    checked in one pass (``_sorted_tiles``), and each is checked as the
+    per-step checks would: granted and refused requests both reached."""
     from icv_envs.envs.intersection_v0 import parallel_env
-    from icv_envs.platoon.reservation import ReservationTable
 
-    real = ReservationTable.request_prepared
-    seen = {"requests": 0, "granted": 0, "refused": 0}
+    real = ReservationTable._check_request
+    seen = {"requests": 0, "one_pass": 0}
 
-    def checked(self, vehicle_id, steps, tiles):
-        twin = copy.deepcopy(self)
-        s2, t2 = self._check_request(steps, tiles)
-        assert s2.dtype == steps.dtype == np.int64 and np.array_equal(s2, steps)
-        assert all(a.dtype == b.dtype == np.int64 and np.array_equal(a, b) for a, b in zip(t2, tiles))
-        want = real(twin, vehicle_id, s2, t2)  # (request's own path: the checked arrays)
-        got = real(self, vehicle_id, steps, tiles)
-        assert got == want and self._occ.keys() == twin._occ.keys()
-        assert all(np.array_equal(self._occ[k], twin._occ[k]) for k in self._occ) and self._held == twin._held
+    def checked(self, time_steps, tiles_per_step):
+        got = real(self, time_steps, tiles_per_step)
+        assert _outcome(lambda: got) == _outcome(_old_check_request, self, time_steps, tiles_per_step)
         seen["requests"] += 1
-        seen["granted" if got else "refused"] += 1
+        seen["one_pass"] += self._sorted_tiles([np.asarray(t) for t in tiles_per_step]) is not None
         return got
 
-    ReservationTable.request_prepared = checked
+    ReservationTable._check_request = checked
     try:
         env = parallel_env(method="fcfs", throughput=throughput, duration=150.0)
         obs, infos = env.reset(seed=seed)
         while env.agents:
             obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
     finally:
-        ReservationTable.request_prepared = real
-    assert seen["granted"] > 10 and seen["refused"] > 10, seen
+        ReservationTable._check_request = real
+    st_ = env.core.expert.stats
+    assert seen["requests"] > 20 and seen["one_pass"] == seen["requests"], seen
+    assert st_["granted"] > 10 and st_["rejected"] > 10, st_
 
 
 def test_fcfs_coordinated_mask_equals_isin():

@@ -205,22 +205,11 @@ class FcfsExpert(PlatoonExpert):
                 continue
             steps, tiles = self._tiles(pid, s, k0)
             self.stats["requests"] += 1
-            if self._ask(vid, steps, tiles):
+            if self.table.request(vid, steps, tiles):
                 self.plans[vid] = {"k0": k0, "s": s, "v": v, "a": acc, "pid": pid, "length": float(f.length[r])}
                 self.stats["granted"] += 1
             else:
                 self.stats["rejected"] += 1
-
-    def _ask(self, vid: int, steps: np.ndarray, tiles: list) -> bool:
-        """The table's answer to a request of ``_tiles``' output (int64 steps
-        from the table's clock, sorted tile ids): through
-        ``ReservationTable.request_prepared`` (no checks, from stop 42) while
-        the table's ``request`` is the class's own; a ``request`` replaced on
-        a subclass or on the table itself is asked instead."""
-        tab = self.table
-        if type(tab).request is ReservationTable.request and "request" not in tab.__dict__:
-            return tab.request_prepared(vid, steps, tiles)
-        return tab.request(vid, steps, tiles)
 
     def _headway_ok(self, L, s, v, k0, pid, length) -> bool:
         off = k0 - L["k0"]
