@@ -375,6 +375,13 @@ def intersection_feature_rows(cx, cy, speed, c, s, dist, has, d, dv, phase, lat_
     return F
 
 
+@nb.njit(cache=True, inline="always")
+def _tracking_exponent(dx):
+    """``-(dx / 10)^2``: the argument of the tracking reward's ``exp``."""
+    e = dx / 10.0
+    return -(e * e)
+
+
 @nb.njit(cache=True)
 def intersection_reward_pre(rows, F):
     """``-(F[rows, 8] / 10)^2``: the argument of the tracking reward's
@@ -382,8 +389,7 @@ def intersection_reward_pre(rows, F):
     m = rows.shape[0]
     q = np.empty(m)
     for k in range(m):
-        e = F[rows[k], 8] / 10.0
-        q[k] = -(e * e)
+        q[k] = _tracking_exponent(F[rows[k], 8])
     return q
 
 
@@ -428,8 +434,7 @@ def intersection_tracking_pre(rows, has, d):
     q = np.empty(m)
     for k in range(m):
         i = rows[k]
-        e = (d[i] if has[i] else 0.0) / 10.0
-        q[k] = -(e * e)
+        q[k] = _tracking_exponent(d[i] if has[i] else 0.0)
     return q
 
 
