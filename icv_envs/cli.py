@@ -8,7 +8,7 @@
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
     icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333] [--vs-sumo [--api dicts|lean|rows]]
     icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,...,5000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
-    icv-envs bench intersection [--seconds 60] [--throughput 2200] [--method multi-vp]
+    icv-envs bench intersection [--seconds 500] [--warmup 100] [--seeds 3] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
     icv-envs leaderboard [--out DIR] [--models DIR] [--tasks T,...] [--episodes N] [--reuse]
@@ -84,6 +84,32 @@ def _positive_float(name):
             raise argparse.ArgumentTypeError(f"{name} must be a number > 0, got {text!r}") from None
         if not v > 0 or v != v or v == float("inf"):
             raise argparse.ArgumentTypeError(f"{name} must be a finite number > 0, got {text!r}")
+        return v
+
+    return parse
+
+
+def _nonnegative_float(name):
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number >= 0, got {text!r}") from None
+        if not v >= 0 or v == float("inf"):
+            raise argparse.ArgumentTypeError(f"{name} must be a finite number >= 0, got {text!r}")
+        return v
+
+    return parse
+
+
+def _positive_int(name):
+    def parse(text):
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 1, got {text!r}") from None
+        if v < 1:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 1, got {text!r}")
         return v
 
     return parse
@@ -205,13 +231,20 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="speed benchmarks (ratios against a reference measured in the same run)",
                        formatter_class=fmt)
     b.add_argument("target", type=_choice("benchmark", BENCHES), metavar="TARGET", help=f"one of: {', '.join(BENCHES)}")
-    b.add_argument("--sizes", type=_sizes, default=[50, 200, 800], help="highway-formation: vehicle counts, comma-separated")
+    b.add_argument("--sizes", type=_sizes, default=None,
+                   help="highway-formation: vehicle counts, comma-separated (default 50,200,800)")
     b.add_argument("--seconds", type=_positive_float("--seconds"), default=None,
-                   help="simulated seconds (highway-formation: per size, default 10; highway-ramps: default 600)")
-    b.add_argument("--stock-seconds", type=_positive_float("--stock-seconds"), default=1.0,
-                   help="highway-formation: simulated seconds of highway-v0 per size (it is slow)")
-    b.add_argument("--vgr", type=float, default=1.0 / 3.0, help="highway-ramps: vehicles/s per on-ramp")
-    b.add_argument("--throughput", type=float, default=None, help="intersection: vehicles/h (default 2200: about 60-70 vehicles)")
+                   help="simulated seconds (highway-formation: per size, default 10; highway-ramps: default 600; "
+                        "intersection: timed per seed, default 500)")
+    b.add_argument("--stock-seconds", type=_positive_float("--stock-seconds"), default=None,
+                   help="highway-formation: simulated seconds of highway-v0 per size (it is slow; default 1)")
+    b.add_argument("--vgr", type=float, default=None, help="highway-ramps: vehicles/s per on-ramp (default 1/3)")
+    b.add_argument("--throughput", type=float, default=None,
+                   help="intersection: vehicles/h (default 2200: about 30-85 vehicles in the zones, 50 on average)")
+    b.add_argument("--warmup", type=_nonnegative_float("--warmup"), default=None,
+                   help="intersection: simulated seconds before the timing starts, per seed (default 100)")
+    b.add_argument("--seeds", type=_positive_int("--seeds"), default=None,
+                   help="intersection: number of seeds, 0 .. N-1 (default 3)")
     b.add_argument("--method", type=_choice("method", METHODS["intersection"]), default=None,
                    help="intersection: " + ", ".join(METHODS["intersection"]) + " (default multi-vp)")
     b.add_argument("--vs-sumo", dest="vs_sumo", action="store_true",
@@ -269,6 +302,22 @@ def _reject_foreign_run_options(args) -> None:
         if v not in (None, False) and args.env not in env:
             raise ValueError(f"{flag} {v!r} does not apply to run {args.env}: it is an option of run "
                              + " / run ".join(env))
+
+
+#: ``bench`` options that apply to some targets only: given for another, they are an error
+_BENCH_ONLY = {"--sizes": ("sizes", ("highway-formation",)), "--stock-seconds": ("stock_seconds", ("highway-formation",)),
+               "--seconds": ("seconds", ("highway-formation", "highway-ramps", "intersection")),
+               "--vgr": ("vgr", ("highway-ramps",)), "--throughput": ("throughput", ("intersection",)),
+               "--method": ("method", ("intersection",)), "--warmup": ("warmup", ("intersection",)),
+               "--seeds": ("seeds", ("intersection",))}
+
+
+def _reject_foreign_bench_options(args) -> None:
+    for flag, (attr, targets) in _BENCH_ONLY.items():
+        v = getattr(args, attr, None)
+        if v is not None and args.target not in targets:
+            raise ValueError(f"{flag} {v!r} does not apply to bench {args.target}: it is an option of bench "
+                             + " / bench ".join(targets))
 
 
 def _dispatch(args) -> int:
@@ -380,6 +429,7 @@ def _dispatch(args) -> int:
     if args.command == "bench":
         from icv_envs.experiments.bench import bench_highway_formation, bench_highway_ramps
 
+        _reject_foreign_bench_options(args)
         if args.vs_sumo and args.target != "highway-ramps":
             raise ValueError(f"--vs-sumo is an option of 'bench highway-ramps', not of 'bench {args.target}'")
         if args.api is not None and not args.vs_sumo:
@@ -393,6 +443,7 @@ def _dispatch(args) -> int:
 
             res = bench_train(echo=lambda s: print(s, flush=True))
         elif args.target == "highway-ramps":
+            args.vgr = 1.0 / 3.0 if args.vgr is None else args.vgr
             if not 0 < args.vgr <= 1.0:
                 raise ValueError(f"--vgr {args.vgr!r}; allowed: 0 < vgr <= 1")
             if args.vs_sumo:
@@ -403,7 +454,7 @@ def _dispatch(args) -> int:
             else:
                 res = bench_highway_ramps(args.seconds or 600.0, args.vgr, echo=lambda s: print(s, flush=True))
         else:
-            res = bench_highway_formation(args.sizes, args.seconds or 10.0, args.stock_seconds,
+            res = bench_highway_formation(args.sizes or [50, 200, 800], args.seconds or 10.0, args.stock_seconds or 1.0,
                                           echo=lambda s: print(s, flush=True))
         if args.out:
             Path(args.out).mkdir(parents=True, exist_ok=True)

@@ -350,3 +350,28 @@ def test_pickle_after_render(make, monkeypatch):
 def test_cli_options_of_another_env_are_errors(argv, match, capsys):
     assert main(argv + ["--seconds", "1"]) == 2
     assert pytest.importorskip("re").search(match, capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["bench", "highway-formation", "--throughput", "3000"], r"--throughput 3000.0 does not apply to bench "
+                                                              r"highway-formation: it is an option of bench intersection"),
+    (["bench", "intersection", "--sizes", "50"], r"--sizes \[50\] does not apply to bench intersection"),
+    (["bench", "intersection", "--vgr", "0.5"], r"--vgr 0.5 does not apply to bench intersection"),
+    (["bench", "highway-ramps", "--method", "fcfs"], r"--method 'fcfs' does not apply to bench highway-ramps"),
+    (["bench", "highway-ramps", "--warmup", "10"], r"--warmup 10.0 does not apply to bench highway-ramps"),
+    (["bench", "highway-formation", "--seeds", "2"], r"--seeds 2 does not apply to bench highway-formation"),
+    (["bench", "train", "--seconds", "5"], r"--seconds 5.0 does not apply to bench train"),
+    (["bench", "highway-ramps", "--stock-seconds", "2"], r"--stock-seconds 2.0 does not apply to bench highway-ramps"),
+    (["bench", "intersection", "--seeds", "0"], r"--seeds must be an integer >= 1, got '0'"),
+    (["bench", "intersection", "--warmup", "-1"], r"--warmup must be a finite number >= 0, got '-1'"),
+])
+def test_cli_bench_options_of_another_target_are_errors(argv, match, capsys):
+    """Until stop 43 ``bench`` accepted every target's options and ignored
+    those of the others (``bench highway-formation --throughput 3000`` ran
+    the highway bench as if it had not been given)."""
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # (argparse's own check of a value)
+        code = exc.code
+    assert code == 2
+    assert pytest.importorskip("re").search(match, capsys.readouterr().err)

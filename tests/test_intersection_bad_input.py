@@ -163,6 +163,12 @@ def test_bad_throughput_text_and_cli_errors(tmp_path):
         intersection_bench.run_cli(argparse.Namespace(seconds=1.0, throughput=None, method="teleport"))
     with pytest.raises(ValueError, match=r"throughput -3.0 is invalid"):
         intersection_bench.run_cli(argparse.Namespace(seconds=1.0, throughput=[-3.0], method=None))
+    with pytest.raises(ValueError, match=r"warmup = -1.0; allowed: a finite number >= 0"):
+        intersection_bench.bench_intersection(seconds=1.0, warmup=-1.0)
+    with pytest.raises(ValueError, match=r"seeds = 0; allowed: an integer >= 1"):
+        intersection_bench.bench_intersection(seconds=1.0, seeds=0)
+    with pytest.raises(ValueError, match=r"seconds = nan; allowed: a finite number > 0"):
+        intersection_bench.bench_intersection(seconds=float("nan"))
 
 
 def test_fcfs_tight_fixes_its_buffers():

@@ -54,14 +54,27 @@ def test_cli_takes_a_seed_list(tmp_path, capsys):
 
 
 def test_bench_reports_agent_steps_per_second():
+    """The bench times ``--seconds`` after a fixed warm-up, per seed, and
+    adds the seeds up (module docstring of experiments/intersection_bench)."""
     out = []
-    res = intersection_bench.run_cli(argparse.Namespace(seconds=4.0, throughput=None, method=None), echo=out.append)
-    assert res["bench"] == "intersection" and res["env_steps"] == 20
+    res = intersection_bench.run_cli(argparse.Namespace(seconds=4.0, warmup=60.0, seeds=2, throughput=None,
+                                                        method=None), echo=out.append)
+    assert res["bench"] == "intersection" and res["env_steps"] == 40 and res["seeds"] == 2
+    assert [p["seed"] for p in res["per_seed"]] == [0, 1] and all(p["env_steps"] == 20 for p in res["per_seed"])
+    assert res["agent_steps"] == sum(p["agent_steps"] for p in res["per_seed"])
+    assert res["mean_agents"] == res["agent_steps"] / res["env_steps"] >= 10  # the zones filled in 60 s
+    assert res["warmup_seconds"] == 60.0 and res["sim_seconds"] == 4.0
     assert res["agent_steps_per_s"] > 0 and res["env_steps_per_s"] > 0
-    assert res["mean_agents"] >= 40  # warmed up to about 60 vehicles in the zones
+    lo, hi = res["agent_steps_per_cpu_s_range"]
+    assert lo <= hi
     assert res["collisions"] == 0 and res["lost"] == 0
-    assert "agent-steps/s" in out[0]
+    assert "seed 0" in out[0] and "agent-steps/s" in out[-1]
     json.dumps(res)
+    # the defaults: 500 s after 100 s of warm-up, 3 seeds
+    import inspect
+
+    sig = inspect.signature(intersection_bench.bench_intersection).parameters
+    assert (sig["seconds"].default, sig["warmup"].default, sig["seeds"].default) == (500.0, 100.0, 3)
 
 
 def test_conflicts_cli(capsys):
