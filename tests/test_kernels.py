@@ -373,6 +373,83 @@ def _numpy_find_collisions(cx, cy, heading, length, width, period: float | None 
     return i[hit], j[hit]
 
 
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(0, 60), frames=st.integers(1, 6), periodic=st.booleans(), limit=st.booleans(),
+       seed=st.integers(0, 2**31))
+def test_kinematic_substep_carry_equals_kinematic_substep(n, frames, periodic, limit, seed):
+    """Stop 43: the frames' integration carrying the heading's cosine and
+    sine and the steering's tangent from frame to frame gives
+    kinematic_substep's state frame by frame, bit for bit (the same libm
+    calls on the same doubles; both compiled, so no NumPy SIMD question),
+    and leaves the new headings' cos and sin, which the collision test
+    takes. Steering values include signed zeros and the lateral limit
+    (which changes the angle as the speed changes)."""
+    from icv_envs.sim._kernels import kinematic_substep
+    from icv_envs.sim._kernels.physics import kinematic_substep_carry
+
+    rng = np.random.default_rng(seed)
+    period = 10_000.0 if periodic else -1.0
+    x = rng.uniform(0.0, 10_000.0, n)
+    y = rng.uniform(-2.0, 14.0, n)
+    h = np.where(rng.random(n) < 0.3, -0.0, rng.normal(0.0, 0.3, n))
+    v = np.where(rng.random(n) < 0.2, 0.0, rng.uniform(0.0, 32.0, n))
+    crashed = rng.random(n) < 0.2
+    sf = np.where(rng.random(n) < 0.5, rng.uniform(0.0, 40.0, n), 0.0)
+    a = rng.uniform(-6.0, 3.0, n)
+    phi = rng.choice([0.0, -0.0, 0.3, -0.6], n) if seed % 2 else rng.uniform(-0.6, 0.6, n)
+    lat = 4.9 if limit else -1.0
+    trig = np.empty((4, n))
+    s1 = s2 = (x, y, h, v, a, phi, sf)
+    for f in range(frames):
+        # (the frames' callers keep the controls; the carry holds even when
+        # they change: a zero steering angle flips its sign every frame)
+        phi = np.where(phi == 0.0, -phi, phi)
+        w = kinematic_substep(s1[0], s1[1], s1[2], s1[3], a, phi, crashed, s1[6], 2.8, lat, 0.04, 30.0, period)
+        g = kinematic_substep_carry(s2[0], s2[1], s2[2], s2[3], a, phi, crashed, s2[6], 2.8, lat, 0.04, 30.0,
+                                    period, trig, f == 0)
+        for gi, wi in zip(g, w):
+            np.testing.assert_array_equal(gi, wi)
+            assert np.array_equal(np.signbit(gi), np.signbit(wi))
+        np.testing.assert_array_equal(trig[0], _libm(w[2], "cos"))
+        np.testing.assert_array_equal(trig[1], _libm(w[2], "sin"))
+        s1, s2 = w, g
+
+
+def _libm(a, name):
+    """``math.cos``/``math.sin`` of each value (libm's, as the kernels call it)."""
+    import math
+
+    return np.array([getattr(math, name)(float(t)) for t in a])
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(0, 80), span=st.floats(5.0, 400.0), periodic=st.booleans(), seed=st.integers(0, 2**31))
+def test_collision_pairs_from_cos_sin_equal_collision_pairs(n, span, periodic, seed):
+    """Stop 43: the collision sweeps given the headings' cosines and sines
+    find the same pairs in the same order as from the headings (the
+    highway's frames and the intersection box's sweep along x)."""
+    from icv_envs.sim._kernels import collision_pairs
+    from icv_envs.sim._kernels.intersection import box_collision_pairs, box_collision_pairs_cs
+    from icv_envs.sim._kernels.neighbours import collision_pairs_cs
+
+    rng = np.random.default_rng(seed)
+    cx = rng.uniform(0, span, n)
+    cy = rng.integers(0, 3, n) * 4.0 + rng.normal(0, 1.2, n)
+    h = rng.normal(0, 0.4, n)
+    L, W = rng.uniform(4, 6, n), rng.uniform(1.8, 2.2, n)
+    ch, sh = _libm(h, "cos"), _libm(h, "sin")
+    for g, w in zip(collision_pairs_cs(cx, cy, ch, sh, L, W, span if periodic else -1.0),
+                    collision_pairs(cx, cy, h, L, W, span if periodic else -1.0)):
+        np.testing.assert_array_equal(g, w)
+    # the box: both legs' directions, vehicles around a 20 m box
+    bx = rng.uniform(-40.0, 40.0, n)
+    by = rng.uniform(-40.0, 40.0, n)
+    hb = rng.choice([0.0, 0.5 * np.pi, np.pi, -0.5 * np.pi], n) + rng.normal(0, 0.3, n)
+    cb, sb = _libm(hb, "cos"), _libm(hb, "sin")
+    for g, w in zip(box_collision_pairs_cs(bx, by, hb, cb, sb, L, W, 10.0), box_collision_pairs(bx, by, hb, L, W, 10.0)):
+        np.testing.assert_array_equal(g, w)
+
+
 @settings(max_examples=80, deadline=None)
 @given(n=st.integers(0, 80), span=st.floats(5.0, 400.0), periodic=st.booleans(), seed=st.integers(0, 2**31))
 def test_collision_pairs_equal_the_numpy_code(n, span, periodic, seed):

@@ -7,9 +7,9 @@ import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.formation import _wrap1
-from icv_envs.sim._kernels.intersection import arc_s1, box_collision_pairs, intersection_events
-from icv_envs.sim._kernels.neighbours import collision_pairs
-from icv_envs.sim._kernels.physics import kinematic_substep, road_check
+from icv_envs.sim._kernels.intersection import arc_s1, box_collision_pairs_cs, intersection_events
+from icv_envs.sim._kernels.neighbours import collision_pairs_cs
+from icv_envs.sim._kernels.physics import kinematic_substep_carry, road_check
 from icv_envs.sim._kernels.stats import motion_record, motion_sums_add, pet_transitions
 
 __all__ = ["quiet_substeps", "intersection_frames"]
@@ -42,7 +42,9 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     """Up to ``n_frames`` substeps of :meth:`icv_envs.sim.world.World.substep`
     with the same controls, each the kernels that method calls in its order
     (:func:`kinematic_substep`, :func:`motion_record`,
-    :func:`collision_pairs`, :func:`road_check`, then the exit tests),
+    :func:`collision_pairs`, :func:`road_check`, then the exit tests; from
+    stop 43 the integration as :func:`kinematic_substep_carry`, whose
+    headings' cosines and sines the collision test takes, the same numbers),
     stopping after the first substep in which something happened that the
     world must handle in Python: a colliding pair, a vehicle off the road or
     at the end of a straight road, or one on its exit ramp (``exit_id >= 0``,
@@ -83,17 +85,18 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     n_end = 0
     k = n_frames
     event = False
+    trig = np.empty((4, n))  # (cos, sin of the heading, steering, its tan: kinematic_substep_carry)
     for f in range(n_frames):
         cx_before = cx
         v_before = speed
-        x, y, heading, speed, acc, st, stopped_for, cx, cy = kinematic_substep(
-            x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase, lat, dt, v_max, period)
+        x, y, heading, speed, acc, st, stopped_for, cx, cy = kinematic_substep_carry(
+            x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase, lat, dt, v_max, period, trig, f == 0)
         sv, sdv, sa, ns, _ = motion_record(vid, v_before, speed, acc, stopped_speed, m_count, m_s1, m_s2)
         sums[f, 0] = sv
         sums[f, 1] = sdv
         sums[f, 2] = sa
         stopped[f] = ns
-        i, j = collision_pairs(cx, cy, heading, length, width, period)
+        i, j = collision_pairs_cs(cx, cy, trig[0], trig[1], length, width, period)
         lane, off, at_end, n_off, n_end = road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane,
                                                      ob_lo, ob_hi, ramp_iv, edge_margin, road_end)
         event = i.shape[0] > 0 or n_off > 0 or n_end > 0
@@ -154,7 +157,9 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     same controls, each in that method's order: the integration
     (:func:`~icv_envs.sim._kernels.physics.kinematic_substep`: a crashed
     vehicle brakes at -6 m/s^2 with the wheels straight, no steering limit,
-    no ring) and the body centres, the motion moments
+    no ring; from stop 43 as ``kinematic_substep_carry``, whose headings'
+    cosines and sines the collision test's sweep along ``x`` takes, the same
+    numbers) and the body centres, the motion moments
     (:func:`~icv_envs.sim._kernels.stats.motion_record`), the events
     (:func:`~icv_envs.sim._kernels.intersection.intersection_events`, at
     time ``t + dt``, ``t + 2 dt``, ... added frame by frame as the world's
@@ -208,10 +213,11 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     m = 0
     dummy = np.zeros(n)
     jam_all = np.empty(n, dtype=np.int64)
+    trig = np.empty((4, n))  # (cos, sin of the heading, steering, its tan: kinematic_substep_carry)
     for fr in range(n_frames):
         v_before = speed
-        x, y, heading, speed, acc, st, _, cx, cy = kinematic_substep(
-            x, y, heading, speed, accel, steer, crashed, dummy, wheelbase, -1.0, dt, v_max, -1.0)
+        x, y, heading, speed, acc, st, _, cx, cy = kinematic_substep_carry(
+            x, y, heading, speed, accel, steer, crashed, dummy, wheelbase, -1.0, dt, v_max, -1.0, trig, fr == 0)
         t = t + dt
         times[fr] = t
         sv, sdv, sa, ns, _ = motion_record(vid, v_before, speed, acc, stopped_speed, m_count, m_s1, m_s2)
@@ -255,7 +261,7 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
             else:
                 jam_sf[k] = 0.0
         jam_rows = jam_all[:n_jam].copy()
-        i, j = box_collision_pairs(cx, cy, heading, length, width, box_half)
+        i, j = box_collision_pairs_cs(cx, cy, heading, trig[0], trig[1], length, width, box_half)
         event = n_jam > 0 or i.shape[0] > 0
         for q in range(n):
             if new_wrong[q] or clear_now[q] or (crash[q] and not crashed[q]) or ((removed[q] or left[q]) and not crashed[q]):

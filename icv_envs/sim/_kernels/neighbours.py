@@ -11,7 +11,7 @@ import numpy as np
 
 from icv_envs.sim._kernels.physics import lane_of1
 
-__all__ = ["own_lane_gap_rows", "sweep_candidates", "collision_pairs", "build_lane_index", "build_lane_index_pair",
+__all__ = ["own_lane_gap_rows", "sweep_candidates", "collision_pairs", "collision_pairs_cs", "build_lane_index", "build_lane_index_pair",
            "leader_entries", "leader_rows"]
 
 
@@ -64,12 +64,15 @@ def sweep_candidates(xs, ys, hxs, hys, reach):
 @nb.njit(cache=True, inline="always")
 def _rect_overlap(c1x, c1y, h1, l1, w1, c2x, c2y, h2, l2, w2):
     """:func:`icv_envs.sim.traffic.rect_overlap` for one pair (same operations)."""
+    return _rect_overlap_cs(c1x, c1y, math.cos(h1), math.sin(h1), l1, w1, c2x, c2y, math.cos(h2), math.sin(h2), l2,
+                            w2)
+
+
+@nb.njit(cache=True, inline="always")
+def _rect_overlap_cs(c1x, c1y, u1x, u1y, l1, w1, c2x, c2y, u2x, u2y, l2, w2):
+    """:func:`_rect_overlap` from the headings' cosines and sines."""
     dx = c2x - c1x
     dy = c2y - c1y
-    u1x = math.cos(h1)
-    u1y = math.sin(h1)
-    u2x = math.cos(h2)
-    u2y = math.sin(h2)
     for k in range(4):
         if k == 0:
             ax, ay = u1x, u1y
@@ -90,11 +93,25 @@ def _rect_overlap(c1x, c1y, h1, l1, w1, c2x, c2y, h2, l2, w2):
 @nb.njit(cache=True)
 def _collision_pairs_line(cx, cy, heading, length, width):
     n = cx.shape[0]
+    ch = np.empty(n)
+    sh = np.empty(n)
+    for q in range(n):
+        ch[q] = math.cos(heading[q])
+        sh[q] = math.sin(heading[q])
+    return _collision_pairs_line_cs(cx, cy, ch, sh, length, width)
+
+
+@nb.njit(cache=True)
+def _collision_pairs_line_cs(cx, cy, ch, sh, length, width):
+    """:func:`_collision_pairs_line` from the headings' cosines ``ch`` and
+    sines ``sh`` (the same numbers: the physics frames have them from the
+    integration, from stop 43)."""
+    n = cx.shape[0]
     hx = np.empty(n)
     hy = np.empty(n)
     for q in range(n):
-        c = abs(math.cos(heading[q]))
-        s = abs(math.sin(heading[q]))
+        c = abs(ch[q])
+        s = abs(sh[q])
         hx[q] = 0.5 * (length[q] * c + width[q] * s)
         hy[q] = 0.5 * (length[q] * s + width[q] * c)
     order = np.argsort(cx, kind="mergesort")
@@ -110,8 +127,8 @@ def _collision_pairs_line(cx, cy, heading, length, width):
     for p in range(a.shape[0]):
         i = order[a[p]]
         j = order[a[p] + k[p]]
-        if _rect_overlap(cx[i], cy[i], heading[i], length[i], width[i], cx[j], cy[j], heading[j], length[j],
-                         width[j]):
+        if _rect_overlap_cs(cx[i], cy[i], ch[i], sh[i], length[i], width[i], cx[j], cy[j], ch[j], sh[j], length[j],
+                            width[j]):
             out_i[m] = i
             out_j[m] = j
             m += 1
@@ -126,6 +143,19 @@ def collision_pairs(cx, cy, heading, length, width, period):
     the ghosts one lap on of the vehicles near the seam, with the pairs
     mapped back to rows, deduplicated as ``(min, max)`` and sorted. Same
     pairs in the same order as the numpy code."""
+    n = cx.shape[0]
+    ch = np.empty(n)
+    sh = np.empty(n)
+    for q in range(n):
+        ch[q] = math.cos(heading[q])
+        sh[q] = math.sin(heading[q])
+    return collision_pairs_cs(cx, cy, ch, sh, length, width, period)
+
+
+@nb.njit(cache=True)
+def collision_pairs_cs(cx, cy, ch, sh, length, width, period):
+    """:func:`collision_pairs` from the headings' cosines ``ch`` and sines
+    ``sh`` (``math.cos``/``math.sin`` of the headings: the same pairs)."""
     n = cx.shape[0]
     if n < 2:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -147,7 +177,7 @@ def collision_pairs(cx, cy, heading, length, width, period):
                     idx[p] = q
                     ex[p] = cx[q] + period
                     p += 1
-            gi, gj = _collision_pairs_line(ex, cy[idx], heading[idx], length[idx], width[idx])
+            gi, gj = _collision_pairs_line_cs(ex, cy[idx], ch[idx], sh[idx], length[idx], width[idx])
             keys = np.empty(gi.shape[0], dtype=np.int64)
             m = 0
             for p in range(gi.shape[0]):
@@ -158,7 +188,7 @@ def collision_pairs(cx, cy, heading, length, width, period):
                     m += 1
             keys = np.unique(keys[:m])
             return keys // n, keys % n
-    return _collision_pairs_line(cx, cy, heading, length, width)
+    return _collision_pairs_line_cs(cx, cy, ch, sh, length, width)
 
 
 @nb.njit(cache=True)

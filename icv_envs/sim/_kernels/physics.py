@@ -12,7 +12,7 @@ import numpy as np
 
 from icv_envs.formation._kernels import clip1
 
-__all__ = ["npy_mod", "npy_maximum", "npy_minimum", "lane_of1", "lane_of_rows", "controls_rows", "kinematic_substep", "road_check", "interval_ends",
+__all__ = ["npy_mod", "npy_maximum", "npy_minimum", "lane_of1", "lane_of_rows", "controls_rows", "kinematic_substep", "kinematic_substep_carry", "road_check", "interval_ends",
            "interval_ends_at", "lanes_available"]
 
 
@@ -128,6 +128,83 @@ def kinematic_substep(x, y, heading, speed, accel, steer, crashed, stopped_for, 
             c = npy_mod(c, period)
         cx[i] = c
         cy[i] = nyi + half * math.sin(hi)
+    return nx, ny, nh, nv, na, ns, nst, cx, cy
+
+
+@nb.njit(cache=True)
+def kinematic_substep_carry(x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase, lat_accel_max,
+                            dt, v_max, period, trig, first):
+    """:func:`kinematic_substep` for the frames of one call with the same
+    controls (from stop 43), carrying from frame to frame what they repeat:
+    ``trig (4, n)`` holds by rows ``cos`` and ``sin`` of each vehicle's
+    heading, its last steering angle ``s`` and ``tan(s)``. ``first``: fill
+    them (the first frame); after it the heading's cosine and sine are those
+    of the new heading the frame before computed for the body centre (the
+    same double, the same ``math`` call), and ``tan(s)`` is computed again
+    only when ``s`` changed (bit for bit: the sign of a zero counts). So the
+    same numbers as :func:`kinematic_substep`, with two or three sines,
+    cosines and tangents fewer per vehicle and frame. On return ``trig``
+    holds the new headings' cosines and sines (the collision test's)."""
+    n = x.shape[0]
+    nx = np.empty(n)
+    ny = np.empty(n)
+    nh = np.empty(n)
+    nv = np.empty(n)
+    na = np.empty(n)
+    ns = np.empty(n)
+    nst = np.empty(n)
+    cx = np.empty(n)
+    cy = np.empty(n)
+    lat_wb = lat_accel_max * wheelbase
+    half = 0.5 * wheelbase
+    for i in range(n):
+        a = accel[i]
+        s = steer[i]
+        if crashed[i]:
+            a = -6.0
+            s = 0.0
+        v = speed[i]
+        if lat_accel_max >= 0.0:
+            v2 = max(v * v, 1e-9)
+            pm = math.atan(lat_wb / v2)
+            s = min(max(s, -pm), pm)
+        h = heading[i]
+        if first:
+            ch = math.cos(h)
+            sh = math.sin(h)
+            ts = math.tan(s)
+        else:
+            ch = trig[0, i]
+            sh = trig[1, i]
+            s0 = trig[2, i]
+            if s == s0 and math.copysign(1.0, s) == math.copysign(1.0, s0):
+                ts = trig[3, i]
+            else:
+                ts = math.tan(s)
+        xi = x[i] + v * ch * dt
+        nyi = y[i] + v * sh * dt
+        hi = h + v * ts / wheelbase * dt
+        vi = min(max(v + a * dt, 0.0), v_max)
+        if period > 0.0:
+            xi = npy_mod(xi, period)
+        nx[i] = xi
+        ny[i] = nyi
+        nh[i] = hi
+        nv[i] = vi
+        na[i] = a
+        ns[i] = s
+        nst[i] = stopped_for[i] + dt if vi < 0.1 else 0.0
+        chi = math.cos(hi)
+        shi = math.sin(hi)
+        c = xi + half * chi
+        if period > 0.0:
+            c = npy_mod(c, period)
+        cx[i] = c
+        cy[i] = nyi + half * shi
+        trig[0, i] = chi
+        trig[1, i] = shi
+        trig[2, i] = s
+        trig[3, i] = ts
     return nx, ny, nh, nv, na, ns, nst, cx, cy
 
 
