@@ -152,3 +152,67 @@ def test_env_metrics_report_the_shared_keys():
         assert k in m, k
     assert 0 <= m["speed_fluctuation"] <= m["commanded_abs_accel"] + 1e-9
     assert math.isfinite(m["speed_std"])
+
+
+class _PlainHeadways(HeadwayStats):
+    """A HeadwayStats the one-call path of World.record_min_gap does not
+    take (it takes the class itself only): the separate calls."""
+
+
+@FEW
+@given(n=st.integers(2, 40), periodic=st.booleans(), lanes=st.integers(1, 4), seed=st.integers(0, 2**31))
+def test_record_min_gap_one_call_equals_the_separate_calls(n, periodic, lanes, seed):
+    """Stop 43: ``record_min_gap`` builds the lane index, the own-lane gaps
+    and the headway record in one compiled call (``lane_gap_pass``) when
+    nothing was built for the state yet and nobody holds a lane. Against
+    the separate calls on the same states: the same index, gaps, leaders,
+    headway statistics and histogram, over several steps (vehicles dense
+    enough to overlap lanes, touch, stand)."""
+    rng = np.random.default_rng(seed)
+    length = 600.0
+    road = RoadLayout(lanes, length, 4.0, np.full(lanes, np.inf), [], [], [], periodic=periodic)
+    worlds = []
+    for plain in (False, True):
+        w = World(road, FormationManager(), dt=0.04, v_max=30.0)
+        if plain:
+            w.headways = _PlainHeadways()
+        r = np.random.default_rng(seed)
+        w.traffic.add(r.uniform(0.0, length - 50.0, n), r.integers(0, lanes, n) * 4.0 + r.normal(0, 0.8, n),
+                      np.where(r.random(n) < 0.3, 0.0, r.uniform(0.0, 30.0, n)), heading=r.normal(0, 0.05, n))
+        worlds.append(w)
+    fused, plain = worlds
+    accel = rng.uniform(-3.0, 2.0, n)
+    for _ in range(3):
+        for w in worlds:
+            w.substep(accel, np.zeros(n), StepEvents())
+            w.record_min_gap()
+        a, b = fused.lane_index(reserved=False), plain.lane_index(reserved=False)
+        for f in ("keys", "rows", "lanes", "x"):
+            np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+        assert a.offset == b.offset
+        assert fused.lane_index(reserved=True) is a  # (nobody holds a lane: one index for both views)
+        for g, p in zip(fused.own_lane_gaps(), plain.own_lane_gaps()):
+            np.testing.assert_array_equal(g, p)
+        hf, hp = fused.headways, plain.headways
+        assert (hf.min_gap, hf.min_time_headway, hf.samples) == (hp.min_gap, hp.min_time_headway, hp.samples)
+        np.testing.assert_array_equal(hf._hist, hp._hist)
+
+
+def test_record_min_gap_takes_the_one_call_path(monkeypatch):
+    """The one-call path is the one taken on a state nothing was built for
+    (and not when the index exists already, or someone holds a lane)."""
+    import icv_envs.sim.world as world_mod
+
+    calls = []
+    real = world_mod.lane_gap_pass
+    monkeypatch.setattr(world_mod, "lane_gap_pass", lambda *a: calls.append(1) or real(*a))
+    w = world_with([15.0, 10.0, 20.0], xs=[100.0, 120.0, 140.0])
+    w.record_min_gap()
+    assert calls == [1]
+    w.record_min_gap()  # the index of this state exists: the separate path (the kept gaps)
+    assert calls == [1]
+    assert run_metrics(w)["min_gap"] == pytest.approx(15.0)
+    w.invalidate()
+    w.traffic.lc_lane = np.array([1, -1, -1])  # a lane change under way holds lane 1
+    w.record_min_gap()
+    assert calls == [1]

@@ -211,7 +211,13 @@ class HeadwayStats:
         if not (gap.ndim == 1 and v.shape == gap.shape):
             raise ValueError(f"gap and speed must be 1-D of one length; got shapes {gap.shape}, {v.shape}")
         # compiled (icv_envs.sim._kernels.headway_record)
-        g_min, th_min, count = headway_record(gap, v, self._hist, HEADWAY_BIN, STOPPED_SPEED)
+        self.add_record(*headway_record(gap, v, self._hist, HEADWAY_BIN, STOPPED_SPEED))
+
+    def add_record(self, g_min: float, th_min: float, count: int) -> None:
+        """What one :meth:`record` adds besides the histogram (which the
+        compiled record fills in place): the smallest gap and time headway
+        of its call and their count (``World.record_min_gap``'s one-call
+        path records so, from stop 43)."""
         self.min_gap = min(self.min_gap, g_min)
         self.min_time_headway = min(self.min_time_headway, th_min)
         self.samples += count

@@ -296,7 +296,11 @@ def occupied_lanes(cy, width, lane_width, n_lanes, margin=0.0, length=None, head
     return np.concatenate(rows_l), np.concatenate(lanes_l)
 
 
-def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool = False, ghost: float = 1000.0,
+#: how far from a ring's seam :func:`lane_index` lists a vehicle a second time, one lap on [m]
+LANE_INDEX_GHOST = 1000.0
+
+
+def lane_index(cx, cy, width, lane_width, n_lanes, road_length, periodic: bool = False, ghost: float = LANE_INDEX_GHOST,
                reserved_lane=None, length=None, heading=None, pair: bool = False):
     """Build the lane-sorted index. On a ring (``periodic``), vehicles within
     ``ghost`` metres of the seam are listed a second time one lap further

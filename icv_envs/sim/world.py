@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.sim._kernels import kinematic_substep, own_lane_gap_rows, quiet_substeps, road_check
+from icv_envs.sim._kernels import kinematic_substep, lane_gap_pass, own_lane_gap_rows, quiet_substeps, road_check
 from icv_envs.sim.formations import FormationManager
-from icv_envs.sim.metrics import STOPPED_SPEED, HeadwayStats, MotionStats
+from icv_envs.sim.metrics import HEADWAY_BIN, STOPPED_SPEED, HeadwayStats, MotionStats
 from icv_envs.sim.road import RoadLayout
-from icv_envs.sim.traffic import Traffic, find_collisions, lane_index, rect_overlap
+from icv_envs.sim.traffic import LANE_INDEX_GHOST, LaneIndex, Traffic, find_collisions, lane_index, rect_overlap
 
 __all__ = ["World", "StepEvents", "JAM_STOP_TIME", "JAM_FREE_GAP", "COLLISION_KINDS"]
 
@@ -101,10 +101,10 @@ class World:
             # (the two views are the same; nobody carrying out a plan: none
             # to look for), else the two in one call (a step that asks for
             # one view asks for the other: the gaps and the controllers)
-            res = None if self._plan_vids is not None and not self._plan_vids else self._reservations()
+            res = self._held_lanes()
             cx, cy = self.traffic.center()
             args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
-            if res is not None and np.count_nonzero(res >= 0):
+            if res is not None:
                 body, held = lane_index(*args, periodic=self.road.periodic, reserved_lane=res,
                                         length=self.traffic.length, heading=self.traffic.heading, pair=True)
                 self._index = [held, body]
@@ -113,6 +113,12 @@ class World:
                                  heading=self.traffic.heading)
                 self._index = [one, one]
         return self._index[k]
+
+    def _held_lanes(self):
+        """The reservations of :meth:`_reservations` when some vehicle holds
+        one, else None (the two views of :meth:`lane_index` are then one)."""
+        res = None if self._plan_vids is not None and not self._plan_vids else self._reservations()
+        return res if res is not None and np.count_nonzero(res >= 0) else None
 
     def _reservations(self) -> np.ndarray:
         """Lane-change target lanes that hold a reservation: only those of
@@ -410,8 +416,25 @@ class World:
         The gaps and time headways feed :class:`icv_envs.sim.metrics.HeadwayStats`."""
         tr = self.traffic
         if tr.n > 1:
-            gap, _ = self._own_lane_gaps_kept()
-            self.headways.record(gap, self.traffic.speed)
+            if self._index is None and type(self.headways) is HeadwayStats and self._held_lanes() is None:
+                # nothing built for this state yet and nobody holds a lane:
+                # the index, the gaps and their record in one compiled call
+                # (neighbours.lane_gap_pass, from stop 43: the three calls
+                # below with the same arguments)
+                h = self.headways
+                cx, cy = tr.center()
+                road = self.road
+                keys, xs, I, offset, gap, lead, g_min, th_min, count = lane_gap_pass(
+                    cx, cy, tr.width, tr.length, tr.heading, float(road.lane_width), int(road.total_lanes),
+                    bool(road.periodic), float(road.length), LANE_INDEX_GHOST, int(road.total_lanes), tr.speed, h._hist,
+                    HEADWAY_BIN, STOPPED_SPEED)
+                one = LaneIndex(keys, I[0], I[1], xs, offset)
+                self._index = [one, one]
+                self._gaps = (gap, lead)
+                h.add_record(g_min, th_min, count)
+            else:
+                gap, _ = self._own_lane_gaps_kept()
+                self.headways.record(gap, self.traffic.speed)
         if tr.n:
             long_stop = tr.stopped_for > JAM_STOP_TIME
             if np.count_nonzero(long_stop):

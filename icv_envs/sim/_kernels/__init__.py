@@ -73,7 +73,7 @@ from icv_envs.sim._kernels.formation_step import (hold_pass, membership_pass, of
 from icv_envs.sim._kernels.frames import intersection_frames, quiet_substeps
 from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs, build_lane_index,
                                               build_lane_index_pair, leader_entries,
-                                              leader_rows, own_lane_gap_rows)
+                                              leader_rows, own_lane_gap_rows, lane_gap_pass)
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_post_rows, formation_reward_terms,
                                                intersection_feature_rows, intersection_post_rows,
                                                intersection_reward_pre, intersection_reward_rows,
@@ -98,6 +98,7 @@ __all__ = [
     "leader_entries",
     "leader_rows",
     "own_lane_gap_rows",
+    "lane_gap_pass",
     "nearest_along_road",
     "nearest_euclidean",
     "corridor_leaders",

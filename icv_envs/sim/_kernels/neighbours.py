@@ -10,9 +10,10 @@ import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.physics import lane_of1
+from icv_envs.sim._kernels.stats import headway_record
 
 __all__ = ["own_lane_gap_rows", "sweep_candidates", "collision_pairs", "collision_pairs_cs", "build_lane_index", "build_lane_index_pair",
-           "leader_entries", "leader_rows"]
+           "leader_entries", "leader_rows", "lane_gap_pass"]
 
 
 @nb.njit(cache=True)
@@ -370,3 +371,27 @@ def own_lane_gap_rows(keys, i_rows, i_lanes, i_x, offset, cx, cy, length, lane_w
             lead[q] = r
             gap[q] = i_x[p] - cx[q] - 0.5 * (length[r] + length[q])
     return gap, lead
+
+
+@nb.njit(cache=True)
+def lane_gap_pass(cx, cy, width, length, heading, lane_width, n_lanes, periodic, road_length, ghost, total_lanes,
+                  speed, hist, bin_width, stopped_speed):
+    """The first lane-index query of a policy step, when nobody holds a
+    reservation (from stop 43, ``World.record_min_gap``): the body-only
+    index (:func:`build_lane_index` with the footprint, no reserved lanes),
+    each vehicle's own-lane gap and leader (:func:`own_lane_gap_rows` on
+    that index) and the headway statistics' record of the gaps
+    (:func:`~icv_envs.sim._kernels.stats.headway_record`, ``hist`` updated
+    in place): the three calls the world made one after the other, with the
+    same arguments, in one. Returns ``(keys, xs, I, offset, gap, lead,
+    g_min, th_min, count)``, ``I`` the index's rows and lanes as the rows
+    of one ``(2, m)`` array (numba boxes each returned array for about
+    0.35 us)."""
+    keys, rows, lanes, xs, offset = build_lane_index(cx, cy, width, length, heading, True, lane_width, n_lanes,
+                                                     np.zeros(0, dtype=np.int64), periodic, road_length, ghost)
+    gap, lead = own_lane_gap_rows(keys, rows, lanes, xs, offset, cx, cy, length, lane_width, total_lanes)
+    g_min, th_min, count = headway_record(gap, speed, hist, bin_width, stopped_speed)
+    I = np.empty((2, rows.shape[0]), dtype=np.int64)
+    I[0] = rows
+    I[1] = lanes
+    return keys, xs, I, offset, gap, lead, g_min, th_min, count
