@@ -45,6 +45,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from icv_envs._ufuncs import clip as uclip
 from icv_envs.envs._kernels import scatter_expert_rows, scatter_world_rows
 from icv_envs.sim._kernels import id_range
 from icv_envs.envs.actions import ContinuousAction
@@ -240,6 +241,9 @@ class BatchedWorlds:
         self._lut_identity = self._lut_dense and bool(np.array_equal(self._slot_of_vid, np.arange(K)))
         # continuous actions take the array path (ParallelEnv.step_rows: no per-agent dicts)
         self._rows = isinstance(self.envs[0].core._act_type, ContinuousAction)
+        # plain continuous actions (the controls are the clipped actions): the
+        # batch checks and clips all worlds' at once (ParallelEnv.step_controls)
+        self._plain = type(self.envs[0].core._act_type) is ContinuousAction
         self.single_observation_space = self.envs[0].observation_space(self.possible_agents[0])
         self.single_action_space = self.envs[0].action_space(self.possible_agents[0])
         obs_shape = self.single_observation_space.shape
@@ -334,19 +338,27 @@ class BatchedWorlds:
         if acts.shape != (self.num_worlds, self.K, 2):
             raise ValueError(f"actions have shape {acts.shape}; allowed: ({self.num_worlds}, {self.K}, 2)")
         fin = np.isfinite(acts)
-        if np.count_nonzero(fin) != fin.size:  # (the count first; the live slots' rows only then)
+        finite = np.count_nonzero(fin) == fin.size
+        if not finite:  # (the count first; the live slots' rows only then)
             bad = ~fin.all(axis=-1) & self.mask
             if np.count_nonzero(bad):
                 b, k = np.argwhere(bad)[0]
                 raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k].tolist()} "
                                  f"holds NaN or inf; allowed: finite values in [-1, 1]")
+        # every action finite and plain continuous: clipped once for the batch,
+        # each world steps from its rows (the values its own check and clip
+        # would give; from stop 43)
+        ctl = uclip(acts, -1.0, 1.0) if finite and self._plain and self._rows else None
         self.rewards[:] = 0.0
         self.terminated[:] = False
         self.truncated[:] = False
         reset = np.zeros(self.num_worlds, dtype=bool)
         for b, env in enumerate(self.envs):
-            if self._rows:  # arrays through (the same agents and values as the dicts)
+            if ctl is not None:
+                out = env.step_controls(ctl[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
+            elif self._rows:  # arrays through (the same agents and values as the dicts)
                 out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
+            if self._rows:
                 n = len(out.vid)
                 # (compiled: envs/_kernels.scatter_world_rows, the slot assignments in one call)
                 scatter_world_rows(self._obs_flat, self.mask, self.rewards, self.terminated, self.truncated, b,

@@ -252,3 +252,49 @@ def test_slot_lookup_names_only_the_vehicles_without_a_slot():
     with pytest.raises(ValueError) as e:
         bw._slots_of_vid(np.append(ids, -1))
     assert "[-1]" in str(e.value)
+
+
+@pytest.mark.parametrize("env_name, config", [
+    ("highway_formation", {"vehicles_count": 8, "initial_position": None, "duration": 4.0}),
+    ("highway_ramps", {"vgr": 0.5, "duration": 20.0, "max_vehicles": 8}),
+])
+def test_batched_worlds_clip_once_for_the_batch(env_name, config):
+    """Stop 43: with plain continuous actions, all finite, the batch clips
+    every world's actions at once and each world steps from its rows
+    (ParallelEnv.step_controls); otherwise (a NaN in an empty slot) each
+    world checks and clips its own (step_rows). Both give what the worlds'
+    own step_rows give: the same outputs, bit for bit, for actions far
+    outside [-1, 1]."""
+    rng = np.random.default_rng(5)
+    fast = BatchedWorlds(2, env=env_name, config=config, seed=2)
+    slow = BatchedWorlds(2, env=env_name, config=config, seed=2)
+    assert fast._plain and slow._plain
+    slow._plain = False  # (each world checks and clips its own rows: step_rows)
+    fast.reset(), slow.reset()
+    taken = []
+    real = type(fast.envs[0]).step_controls
+    for t in range(15):
+        acts = rng.uniform(-3.0, 3.0, (2, fast.K, 2))
+        slow_acts = acts.copy()
+        if t % 3 == 0:
+            slow_acts[~slow.mask] = np.nan  # (ignored: empty slots)
+        n_before = len(taken)
+        for env in fast.envs:
+            env.step_controls = lambda c, env=env: taken.append(1) or real(env, c)
+        a = fast.step(acts)
+        for env in fast.envs:
+            del env.step_controls
+        b = slow.step(slow_acts)
+        assert len(taken) - n_before == 2  # (every world of the fast batch took the batch's clip)
+        for x, y in zip(a[:5], b[:5]):
+            np.testing.assert_array_equal(x, y)
+        np.testing.assert_array_equal(a[5]["final_obs"], b[5]["final_obs"])
+
+
+def test_step_controls_checks_the_shape():
+    env = parallel_env(vehicles_count=4)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step_controls(np.zeros((4, 2)))
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"controls have shape \(3, 2\); allowed: \(4, 2\)"):
+        env.step_controls(np.zeros((3, 2)))

@@ -587,6 +587,21 @@ class IcvAgentsEnv(EgoEnv, DictEdge, AbstractEnv):
         acts = np.asarray(at.controls(np.arange(n), arr), dtype=np.float64) if n else np.zeros((0, 2))
         return self._ma_advance(acts, arrays=True)
 
+    def ma_step_controls(self, controls: np.ndarray) -> StepRows:
+        """:meth:`ma_step_rows` from the normalised controls of its rows: a
+        fresh ``(n, 2)`` float64 array of finite values in [-1, 1], row
+        ``i`` the vehicle in traffic row ``i``, as plain continuous actions
+        give them (:class:`~icv_envs.envs.actions.ContinuousAction` clips).
+        For a caller that checked and clipped a whole batch at once
+        (:class:`icv_envs.vector.BatchedWorlds`, from stop 43); the shape is
+        checked, the values are not."""
+        if self.world is None:
+            raise RuntimeError("call reset() before step()")
+        n = self._vehicles().n
+        if controls.shape != (n, 2):
+            raise ValueError(f"controls have shape {controls.shape}; allowed: ({n}, 2), one row per live agent")
+        return self._ma_advance(controls, arrays=True)
+
     # ------------------------------------------------------------------ expert
     def _expert_key(self) -> tuple:
         """What the expert's actions depend on: the world, its clock and the

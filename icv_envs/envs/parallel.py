@@ -104,7 +104,19 @@ class CoreParallelEnv(ParallelEnv):
         :meth:`step` does."""
         if self.core.world is None:
             raise RuntimeError("call reset() before step()")
-        out = self.core.ma_step_rows(actions)
+        return self._rows_done(self.core.ma_step_rows(actions))
+
+    def step_controls(self, controls):
+        """:meth:`step_rows` from checked and clipped plain continuous
+        actions (``core.ma_step_controls``: a batch that checked all its
+        worlds' actions at once)."""
+        if self.core.world is None:
+            raise RuntimeError("call reset() before step()")
+        return self._rows_done(self.core.ma_step_controls(controls))
+
+    def _rows_done(self, out):
+        """The bookkeeping of :meth:`step` after an array step: the cycle
+        count, PettingZoo's ``max_cycles`` rule, the live agents."""
         self._cycles += 1
         if self._cycles_up:
             out = out._replace(truncated=~out.terminated)
