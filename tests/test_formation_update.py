@@ -442,3 +442,23 @@ def test_reform_costs_equal_the_replaced_array_code(seed):
     got = reform_costs(rows, cx, cy, anchor, lw, np.asarray(lanes, dtype=np.float64), tx, tl, w1, w2, period)
     want = _old_frame_costs(rows, cx, cy, anchor, lw, lanes, tx, tl, w1, w2, period)
     assert _same(got, want)
+
+
+def test_profile_with_a_known_top_equals_the_searched_one():
+    """``JoinPlans.profile(vid, t, top)`` (the manager passes one past the
+    last traffic id, from stop 43) grows the tables to ``top`` instead of
+    searching ``vid`` for its largest id: the same profiles, and ids never
+    seen before get the default plan either way."""
+    from icv_envs.sim.join_plans import JoinPlans
+
+    lim = dict(accel=1.5, decel=2.0, jerk=1.0, t_min=2.0)
+    a, b = JoinPlans(lim, (15.0, 29.0), 25.0), JoinPlans(lim, (15.0, 29.0), 25.0)
+    rng = np.random.default_rng(0)
+    vid = np.sort(rng.choice(600, 40, replace=False))
+    d0, v0, a0 = rng.uniform(-80, 80, 20), rng.uniform(-5, 5, 20), rng.uniform(-1, 1, 20)
+    for jp in (a, b):
+        jp.plan(vid[:20], d0, v0, a0, 0.0)
+    for t in (0.4, 2.0, 50.0):
+        for x, y in zip(a.profile(vid, t), b.profile(vid, t, int(vid[-1]) + 1)):
+            np.testing.assert_array_equal(x, y)
+    assert b._cap >= int(vid[-1]) + 1

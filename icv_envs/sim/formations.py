@@ -328,7 +328,9 @@ class FormationManager:
 
     def _profile(self, traffic, rows):
         """``join_profile`` of the members at ``rows`` now (:meth:`JoinPlans.profile`, cached)."""
-        return self._plans.profile(traffic.vid[rows], self.time)
+        vid = traffic.vid
+        # (rows of traffic, whose ids are sorted: none above the last)
+        return self._plans.profile(vid[rows], self.time, int(vid[-1]) + 1 if len(vid) else None)
 
     def create(self, traffic, rows, road, anchor: float | None = None) -> int:
         """Make a new formation of vehicles ``rows`` and assign them targets."""

@@ -129,20 +129,22 @@ class JoinPlans:
             b = self._bands[n] = (np.full(n, self.speeds[0] - self.speed), np.full(n, self.speeds[1] - self.speed))
         return b
 
-    def profile(self, vid: np.ndarray, time: float):
+    def profile(self, vid: np.ndarray, time: float, top: int | None = None):
         """``join_profile`` ``(d, v, a)`` of vehicles ``vid`` at ``time``,
         read-only. Several callers ask for the same vehicles within one step
         (the expert, the observations, the manager's own update); the last
         answer is kept, keyed on the clock and the ids, with the count of
         plans made when it was computed. When some of them were re-planned
         since, only those are evaluated again (the profile is element-wise,
-        so the patched arrays equal a full evaluation)."""
+        so the patched arrays equal a full evaluation). ``top``: a bound
+        the caller knows, every id below it (the tables then grow to it
+        without a search for the largest)."""
         key = (time, vid.tobytes())
         c = self._cache
         if c is not None and c[0] == key and c[1] == self.count:
             return c[2]  # the kept answer (these ids were in the tables when it was computed; tables only grow)
         if len(vid):
-            self.grow(int(id_range(np.asarray(vid, dtype=np.int64))[1]) + 1)
+            self.grow(top if top is not None else int(id_range(np.asarray(vid, dtype=np.int64))[1]) + 1)
         if c is not None and c[0] == key:
             stale = flatnonzero(self.stamp[vid] > c[1])
             out = tuple(arr.copy() for arr in c[2])
