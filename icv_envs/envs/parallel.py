@@ -99,7 +99,7 @@ class CoreParallelEnv(ParallelEnv):
         """:meth:`step` with arrays in and out (continuous action types):
         ``actions (n, 2)``, one row per live vehicle in ascending id order
         (``core.world``'s rows); returns the core's
-        :class:`~icv_envs.envs.base.StepRows` (the agents and values of
+        :class:`~icv_envs.envs.agents_step.StepRows` (the agents and values of
         :meth:`step`'s dicts, no infos) and updates ``agents`` as
         :meth:`step` does."""
         if self.core.world is None:
