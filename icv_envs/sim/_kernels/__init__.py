@@ -49,7 +49,7 @@ several exits were not, with or without ``inline="always"``): such rules
 are written once over arrays and called once per kernel
 (:func:`lanes_available`, :func:`interval_ends`; the leader rule,
 :func:`leader_entries`, likewise, for one copy rather than for speed).
-Helpers over scalars (``npy_mod``, ``lane_of1``, ``_rect_overlap``) cost
+Helpers over scalars (``npy_mod``, ``lane_of1``, ``_rect_overlap_cs``) cost
 nothing and stay, and so does ``policies/_kernels/lane_changes._in_intervals``, called
 only for the few lane changes into or out of the ramp lane. A changed kernel module also invalidates the cached code
 of the kernels that call into it (``icv_envs/_kernel_cache.py``; numba

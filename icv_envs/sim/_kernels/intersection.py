@@ -14,7 +14,7 @@ import math
 import numba as nb
 import numpy as np
 
-from icv_envs.sim._kernels.neighbours import collision_pairs, collision_pairs_cs
+from icv_envs.sim._kernels.neighbours import collision_pairs, collision_pairs_cs, cos_sin
 from icv_envs.sim._kernels.physics import npy_mod
 
 __all__ = ["intersection_events", "box_collision_pairs", "box_collision_pairs_cs", "rows_of_ids", "route_rows"]
@@ -155,12 +155,7 @@ def box_collision_pairs(cx, cy, heading, length, width, box_half):
     those on the north-south legs (the box region, within 10 m of the box
     square, in both), the pairs of the two sweeps joined, deduplicated and
     sorted as ``(min, max)`` row pairs."""
-    n = cx.shape[0]
-    ch = np.empty(n)
-    sh = np.empty(n)
-    for q in range(n):
-        ch[q] = math.cos(heading[q])
-        sh[q] = math.sin(heading[q])
+    ch, sh = cos_sin(heading)
     return box_collision_pairs_cs(cx, cy, heading, ch, sh, length, width, box_half)
 
 

@@ -63,15 +63,10 @@ def sweep_candidates(xs, ys, hxs, hys, reach):
 
 
 @nb.njit(cache=True, inline="always")
-def _rect_overlap(c1x, c1y, h1, l1, w1, c2x, c2y, h2, l2, w2):
-    """:func:`icv_envs.sim.traffic.rect_overlap` for one pair (same operations)."""
-    return _rect_overlap_cs(c1x, c1y, math.cos(h1), math.sin(h1), l1, w1, c2x, c2y, math.cos(h2), math.sin(h2), l2,
-                            w2)
-
-
-@nb.njit(cache=True, inline="always")
 def _rect_overlap_cs(c1x, c1y, u1x, u1y, l1, w1, c2x, c2y, u2x, u2y, l2, w2):
-    """:func:`_rect_overlap` from the headings' cosines and sines."""
+    """:func:`icv_envs.sim.traffic.rect_overlap` for one pair (same
+    operations), from the headings' cosines ``u1x``, ``u2x`` and sines
+    ``u1y``, ``u2y``."""
     dx = c2x - c1x
     dy = c2y - c1y
     for k in range(4):
@@ -92,21 +87,23 @@ def _rect_overlap_cs(c1x, c1y, u1x, u1y, l1, w1, c2x, c2y, u2x, u2y, l2, w2):
 
 
 @nb.njit(cache=True)
-def _collision_pairs_line(cx, cy, heading, length, width):
-    n = cx.shape[0]
+def cos_sin(heading):
+    """``math.cos`` and ``math.sin`` of each heading (libm's, as every
+    kernel here calls them), as two arrays."""
+    n = heading.shape[0]
     ch = np.empty(n)
     sh = np.empty(n)
     for q in range(n):
         ch[q] = math.cos(heading[q])
         sh[q] = math.sin(heading[q])
-    return _collision_pairs_line_cs(cx, cy, ch, sh, length, width)
+    return ch, sh
 
 
 @nb.njit(cache=True)
 def _collision_pairs_line_cs(cx, cy, ch, sh, length, width):
-    """:func:`_collision_pairs_line` from the headings' cosines ``ch`` and
-    sines ``sh`` (the same numbers: the physics frames have them from the
-    integration, from stop 43)."""
+    """The sweep and the separating-axis test of :func:`collision_pairs`
+    along one line, from the headings' cosines ``ch`` and sines ``sh``
+    (the physics frames have them from the integration, from stop 43)."""
     n = cx.shape[0]
     hx = np.empty(n)
     hy = np.empty(n)
@@ -144,12 +141,7 @@ def collision_pairs(cx, cy, heading, length, width, period):
     the ghosts one lap on of the vehicles near the seam, with the pairs
     mapped back to rows, deduplicated as ``(min, max)`` and sorted. Same
     pairs in the same order as the numpy code."""
-    n = cx.shape[0]
-    ch = np.empty(n)
-    sh = np.empty(n)
-    for q in range(n):
-        ch[q] = math.cos(heading[q])
-        sh[q] = math.sin(heading[q])
+    ch, sh = cos_sin(heading)
     return collision_pairs_cs(cx, cy, ch, sh, length, width, period)
 
 

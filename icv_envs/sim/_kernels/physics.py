@@ -86,49 +86,10 @@ def kinematic_substep(x, y, heading, speed, accel, steer, crashed, stopped_for, 
 
     Returns ``(x, y, heading, speed, accel, steer, stopped_for, cx, cy)``
     as new arrays (the inputs are not touched)."""
-    n = x.shape[0]
-    nx = np.empty(n)
-    ny = np.empty(n)
-    nh = np.empty(n)
-    nv = np.empty(n)
-    na = np.empty(n)
-    ns = np.empty(n)
-    nst = np.empty(n)
-    cx = np.empty(n)
-    cy = np.empty(n)
-    lat_wb = lat_accel_max * wheelbase
-    half = 0.5 * wheelbase
-    for i in range(n):
-        a = accel[i]
-        s = steer[i]
-        if crashed[i]:
-            a = -6.0
-            s = 0.0
-        v = speed[i]
-        if lat_accel_max >= 0.0:
-            v2 = max(v * v, 1e-9)
-            pm = math.atan(lat_wb / v2)
-            s = min(max(s, -pm), pm)
-        h = heading[i]
-        xi = x[i] + v * math.cos(h) * dt
-        nyi = y[i] + v * math.sin(h) * dt
-        hi = h + v * math.tan(s) / wheelbase * dt
-        vi = min(max(v + a * dt, 0.0), v_max)
-        if period > 0.0:
-            xi = npy_mod(xi, period)
-        nx[i] = xi
-        ny[i] = nyi
-        nh[i] = hi
-        nv[i] = vi
-        na[i] = a
-        ns[i] = s
-        nst[i] = stopped_for[i] + dt if vi < 0.1 else 0.0
-        c = xi + half * math.cos(hi)
-        if period > 0.0:
-            c = npy_mod(c, period)
-        cx[i] = c
-        cy[i] = nyi + half * math.sin(hi)
-    return nx, ny, nh, nv, na, ns, nst, cx, cy
+    # (:func:`kinematic_substep_carry`'s first frame: every sine, cosine and
+    # tangent computed, the carried values written to a scratch array)
+    return kinematic_substep_carry(x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase,
+                                   lat_accel_max, dt, v_max, period, np.empty((4, x.shape[0])), True)
 
 
 @nb.njit(cache=True)
