@@ -48,3 +48,49 @@ def test_batched_sps_times_one_run_of_the_same_steps():
             n += int(bw.mask.sum())
             bw.step(bw.expert_actions if expert else np.zeros((2, bw.K, 2), dtype=np.float32))
         assert res["agent_steps"] == n > 0
+
+
+def test_batched_sps_action_kinds():
+    """Stop 43: the external actions are zeros, uniform in [-0.3, 0.3]
+    (``random_actions=True`` too) or uniform in [-1, 1] (an untrained
+    policy), each counted as a manual run with the same draws counts them;
+    the live agents per world and the world-steps are reported; anything
+    else is an error naming the allowed kinds."""
+    from icv_envs.rl.bench import batched_sps
+    from icv_envs.vector import BatchedWorlds
+
+    for kind, bound in (("small", 0.3), ("uniform", 1.0)):
+        res = batched_sps(vehicles=5, worlds=2, steps=6, seed=3, actions=kind)
+        bw = BatchedWorlds(2, config={"vehicles_count": 5, "initial_position": None}, seed=3)
+        bw.reset()
+        rng = np.random.default_rng(3)
+        n = 0
+        for _ in range(6):
+            n += int(bw.mask.sum())
+            bw.step(rng.uniform(-bound, bound, size=(2, bw.K, 2)).astype(np.float32))
+        assert res["agent_steps"] == n > 0 and res["actions"] == kind
+        assert res["live_agents_per_world"] == n / 12 and res["world_steps_per_cpu_s"] > 0
+    assert batched_sps(vehicles=5, worlds=2, steps=3, seed=3, random_actions=True)["actions"] == "small"
+    with pytest.raises(ValueError, match=r"actions = 'chaos'; allowed: \['zero', 'small', 'uniform'\]"):
+        batched_sps(vehicles=5, worlds=2, steps=3, actions="chaos")
+    with pytest.raises(ValueError, match="random_actions=True means actions='small'"):
+        batched_sps(vehicles=5, worlds=2, steps=3, actions="uniform", random_actions=True)
+
+
+def test_batched_sps_warmup_is_not_counted():
+    """``warmup`` batch steps run before the timed ones and are not counted."""
+    from icv_envs.rl.bench import batched_sps
+    from icv_envs.vector import BatchedWorlds
+
+    res = batched_sps(vehicles=5, worlds=2, steps=3, seed=3, actions="uniform", warmup=4)
+    bw = BatchedWorlds(2, config={"vehicles_count": 5, "initial_position": None}, seed=3)
+    bw.reset()
+    rng = np.random.default_rng(3)
+    n = 0
+    for i in range(7):
+        if i >= 4:
+            n += int(bw.mask.sum())
+        bw.step(rng.uniform(-1.0, 1.0, size=(2, bw.K, 2)).astype(np.float32))
+    assert res["agent_steps"] == n and res["live_agents_per_world"] == n / 6
+    with pytest.raises(ValueError, match=r"warmup = -1; allowed: an integer >= 0"):
+        batched_sps(vehicles=5, worlds=2, steps=3, warmup=-1)

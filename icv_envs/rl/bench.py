@@ -23,10 +23,14 @@ Episode resets are included in the timings. Reported per env:
 Beside them, the batched worlds of :mod:`icv_envs.vector` (16
 HighwayFormation worlds of ``vehicles`` agents in this process,
 :func:`batched_sps`): agent-steps per CPU second and per wall second with
-external actions (no expert computed) and with the expert's action computed
-for every agent (``batched_learned_actions`` / ``batched_expert_actions``),
-and highway-fast-v0's agent-steps per second (one controlled vehicle: its
-``env_sps``).
+external zero actions (no expert computed; the worlds stay full), with the
+expert's action computed for every agent, and with external uniform random
+actions, an untrained policy's (vehicles crash or leave the road and are
+removed, so fewer agents share a world-step's cost: from stop 43;
+``batched_learned_actions`` / ``batched_expert_actions`` /
+``batched_untrained_actions``, each with its live agents per world and
+world-steps per CPU second), and highway-fast-v0's agent-steps per second
+(one controlled vehicle: its ``env_sps``).
 
 A step is not the same amount of driving in both: icv_envs acts at 5 Hz
 (0.2 s per step, physics at 25 Hz), highway-fast-v0 at 1 Hz (1 s per step,
@@ -129,18 +133,35 @@ def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -
             "ppo_wall_seconds": wall}
 
 
+#: ``batched_sps``' kinds of external actions: zeros (coasting straight: nothing crashes, the worlds stay
+#: full), uniform in [-0.3, 0.3] and uniform in [-1, 1] (an untrained policy's output: vehicles crash or leave
+#: the road and are removed, so a world runs on with fewer agents until its episode ends)
+BATCHED_ACTIONS = ("zero", "small", "uniform")
+
+
 def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: bool = False, seed: int = 0,
-                config: dict | None = None, random_actions: bool = False) -> dict:
+                config: dict | None = None, random_actions: bool = False, actions: str | None = None,
+                warmup: int = 0) -> dict:
     """Agent-steps per second of :class:`icv_envs.vector.BatchedWorlds`:
     ``worlds`` HighwayFormation worlds of ``vehicles`` agents each, stepped
     together in this process. ``expert=False``: actions come from outside
-    (zeros, coasting: what a learned policy's output costs the env; policy
-    inference is not included) and the expert is never computed;
+    (policy inference is not included) and the expert is never computed;
     ``expert=True``: the expert's action is computed for every agent every
     step and fed back. Auto-resets are included. Per CPU second (process
-    time) and per wall second. ``config`` is merged into the worlds' env
-    config; ``random_actions`` replaces the zeros by uniform actions in
-    ``[-0.3, 0.3]`` (fixed seed), a stand-in for a learned policy's output.
+    time) and per wall second, with the world-steps per CPU second and the
+    live agents per world on average (agent-steps count live agents only).
+    ``config`` is merged into the worlds' env config.
+
+    The external actions (``actions``, :data:`BATCHED_ACTIONS`; fixed seed)
+    decide how many agents stay alive, and so the agent-steps a world-step
+    yields: ``"zero"`` (the default; coasting, the worlds stay full),
+    ``"small"`` (uniform in ``[-0.3, 0.3]``; ``random_actions=True`` means
+    this) and ``"uniform"`` (in ``[-1, 1]``, an untrained policy: at stop
+    43 the 16 worlds of 20 held about 6 live agents on average, 32k-33k
+    agent-steps per CPU s against 113k with zeros, for a world-step that
+    costs about as much). ``warmup`` batch steps run before the timed
+    ``steps`` (with random actions the first seconds of an episode still
+    have most agents alive: time past them, over several episodes).
 
     Steady state: the same run (same seed, same steps) is made twice and
     only the second is timed. The first loads every compiled kernel the
@@ -150,6 +171,14 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
     batch steps before stop 38."""
     from icv_envs.vector import BatchedWorlds
 
+    kind = actions if actions is not None else ("small" if random_actions else "zero")
+    if kind not in BATCHED_ACTIONS:
+        raise ValueError(f"actions = {actions!r}; allowed: {list(BATCHED_ACTIONS)}")
+    if actions is not None and random_actions and kind != "small":
+        raise ValueError(f"random_actions=True means actions='small'; got actions={actions!r} too")
+    if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
+        raise ValueError(f"warmup = {warmup!r}; allowed: an integer >= 0")
+    bound = {"small": 0.3, "uniform": 1.0}.get(kind)
     cfg = {"vehicles_count": int(vehicles), "initial_position": None, **(config or {})}
     for timed in (False, True):
         bw = BatchedWorlds(worlds, config=cfg, seed=seed, expert=expert)
@@ -157,19 +186,22 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
         acts = np.zeros((worlds, bw.K, 2), dtype=np.float32)
         rng = np.random.default_rng(seed)
         agent_steps = 0
-        c0, t0 = time.process_time(), time.perf_counter()
-        for _ in range(steps):
+        for i in range(warmup + steps):
+            if i == warmup:
+                c0, t0 = time.process_time(), time.perf_counter()
             if expert:
                 acts = bw.expert_actions
-            elif random_actions:
-                acts = rng.uniform(-0.3, 0.3, size=(worlds, bw.K, 2)).astype(np.float32)
-            agent_steps += int(bw.mask.sum())
+            elif bound is not None:
+                acts = rng.uniform(-bound, bound, size=(worlds, bw.K, 2)).astype(np.float32)
+            if i >= warmup:
+                agent_steps += int(bw.mask.sum())
             bw.step(acts)
         cpu, wall = time.process_time() - c0, time.perf_counter() - t0
         bw.close()
     return {"worlds": int(worlds), "vehicles_per_world": int(vehicles), "expert": bool(expert),
-            "agent_steps": agent_steps, "agent_steps_per_cpu_s": agent_steps / cpu,
-            "agent_steps_per_wall_s": agent_steps / wall}
+            "actions": "expert" if expert else kind, "agent_steps": agent_steps,
+            "agent_steps_per_cpu_s": agent_steps / cpu, "agent_steps_per_wall_s": agent_steps / wall,
+            "world_steps_per_cpu_s": worlds * steps / cpu, "live_agents_per_world": agent_steps / (worlds * steps)}
 
 
 def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096, seed: int = 0,
@@ -192,14 +224,23 @@ def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096
     icv = rows[ICV_ID]
     res = {"bench": "rl-train", "vehicles": int(vehicles), "icv_envs": icv}
     if batched:
-        for key, ex in (("batched_learned_actions", False), ("batched_expert_actions", True)):
+        for key, ex, kind in (("batched_learned_actions", False, "zero"), ("batched_expert_actions", True, None),
+                              ("batched_untrained_actions", False, "uniform")):
             # 16 worlds: one batch step is 16 env steps of 20 agents; env_steps / 20
             # batch steps (100 by default) time about as many world steps as the env alone
-            res[key] = b = batched_sps(vehicles, expert=ex, seed=seed, steps=max(2, env_steps // 20))
+            # (random actions: 300 steps timed after 100, past the first seconds of the episodes, in which
+            # most agents are still alive, by default)
+            n = max(2, env_steps // 20)
+            res[key] = b = batched_sps(vehicles, expert=ex, seed=seed, steps=3 * n if kind == "uniform" else n,
+                                       actions=kind, warmup=n if kind == "uniform" else 0)
             if echo is not None:
-                echo(f"batched worlds ({b['worlds']} x {vehicles} agents, {'expert' if ex else 'external'} actions): "
+                what = {"zero": "external zero actions", None: "the expert's actions",
+                        "uniform": "external uniform random actions, an untrained policy"}[kind]
+                bar = {"zero": "; bar 200,000", None: "; bar 100,000", "uniform": ""}[kind]
+                echo(f"batched worlds ({b['worlds']} x {vehicles} agents, {what}): "
                      f"{b['agent_steps_per_cpu_s']:,.0f} agent-steps per CPU s "
-                     f"({b['agent_steps_per_wall_s']:,.0f} per wall s); bar {100_000 if ex else 200_000:,}")
+                     f"({b['agent_steps_per_wall_s']:,.0f} per wall s; {b['live_agents_per_world']:.1f} live agents "
+                     f"per world on average, {b['world_steps_per_cpu_s']:,.0f} world-steps per CPU s){bar}")
         if reference:
             # highway-fast-v0 controls one vehicle: one agent-step per env step
             res["highway_fast_v0_agent_steps_per_s"] = rows[REFERENCE_ID]["env_sps"]
