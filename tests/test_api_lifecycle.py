@@ -375,3 +375,25 @@ def test_cli_bench_options_of_another_target_are_errors(argv, match, capsys):
         code = exc.code
     assert code == 2
     assert pytest.importorskip("re").search(match, capsys.readouterr().err)
+
+
+def test_parallel_reset_builds_no_ego_observation_and_keeps_a_replaced_reset(monkeypatch):
+    """Stop 43: the multi-agent reset no longer builds the single ego's
+    observation and info (it discarded them), and gives the same
+    observations and infos as before; a ``reset`` replaced on a subclass or
+    the instance is still the one called."""
+    from icv_envs.envs import highway_formation_v0
+    from icv_envs.envs.ego import EgoEnv
+
+    a = highway_formation_v0.parallel_env(vehicles_count=6)
+    calls = []
+    real = EgoEnv._ego_obs_info
+    monkeypatch.setattr(EgoEnv, "_ego_obs_info", lambda self: calls.append(1) or real(self))
+    obs_a, inf_a = a.reset(seed=4)
+    assert calls == []
+    b = highway_formation_v0.parallel_env(vehicles_count=6)
+    b.core.reset = lambda **kw: (calls.append("own"), EgoEnv.reset(b.core, **kw))[1]
+    obs_b, inf_b = b.reset(seed=4)
+    assert calls[0] == "own" and 1 in calls  # the replaced reset ran, and with it the ego's observation
+    assert list(obs_a) == list(obs_b) and all(np.array_equal(obs_a[k], obs_b[k]) for k in obs_a)
+    assert all(np.array_equal(inf_a[k]["expert_action"], inf_b[k]["expert_action"]) for k in inf_a)

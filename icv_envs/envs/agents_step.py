@@ -17,12 +17,17 @@ from typing import NamedTuple
 
 import numpy as np
 
+from icv_envs._hooks import hook_table, own_hooks
 from icv_envs.envs._kernels import expert_match_rows
 from icv_envs.envs.actions import ContinuousAction
 from icv_envs.envs.dict_edge import same_ids
+from icv_envs.envs.ego import EgoEnv
 from icv_envs.sim._kernels import controls_rows
 
 __all__ = ["AgentsStep", "StepRows"]
+
+#: the single-agent reset ``ma_reset`` stands for (:class:`~icv_envs.envs.ego.EgoEnv`'s)
+_RESET_HOOK = hook_table(EgoEnv, "reset")
 
 
 class StepRows(NamedTuple):
@@ -224,7 +229,15 @@ class AgentsStep:
 
     def ma_reset(self, seed: int | None = None, options: dict | None = None):
         self._ma_mode = True
-        self.reset(seed=seed, options=options)
+        if own_hooks(self, _RESET_HOOK):
+            # (EgoEnv.reset without the ego's observation and info, which this
+            # reset discarded; a reset replaced on a subclass or the instance
+            # is still called)
+            self._reset_world(seed, options)
+            if self.render_mode == "human":
+                self.render()
+        else:
+            self.reset(seed=seed, options=options)
         veh = self._vehicles()
         rows = np.arange(veh.n)
         agents = self._names(veh.vid.tolist())

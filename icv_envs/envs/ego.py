@@ -19,6 +19,16 @@ class EgoEnv:
     """Gymnasium ``reset`` / ``step`` of :class:`~icv_envs.envs.base.IcvAgentsEnv` for one ego (module docstring)."""
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        self._reset_world(seed, options)
+        obs, info = self._ego_obs_info()
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def _reset_world(self, seed: int | None, options: dict | None) -> None:
+        """:meth:`reset` up to the new world, without the ego's observation
+        and info (the multi-agent reset builds every agent's instead, from
+        stop 43: it discarded the ego's)."""
         gym.Env.reset(self, seed=seed, options=options)
         if options and "config" in options:
             self.configure(options["config"])
@@ -30,9 +40,11 @@ class EgoEnv:
         # same objects (and their seeded RNGs) unless the config changes them
         old = (self.observation_space, self.action_space)
         self.define_spaces()
-        if old[0] is not None and old[0] == self.observation_space:
+        # (the same object when the types were kept: no comparison, whose
+        # bounds test costs tens of microseconds a reset)
+        if old[0] is not None and old[0] is not self.observation_space and old[0] == self.observation_space:
             self.observation_space = old[0]
-        if old[1] is not None and old[1] == self.action_space:
+        if old[1] is not None and old[1] is not self.action_space and old[1] == self.action_space:
             self.action_space = old[1]
         self.possible_agents = [f"icv_{i}" for i in range(self._n_possible_agents())]
         self.update_metadata()
@@ -40,10 +52,6 @@ class EgoEnv:
         self.done = False
         self._act_type.reset()
         self._reset()
-        obs, info = self._ego_obs_info()
-        if self.render_mode == "human":
-            self.render()
-        return obs, info
 
     def _ego_row(self) -> int:
         veh = self._vehicles()
