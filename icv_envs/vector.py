@@ -54,6 +54,14 @@ from icv_envs.rl.envs import episode_finished
 __all__ = ["IcvVectorEnv", "BatchedWorlds"]
 
 
+def _plain_continuous(at) -> bool:
+    """Whether action type ``at`` turns actions into controls by clipping
+    them to [-1, 1] and nothing else: :class:`ContinuousAction` itself, its
+    ``controls`` not replaced on the instance (a subclass such as
+    ``FormationResidual`` adds the expert's action)."""
+    return type(at) is ContinuousAction and "controls" not in at.__dict__
+
+
 def _check_num(num: int, what: str) -> int:
     if not (isinstance(num, (int, np.integer)) and not isinstance(num, bool) and num >= 1):
         raise ValueError(f"{what} = {num!r}; allowed: an integer >= 1")
@@ -241,9 +249,6 @@ class BatchedWorlds:
         self._lut_identity = self._lut_dense and bool(np.array_equal(self._slot_of_vid, np.arange(K)))
         # continuous actions take the array path (ParallelEnv.step_rows: no per-agent dicts)
         self._rows = isinstance(self.envs[0].core._act_type, ContinuousAction)
-        # plain continuous actions (the controls are the clipped actions): the
-        # batch checks and clips all worlds' at once (ParallelEnv.step_controls)
-        self._plain = type(self.envs[0].core._act_type) is ContinuousAction
         self.single_observation_space = self.envs[0].observation_space(self.possible_agents[0])
         self.single_action_space = self.envs[0].action_space(self.possible_agents[0])
         obs_shape = self.single_observation_space.shape
@@ -345,16 +350,17 @@ class BatchedWorlds:
                 b, k = np.argwhere(bad)[0]
                 raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k].tolist()} "
                                  f"holds NaN or inf; allowed: finite values in [-1, 1]")
-        # every action finite and plain continuous: clipped once for the batch,
-        # each world steps from its rows (the values its own check and clip
-        # would give; from stop 43)
-        ctl = uclip(acts, -1.0, 1.0) if finite and self._plain and self._rows else None
+        # every action finite: clipped once for the batch, and each world whose
+        # action type is plain continuous steps from its rows (the values its
+        # own check and clip would give; from stop 43); the type is asked per
+        # world and step (a reset may bring another one with the same space)
+        ctl = uclip(acts, -1.0, 1.0) if finite and self._rows else None
         self.rewards[:] = 0.0
         self.terminated[:] = False
         self.truncated[:] = False
         reset = np.zeros(self.num_worlds, dtype=bool)
         for b, env in enumerate(self.envs):
-            if ctl is not None:
+            if ctl is not None and _plain_continuous(env.core._act_type):
                 out = env.step_controls(ctl[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
             elif self._rows:  # arrays through (the same agents and values as the dicts)
                 out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])

@@ -268,9 +268,9 @@ def test_batched_worlds_clip_once_for_the_batch(env_name, config):
     rng = np.random.default_rng(5)
     fast = BatchedWorlds(2, env=env_name, config=config, seed=2)
     slow = BatchedWorlds(2, env=env_name, config=config, seed=2)
-    assert fast._plain and slow._plain
-    slow._plain = False  # (each world checks and clips its own rows: step_rows)
     fast.reset(), slow.reset()
+    for env in slow.envs:  # (each world checks and clips its own rows: step_rows)
+        env.core._act_type.controls = type(env.core._act_type).controls.__get__(env.core._act_type)
     taken = []
     real = type(fast.envs[0]).step_controls
     for t in range(15):
@@ -298,3 +298,23 @@ def test_step_controls_checks_the_shape():
     env.reset(seed=0)
     with pytest.raises(ValueError, match=r"controls have shape \(3, 2\); allowed: \(4, 2\)"):
         env.step_controls(np.zeros((3, 2)))
+
+
+def test_batched_worlds_follow_a_changed_action_type():
+    """A world whose action type becomes FormationResidual (the same Box
+    space, so a reset accepts it) steps through its own controls (the
+    expert's action plus the bounded residual), not the batch's plain clip."""
+    from icv_envs.envs.highway_formation_v0 import parallel_env as pe
+
+    bw = BatchedWorlds(1, config={"vehicles_count": 6, "initial_position": None, "duration": 4.0}, seed=1)
+    bw.reset()
+    env = bw.envs[0]
+    env.core.configure({"action": {"type": "FormationResidual", "bound": 0.25}})
+    bw._reset_world(0)
+    ref = pe(vehicles_count=6, initial_position=None, duration=4.0, expert_in_info=False,
+             expert_driven_check=False, action={"type": "FormationResidual", "bound": 0.25})
+    ref.reset(seed=bw.episode_seed(0, 1))
+    acts = np.full((1, bw.K, 2), 0.5)
+    obs = bw.step(acts)[0]
+    o = ref.step_rows(np.full((ref.core._vehicles().n, 2), 0.5))
+    np.testing.assert_array_equal(obs[0, bw._slots_of_vid(o.vid)], o.obs)
