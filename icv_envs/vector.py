@@ -361,7 +361,7 @@ class BatchedWorlds:
         reset = np.zeros(self.num_worlds, dtype=bool)
         for b, env in enumerate(self.envs):
             if ctl is not None and _plain_continuous(env.core._act_type):
-                out = env.step_controls(ctl[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
+                out = env._step_controls(ctl[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
             elif self._rows:  # arrays through (the same agents and values as the dicts)
                 out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
             if self._rows:

@@ -261,7 +261,7 @@ def test_slot_lookup_names_only_the_vehicles_without_a_slot():
 def test_batched_worlds_clip_once_for_the_batch(env_name, config):
     """Stop 43: with plain continuous actions, all finite, the batch clips
     every world's actions at once and each world steps from its rows
-    (ParallelEnv.step_controls); otherwise (a NaN in an empty slot) each
+    (ParallelEnv._step_controls); otherwise (a NaN in an empty slot) each
     world checks and clips its own (step_rows). Both give what the worlds'
     own step_rows give: the same outputs, bit for bit, for actions far
     outside [-1, 1]."""
@@ -272,7 +272,7 @@ def test_batched_worlds_clip_once_for_the_batch(env_name, config):
     for env in slow.envs:  # (each world checks and clips its own rows: step_rows)
         env.core._act_type.controls = type(env.core._act_type).controls.__get__(env.core._act_type)
     taken = []
-    real = type(fast.envs[0]).step_controls
+    real = type(fast.envs[0])._step_controls
     for t in range(15):
         acts = rng.uniform(-3.0, 3.0, (2, fast.K, 2))
         slow_acts = acts.copy()
@@ -280,10 +280,10 @@ def test_batched_worlds_clip_once_for_the_batch(env_name, config):
             slow_acts[~slow.mask] = np.nan  # (ignored: empty slots)
         n_before = len(taken)
         for env in fast.envs:
-            env.step_controls = lambda c, env=env: taken.append(1) or real(env, c)
+            env._step_controls = lambda c, env=env: taken.append(1) or real(env, c)
         a = fast.step(acts)
         for env in fast.envs:
-            del env.step_controls
+            del env._step_controls
         b = slow.step(slow_acts)
         assert len(taken) - n_before == 2  # (every world of the fast batch took the batch's clip)
         for x, y in zip(a[:5], b[:5]):
@@ -294,10 +294,10 @@ def test_batched_worlds_clip_once_for_the_batch(env_name, config):
 def test_step_controls_checks_the_shape():
     env = parallel_env(vehicles_count=4)
     with pytest.raises(RuntimeError, match="reset"):
-        env.step_controls(np.zeros((4, 2)))
+        env._step_controls(np.zeros((4, 2)))
     env.reset(seed=0)
     with pytest.raises(ValueError, match=r"controls have shape \(3, 2\); allowed: \(4, 2\)"):
-        env.step_controls(np.zeros((3, 2)))
+        env._step_controls(np.zeros((3, 2)))
 
 
 def test_batched_worlds_follow_a_changed_action_type():

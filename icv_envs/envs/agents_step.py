@@ -2,7 +2,7 @@
 10, item 5: one home for it), a mixin of
 :class:`icv_envs.envs.base.IcvAgentsEnv`: ``ma_step`` (the PettingZoo
 dicts in: action checks and conversion), ``ma_step_rows`` and
-``ma_step_controls`` (arrays in, :class:`StepRows` out), ``ma_reset`` and
+``_ma_step_controls`` (arrays in, :class:`StepRows` out), ``ma_reset`` and
 ``_ma_advance``, the step itself (physics, the world's reaction,
 observations, rewards, infos, departures, removals, spawns and the expert's
 labels, in that order) with the hooks the envs supply. Moved out of
@@ -408,14 +408,15 @@ class AgentsStep:
         acts = np.asarray(at.controls(np.arange(n), arr), dtype=np.float64) if n else np.zeros((0, 2))
         return self._ma_advance(acts, arrays=True)
 
-    def ma_step_controls(self, controls: np.ndarray) -> StepRows:
+    def _ma_step_controls(self, controls: np.ndarray) -> StepRows:
         """:meth:`ma_step_rows` from the normalised controls of its rows: a
         fresh ``(n, 2)`` float64 array of finite values in [-1, 1], row
         ``i`` the vehicle in traffic row ``i``, as plain continuous actions
         give them (:class:`~icv_envs.envs.actions.ContinuousAction` clips).
         For a caller that checked and clipped a whole batch at once
         (:class:`icv_envs.vector.BatchedWorlds`, from stop 43); the shape is
-        checked, the values are not."""
+        checked, the values are not, so it is not public API (``step_rows``
+        checks them)."""
         if self.world is None:
             raise RuntimeError("call reset() before step()")
         n = self._vehicles().n

@@ -106,13 +106,13 @@ class CoreParallelEnv(ParallelEnv):
             raise RuntimeError("call reset() before step()")
         return self._rows_done(self.core.ma_step_rows(actions))
 
-    def step_controls(self, controls):
+    def _step_controls(self, controls):
         """:meth:`step_rows` from checked and clipped plain continuous
-        actions (``core.ma_step_controls``: a batch that checked all its
+        actions (``core._ma_step_controls``: a batch that checked all its
         worlds' actions at once)."""
         if self.core.world is None:
             raise RuntimeError("call reset() before step()")
-        return self._rows_done(self.core.ma_step_controls(controls))
+        return self._rows_done(self.core._ma_step_controls(controls))
 
     def _rows_done(self, out):
         """The bookkeeping of :meth:`step` after an array step: the cycle
