@@ -251,42 +251,16 @@ def test_intersection_post_rows_equal_the_separate_calls(config, random_share):
     bit, step after step (where it is taken: counted), with crashes and
     other observation and reward settings."""
     import icv_envs.envs.intersection_rows as ir
-    from icv_envs.envs.base import IcvAgentsEnv
+    from post_rows_check import post_rows_checked
 
     env = intersection_v0.parallel_env(duration=80.0, **config)
     obs, infos = env.reset(seed=3)
-    core = env.core
     rng = np.random.default_rng(3)
-    fused = ir.IntersectionRows._post_rows
-    seen = {"steps": 0, "crashed": 0, "fused": 0}
-    kernel = ir.intersection_post_rows
-
-    def counted(*args):
-        seen["fused"] += 1
-        return kernel(*args)
-
-    def checked(self, rows, crashed_now):
-        got = fused(self, rows, crashed_now)
-        want = IcvAgentsEnv._post_rows(self, rows, crashed_now)
-        assert got[0].tobytes() == np.asarray(want[0], dtype=np.float64).tobytes()
-        assert list(got[1]) == list(want[1])
-        for k in want[1]:
-            assert got[1][k].tobytes() == np.asarray(want[1][k], dtype=np.float64).tobytes()
-        assert got[2].dtype == want[2].dtype and got[2].shape == want[2].shape
-        assert got[2].tobytes() == want[2].tobytes()
-        seen["steps"] += 1
-        seen["crashed"] += int(np.sum(crashed_now))
-        return got
-
-    ir.intersection_post_rows = counted
-    try:
-        core._post_rows = checked.__get__(core)
+    with post_rows_checked(env.core, ir, "intersection_post_rows", ir.IntersectionRows._post_rows) as seen:
         while env.agents:
             acts = {a: (rng.uniform(-1, 1, 2).astype(np.float32) if rng.random() < random_share
                         else infos[a]["expert_action"]) for a in env.agents}
             obs, rew, term, trunc, infos = env.step(acts)
-    finally:
-        ir.intersection_post_rows = kernel
     assert seen["steps"] > 300 and seen["fused"] == seen["steps"], seen
     if random_share >= 0.4:
         assert seen["crashed"] > 0

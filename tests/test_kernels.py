@@ -1355,43 +1355,18 @@ def test_formation_post_rows_equal_the_separate_calls(config, random_share):
     after step, on roads without exits (where it is taken: counted), with
     crashes, lane ends and other observation and reward settings."""
     import icv_envs.envs.highway_formation as hf
-    from icv_envs.envs.base import IcvAgentsEnv
     from icv_envs.envs.highway_formation_v0 import parallel_env
+    from post_rows_check import post_rows_checked
 
     env = parallel_env(**config)
     env.reset(seed=5)
-    core = env.core
     rng = np.random.default_rng(5)
-    fused = hf.HighwayFormationEnv._post_rows
-    seen = {"steps": 0, "crashed": 0, "fused": 0}
-    kernel = hf.formation_post_rows
-
-    def counted(*args):
-        seen["fused"] += 1
-        return kernel(*args)
-
-    def checked(self, rows, crashed_now):
-        got = fused(self, rows, crashed_now)
-        want = IcvAgentsEnv._post_rows(self, rows, crashed_now)
-        assert got[0].tobytes() == np.asarray(want[0], dtype=np.float64).tobytes()
-        assert list(got[1]) == list(want[1])
-        for k in want[1]:
-            assert got[1][k].tobytes() == np.asarray(want[1][k], dtype=np.float64).tobytes()
-        assert got[2].dtype == want[2].dtype and got[2].tobytes() == want[2].tobytes()
-        seen["steps"] += 1
-        seen["crashed"] += int(np.sum(crashed_now))
-        return got
-
-    hf.formation_post_rows = counted
-    try:
-        core._post_rows = checked.__get__(core)
+    with post_rows_checked(env.core, hf, "formation_post_rows", hf.HighwayFormationEnv._post_rows) as seen:
         for _ in range(120):
             if not env.agents:
                 break
             ex = env.expert_actions()
             env.step({a: (rng.uniform(-1, 1, 2) if rng.random() < random_share else ex[a]) for a in env.agents})
-    finally:
-        hf.formation_post_rows = kernel
     assert seen["steps"] > 20 and seen["fused"] == seen["steps"]
     if random_share >= 0.5:
         assert seen["crashed"] > 0
