@@ -92,11 +92,10 @@ class Regrouping:
             float(lay.R1))
         if len(yk):
             self._note_yields(f.vid[rows[yk]].tolist(), f.vid[yo].tolist())
-        u = rs.u[rows]
         start = rows[ok]
         if len(start):
             f.lc_lane[start] = nxt[ok]
-            f.lc_u0[start] = u[ok]
+            f.lc_u0[start] = rs.u[start]
             f.lc_lat0[start] = rs.lat_leg[start]
             f.lc_lat1[start] = (nxt[ok] + 0.5) * lay.lane_width
             f.lc_len[start] = length[ok]

@@ -17,6 +17,7 @@ import numba as nb
 import numpy as np
 
 from icv_envs.policies._kernels.corridors import corridor_neighbours
+from icv_envs.policies._kernels.lane_changes import _idm_interaction
 from icv_envs.sim._kernels.physics import npy_maximum, npy_minimum
 
 __all__ = ["approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_state",
@@ -171,18 +172,6 @@ def segment_bounds(rows, sizes, dist):
     return out
 
 
-@nb.njit(cache=True, inline="always")
-def _idm_interaction(v, gap, dv, s0, T, sqrt_ab2, a_max):
-    """IDM's acceleration without the free-road term, as
-    :func:`icv_envs.sim.traffic.idm_acceleration` with ``free_term=False``
-    computes it elementwise: ``s* = s0 + max(0, v T + v dv / sqrt_ab2)``
-    (``sqrt_ab2 = 2 sqrt(a_max b)``), ``a_max (1 - (s* / max(gap, 0.1))^2)``
-    (numpy's maximum, numpy's square: one product)."""
-    s_star = s0 + npy_maximum(0.0, v * T + v * dv / sqrt_ab2)
-    r = s_star / npy_maximum(gap, 0.1)
-    return a_max * (1.0 - r * r)
-
-
 @nb.njit(cache=True)
 def lane_change_gaps(rows, nxt, leg, speed, u, dist, vlen, keys, corr, crow, coord, big, lc_duration, lc_min_length,
                      lc_max_length, lc_stop_room, min_length_ok, lc_min_gap, b_safe, a_max, sqrt_ab2, member_T, member_s0,
@@ -240,8 +229,8 @@ def lane_change_gaps(rows, nxt, leg, speed, u, dist, vlen, keys, corr, crow, coo
         gap_r = u[r] - fc[q] - 0.5 * (vlen[fr[q]] + ln) if fr[q] >= 0 else np.inf
         vl = speed[lr[q]] if lr[q] >= 0 else v
         vf = speed[fr[q]] if fr[q] >= 0 else 0.0
-        own = _idm_interaction(v, gap_f, v - vl, member_s0, member_T, sqrt_ab2, a_max)
-        fol = _idm_interaction(vf, gap_r, vf - v, member_s0, member_T, sqrt_ab2, a_max)
+        own = _idm_interaction(v, gap_f, v - vl, member_T, a_max, member_s0, sqrt_ab2)
+        fol = _idm_interaction(vf, gap_r, vf - v, member_T, a_max, member_s0, sqrt_ab2)
         possible = ok[q]
         ok[q] = possible and gap_f > lc_min_gap and gap_r > lc_min_gap and own > -b_safe and fol > -b_safe
         if possible and not ok[q] and dist[r] > R1 and speed[r] >= 2.0:
