@@ -30,25 +30,44 @@ class IntersectionRows:
 
     def _features(self) -> np.ndarray:
         """Per-vehicle absolute features (n, F) before normalisation."""
-        w = self.world
-        f = w.fleet
-        lay = self.layout
-        rs = w.route()
-        has, d, dv, go = self.expert.references(w)
         # (compiled: sim/_kernels/observation.intersection_feature_rows, the
         # heading's cosine and sine from numpy; the array code it replaced is
         # frozen in tests/test_expert_kernels.py)
-        F = intersection_feature_rows(rs.cx, rs.cy, f.speed, np.cos(f.heading), np.sin(f.heading), rs.dist,
-                                      np.asarray(has, dtype=bool), np.asarray(d, dtype=np.float64),
-                                      np.asarray(dv, dtype=np.float64), rs.phase, rs.lat_leg, f.klane,
-                                      float(lay.lane_width), rs.lat, f.mv, float(lay.R1), float(lay.R2),
-                                      np.asarray(go, dtype=np.float64))
+        F = intersection_feature_rows(*self._feature_args())
         if getattr(self._obs_type, "extra", ()):  # OBS_EXTRA_FEATURES, in that order
             pd = self._perception_distance()
             gap, dv = self._leaders()
             has = np.isfinite(gap)
             F = np.column_stack([F, np.where(has, np.minimum(gap, pd), pd), np.where(has, dv, 0.0)])
         return F
+
+    def _feature_args(self) -> tuple:
+        """The arguments of :func:`~icv_envs.sim._kernels.intersection_feature_rows`
+        for the current state (the heading's ``cos``/``sin`` from NumPy; the
+        expert's references ``has``, ``d`` at 6 and 7), for :meth:`_features`
+        and :meth:`_post_rows`."""
+        w = self.world
+        f = w.fleet
+        lay = self.layout
+        rs = w.route()
+        has, d, dv, go = self.expert.references(w)
+        return (rs.cx, rs.cy, f.speed, np.cos(f.heading), np.sin(f.heading), rs.dist, np.asarray(has, dtype=bool),
+                np.asarray(d, dtype=np.float64), np.asarray(dv, dtype=np.float64), rs.phase, rs.lat_leg, f.klane,
+                float(lay.lane_width), rs.lat, f.mv, float(lay.R1), float(lay.R2), np.asarray(go, dtype=np.float64))
+
+    def _reward_args(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
+        """``(rows, lo, span, gap, crashed, ua)`` and the four weights of the
+        reward terms (``reward_speed_range`` or ``[0, v_max]`` as ``lo`` and
+        ``span``; the leaders' gaps; the last actions of ``rows``), for
+        :meth:`_rewards_rows` and :meth:`_post_rows`."""
+        c = self.config
+        wts = c["reward"]
+        lo, hi = c["reward_speed_range"] or (0.0, c["speed_range"][1])
+        rows = np.asarray(rows, dtype=np.int64)
+        ua = self._last_actions[rows] if len(self._last_actions) == self.world.fleet.n else np.zeros((len(rows), 2))
+        return ((rows, float(lo), float(hi) - float(lo), self._leaders()[0], np.asarray(crashed_now, dtype=bool),
+                 np.ascontiguousarray(ua, dtype=np.float64)),
+                (float(wts["progress"]), float(wts["safety"]), float(wts["comfort"]), float(wts["tracking"])))
 
     PERCEPTION_DISTANCE = 100.0
 
@@ -97,21 +116,12 @@ class IntersectionRows:
         corridors), comfort (``-(u_a^2 + u_s^2) / 2``), tracking
         (``exp(-(dx / 10 m)^2)`` of the reference error for vehicles with a
         reference, else 0)."""
-        c = self.config
-        w = self.world
-        f = w.fleet
-        wts = c["reward"]
-        lo, hi = c["reward_speed_range"] or (0.0, c["speed_range"][1])
-        gap = self._leaders()[0]
-        rows = np.asarray(rows, dtype=np.int64)
-        ua = self._last_actions[rows] if len(self._last_actions) == f.n else np.zeros((len(rows), 2))
+        (rows, lo, span, gap, crashed, ua), weights = self._reward_args(rows, crashed_now)
         # (compiled: sim/_kernels/observation.intersection_reward_rows, the
         # tracking term's exp from numpy; frozen in tests/test_expert_kernels.py)
         ex = np.exp(intersection_reward_pre(rows, F))
         total, progress, safety, comfort, track = intersection_reward_rows(
-            rows, f.speed, float(lo), float(hi) - float(lo), gap, np.asarray(crashed_now, dtype=bool),
-            np.ascontiguousarray(ua, dtype=np.float64), F, ex, float(wts["progress"]), float(wts["safety"]),
-            float(wts["comfort"]), float(wts["tracking"]))
+            rows, self.world.fleet.speed, lo, span, gap, crashed, ua, F, ex, *weights)
         return total, {"progress": progress, "safety": safety, "comfort": comfort, "tracking": track}
 
     def _leaders(self) -> tuple[np.ndarray, np.ndarray]:
@@ -149,27 +159,12 @@ class IntersectionRows:
         if (not len(rows) or type(obs_type) is not Kinematics or getattr(obs_type, "extra", ())
                 or not self._post_hooks or not own_hooks(self, self._post_hooks)):
             return IcvAgentsEnv._post_rows(self, rows, crashed_now)
-        c = self.config
-        w = self.world
-        f = w.fleet
-        lay = self.layout
-        rs = w.route()
-        wts = c["reward"]
-        lo, hi = c["reward_speed_range"] or (0.0, c["speed_range"][1])
-        has, d, dv, go = self.expert.references(w)
-        has = np.asarray(has, dtype=bool)
-        d = np.asarray(d, dtype=np.float64)
-        rows = np.asarray(rows, dtype=np.int64)
-        ua = self._last_actions[rows] if len(self._last_actions) == f.n else np.zeros((len(rows), 2))
-        idx, V, s_abs, s_rel, absolute, normalize, clip = obs_type.kernel_options()
+        fa = self._feature_args()
+        ra, weights = self._reward_args(rows, crashed_now)
+        V = obs_type.V
         T, obs = intersection_post_rows(
-            rs.cx, rs.cy, f.speed, np.cos(f.heading), np.sin(f.heading), rs.dist, has, d,
-            np.asarray(dv, dtype=np.float64), rs.phase, rs.lat_leg, f.klane, float(lay.lane_width), rs.lat, f.mv,
-            float(lay.R1), float(lay.R2), np.asarray(go, dtype=np.float64),
-            rows, float(lo), float(hi) - float(lo), self._leaders()[0], np.asarray(crashed_now, dtype=bool),
-            np.ascontiguousarray(ua, dtype=np.float64), np.exp(intersection_tracking_pre(rows, has, d)),
-            float(wts["progress"]), float(wts["safety"]), float(wts["comfort"]), float(wts["tracking"]),
-            min(V - 1, f.n - 1), float(obs_type.pd), idx, V, s_abs, s_rel, absolute, normalize, clip,
+            *fa, *ra, np.exp(intersection_tracking_pre(ra[0], fa[6], fa[7])), *weights,
+            min(V - 1, self.world.fleet.n - 1), float(obs_type.pd), *obs_type.kernel_options(),
             float(self._wrap_period()))
         total, progress, safety, comfort, track = T  # (row views)
         return total, {"progress": progress, "safety": safety, "comfort": comfort, "tracking": track}, obs
