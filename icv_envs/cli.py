@@ -76,27 +76,17 @@ API_CHOICES = ("dicts", "lean", "rows")  # bench highway-ramps --vs-sumo --api
 COMPARES = ("highway-ramps", "intersection")
 
 
-def _positive_float(name):
+def _positive_float(name, allow_zero: bool = False):
+    """A parser of a finite number > 0 (``allow_zero``: >= 0) for option ``name``."""
+    bound = ">= 0" if allow_zero else "> 0"
+
     def parse(text):
         try:
             v = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number > 0, got {text!r}") from None
-        if not v > 0 or v != v or v == float("inf"):
-            raise argparse.ArgumentTypeError(f"{name} must be a finite number > 0, got {text!r}")
-        return v
-
-    return parse
-
-
-def _nonnegative_float(name):
-    def parse(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number >= 0, got {text!r}") from None
-        if not v >= 0 or v == float("inf"):
-            raise argparse.ArgumentTypeError(f"{name} must be a finite number >= 0, got {text!r}")
+            raise argparse.ArgumentTypeError(f"{name} must be a number {bound}, got {text!r}") from None
+        if not (v >= 0 if allow_zero else v > 0) or v != v or v == float("inf"):
+            raise argparse.ArgumentTypeError(f"{name} must be a finite number {bound}, got {text!r}")
         return v
 
     return parse
@@ -241,7 +231,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--vgr", type=float, default=None, help="highway-ramps: vehicles/s per on-ramp (default 1/3)")
     b.add_argument("--throughput", type=float, default=None,
                    help="intersection: vehicles/h (default 2200: about 30-85 vehicles in the zones, 50 on average)")
-    b.add_argument("--warmup", type=_nonnegative_float("--warmup"), default=None,
+    b.add_argument("--warmup", type=_positive_float("--warmup", allow_zero=True), default=None,
                    help="intersection: simulated seconds before the timing starts, per seed (default 100)")
     b.add_argument("--seeds", type=_positive_int("--seeds"), default=None,
                    help="intersection: number of seeds, 0 .. N-1 (default 3)")
