@@ -22,7 +22,7 @@ from icv_envs.rl.bench import batched_sps
 
 def rate(check: bool, worlds: int, vehicles: int, steps: int) -> float:
     r = batched_sps(vehicles, worlds, steps, expert=False, seed=0, config={"expert_driven_check": check},
-                    random_actions=True)
+                    actions="small")
     return r["agent_steps_per_cpu_s"]
 
 

@@ -51,8 +51,8 @@ def test_batched_sps_times_one_run_of_the_same_steps():
 
 
 def test_batched_sps_action_kinds():
-    """Stop 43: the external actions are zeros, uniform in [-0.3, 0.3]
-    (``random_actions=True`` too) or uniform in [-1, 1] (an untrained
+    """Stop 43: the external actions are zeros (the default), uniform in
+    [-0.3, 0.3] or uniform in [-1, 1] (an untrained
     policy), each counted as a manual run with the same draws counts them;
     the live agents per world and the world-steps are reported; anything
     else is an error naming the allowed kinds."""
@@ -70,11 +70,9 @@ def test_batched_sps_action_kinds():
             bw.step(rng.uniform(-bound, bound, size=(2, bw.K, 2)).astype(np.float32))
         assert res["agent_steps"] == n > 0 and res["actions"] == kind
         assert res["live_agents_per_world"] == n / 12 and res["world_steps_per_cpu_s"] > 0
-    assert batched_sps(vehicles=5, worlds=2, steps=3, seed=3, random_actions=True)["actions"] == "small"
+    assert batched_sps(vehicles=5, worlds=2, steps=3, seed=3)["actions"] == "zero"
     with pytest.raises(ValueError, match=r"actions = 'chaos'; allowed: \['zero', 'small', 'uniform'\]"):
         batched_sps(vehicles=5, worlds=2, steps=3, actions="chaos")
-    with pytest.raises(ValueError, match="random_actions=True means actions='small'"):
-        batched_sps(vehicles=5, worlds=2, steps=3, actions="uniform", random_actions=True)
 
 
 def test_batched_sps_warmup_is_not_counted():

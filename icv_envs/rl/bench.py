@@ -140,8 +140,7 @@ BATCHED_ACTIONS = ("zero", "small", "uniform")
 
 
 def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: bool = False, seed: int = 0,
-                config: dict | None = None, random_actions: bool = False, actions: str | None = None,
-                warmup: int = 0) -> dict:
+                config: dict | None = None, actions: str = "zero", warmup: int = 0) -> dict:
     """Agent-steps per second of :class:`icv_envs.vector.BatchedWorlds`:
     ``worlds`` HighwayFormation worlds of ``vehicles`` agents each, stepped
     together in this process. ``expert=False``: actions come from outside
@@ -155,8 +154,8 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
     The external actions (``actions``, :data:`BATCHED_ACTIONS`; fixed seed)
     decide how many agents stay alive, and so the agent-steps a world-step
     yields: ``"zero"`` (the default; coasting, the worlds stay full),
-    ``"small"`` (uniform in ``[-0.3, 0.3]``; ``random_actions=True`` means
-    this) and ``"uniform"`` (in ``[-1, 1]``, an untrained policy: at stop
+    ``"small"`` (uniform in ``[-0.3, 0.3]``; ``random_actions=True`` until
+    stop 43) and ``"uniform"`` (in ``[-1, 1]``, an untrained policy: at stop
     43 the 16 worlds of 20 held about 6 live agents on average, 32k-33k
     agent-steps per CPU s against 113k with zeros, for a world-step that
     costs about as much). ``warmup`` batch steps run before the timed
@@ -171,11 +170,9 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
     batch steps before stop 38."""
     from icv_envs.vector import BatchedWorlds
 
-    kind = actions if actions is not None else ("small" if random_actions else "zero")
+    kind = actions
     if kind not in BATCHED_ACTIONS:
         raise ValueError(f"actions = {actions!r}; allowed: {list(BATCHED_ACTIONS)}")
-    if actions is not None and random_actions and kind != "small":
-        raise ValueError(f"random_actions=True means actions='small'; got actions={actions!r} too")
     if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
         raise ValueError(f"warmup = {warmup!r}; allowed: an integer >= 0")
     bound = {"small": 0.3, "uniform": 1.0}.get(kind)
@@ -224,19 +221,17 @@ def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096
     icv = rows[ICV_ID]
     res = {"bench": "rl-train", "vehicles": int(vehicles), "icv_envs": icv}
     if batched:
-        for key, ex, kind in (("batched_learned_actions", False, "zero"), ("batched_expert_actions", True, None),
-                              ("batched_untrained_actions", False, "uniform")):
-            # 16 worlds: one batch step is 16 env steps of 20 agents; env_steps / 20
-            # batch steps (100 by default) time about as many world steps as the env alone
-            # (random actions: 300 steps timed after 100, past the first seconds of the episodes, in which
-            # most agents are still alive, by default)
-            n = max(2, env_steps // 20)
-            res[key] = b = batched_sps(vehicles, expert=ex, seed=seed, steps=3 * n if kind == "uniform" else n,
-                                       actions=kind, warmup=n if kind == "uniform" else 0)
+        # 16 worlds: one batch step is 16 env steps of 20 agents; env_steps / 20 batch steps (100 by
+        # default) time about as many world steps as the env alone; random actions: three times as many
+        # after as many untimed, past the first seconds of the episodes, in which most agents still live
+        n = max(2, env_steps // 20)
+        for key, ex, kind, steps, warmup, what, bar in (
+                ("batched_learned_actions", False, "zero", n, 0, "external zero actions", "; bar 200,000"),
+                ("batched_expert_actions", True, "zero", n, 0, "the expert's actions", "; bar 100,000"),
+                ("batched_untrained_actions", False, "uniform", 3 * n, n,
+                 "external uniform random actions, an untrained policy", "")):
+            res[key] = b = batched_sps(vehicles, expert=ex, seed=seed, steps=steps, actions=kind, warmup=warmup)
             if echo is not None:
-                what = {"zero": "external zero actions", None: "the expert's actions",
-                        "uniform": "external uniform random actions, an untrained policy"}[kind]
-                bar = {"zero": "; bar 200,000", None: "; bar 100,000", "uniform": ""}[kind]
                 echo(f"batched worlds ({b['worlds']} x {vehicles} agents, {what}): "
                      f"{b['agent_steps_per_cpu_s']:,.0f} agent-steps per CPU s "
                      f"({b['agent_steps_per_wall_s']:,.0f} per wall s; {b['live_agents_per_world']:.1f} live agents "
