@@ -1,5 +1,5 @@
 """Whether an object's hooks are still its class's own: the guard of the
-one-call paths (``HighwayFormationEnv._post_rows``,
+one-call paths (``HighwayRows._post_rows``, the highway env's,
 ``FormationExpert.compute``), which stand for several overridable methods
 and are taken only while none of them is replaced, on a subclass, on the
 class itself (a monkeypatch) or on the instance.

@@ -1354,14 +1354,14 @@ def test_formation_post_rows_equal_the_separate_calls(config, random_share):
     methods' rewards, reward components and observations bit for bit, step
     after step, on roads without exits (where it is taken: counted), with
     crashes, lane ends and other observation and reward settings."""
-    import icv_envs.envs.highway_formation as hf
+    import icv_envs.envs.highway_rows as hf
     from icv_envs.envs.highway_formation_v0 import parallel_env
     from post_rows_check import post_rows_checked
 
     env = parallel_env(**config)
     env.reset(seed=5)
     rng = np.random.default_rng(5)
-    with post_rows_checked(env.core, hf, "formation_post_rows", hf.HighwayFormationEnv._post_rows) as seen:
+    with post_rows_checked(env.core, hf, "formation_post_rows", hf.HighwayRows._post_rows) as seen:
         for _ in range(120):
             if not env.agents:
                 break
@@ -1419,7 +1419,8 @@ def test_formation_post_rows_not_taken_where_it_does_not_apply():
     """The one-pass path is left for the separate calls on a road with exits,
     with another observation type and when a hook is overridden (on a
     subclass or on the instance): none of them reaches the kernel."""
-    import icv_envs.envs.highway_formation as hf
+    import icv_envs.envs.highway_rows as hf
+    from icv_envs.envs.highway_formation import HighwayFormationEnv
     from icv_envs.envs.highway_formation_v0 import parallel_env
 
     calls = []
@@ -1436,21 +1437,22 @@ def test_formation_post_rows_not_taken_where_it_does_not_apply():
         env.core._rewards_rows = type(env.core)._rewards_rows.__get__(env.core)  # an instance override
         env.step({a: env.expert_actions()[a] for a in env.agents})
 
-        class Sub(hf.HighwayFormationEnv):
+        class Sub(HighwayFormationEnv):
             def _features(self):
                 return super()._features()
 
         sub = Sub(config={"vehicles_count": 6})
         sub.ma_reset(seed=0)
         sub.ma_step({f"icv_{v}": a for v, a in zip(sub.world.traffic.vid.tolist(), sub.expert_actions())})
-        orig = hf.HighwayFormationEnv._neighbours  # a replacement on the class itself
+        orig = HighwayFormationEnv._neighbours  # a replacement on the class itself
         env = parallel_env(vehicles_count=6)
         env.reset(seed=0)
-        hf.HighwayFormationEnv._neighbours = lambda self, *a: orig(self, *a)
+        HighwayFormationEnv._neighbours = lambda self, *a: orig(self, *a)
         try:
             env.step({a: env.expert_actions()[a] for a in env.agents})
         finally:
-            hf.HighwayFormationEnv._neighbours = orig
+            del HighwayFormationEnv._neighbours  # (the mixin's, HighwayRows._neighbours, again)
+        assert HighwayFormationEnv._neighbours is hf.HighwayRows._neighbours
         assert calls == []
         env = parallel_env(vehicles_count=6)  # the control: the plain env takes it
         env.reset(seed=0)

@@ -19,42 +19,23 @@ import numpy as np
 
 from highway_env.envs.common.abstract import AbstractEnv
 
-from icv_envs._hooks import hook_table, own_hooks
+from icv_envs._hooks import hook_table
 from icv_envs.envs.actions import action_to_controls, controls_to_action  # noqa: F401  (re-exported)
 from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.highway_config import INFO_KEYS, UNUSED_KEYS, check_config, config_entries
-from icv_envs.envs.observations import Kinematics, merge_observation_config
+from icv_envs.envs.highway_rows import OBS_FEATURES, POST_HOOK_NAMES, STATE_FEATURES, HighwayRows
+from icv_envs.envs.observations import merge_observation_config
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
 from icv_envs.formation.targets import formation_length, formation_targets
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
-from icv_envs.sim._kernels import (formation_feature_rows, formation_post_rows, formation_reward_terms,
-                                   nearest_along_road)
-from icv_envs._ufuncs import clip as uclip
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.road import Obstacle, OffRamp, OnRamp, RoadLayout
 from icv_envs.sim.world import StepEvents, World
 
 __all__ = ["HighwayFormationEnv", "OBS_FEATURES", "STATE_FEATURES", "action_to_controls", "controls_to_action"]
 
-OBS_FEATURES = (
-    "presence",
-    "x",
-    "y",
-    "vx",
-    "vy",
-    "cos_h",
-    "sin_h",
-    "target_dx",
-    "target_dy",
-    "target_dv",
-    "member",
-    "exit_dx",
-    "lane_end_dx",
-)
-STATE_FEATURES = OBS_FEATURES
 
-
-class HighwayFormationEnv(IcvAgentsEnv):
+class HighwayFormationEnv(HighwayRows, IcvAgentsEnv):
     """Multi-lane formation control of ICVs on a straight highway.
 
     See :mod:`icv_envs.envs.highway_formation_v0` for the full documentation.
@@ -275,157 +256,9 @@ class HighwayFormationEnv(IcvAgentsEnv):
             w.invalidate()
         return new
 
-    # ------------------------------------------------------------------ spaces
-
-    # ------------------------------------------------------------ observations
-    def _features(self) -> np.ndarray:
-        """Per-vehicle feature rows in absolute terms (n, F), before
-        normalisation: x, y, vx, vy, cos, sin, target dx, dy, dv, member."""
-        tr = self.world.traffic
-        road = self.world.road
-        # compiled, the same arithmetic as the array code it replaced
-        # (icv_envs.sim._kernels.formation_feature_rows; tests/test_kernels.py)
-        args = self._feature_args()
-        F = formation_feature_rows(*args)
-        # exit_dx: metres to the own exit's diverge segment / 1000 (1 = no exit);
-        # lane_end_dx (column 12): metres to the end of the current lane / 200 (1 = none near)
-        if road.n_exits:
-            cx = args[0]
-            has = tr.exit >= 0
-            if has.any():
-                F[has, 11] = road.exit_ahead(tr.exit[has], cx[has]) / 1000.0
-        return F
-
-    def _feature_args(self) -> tuple:
-        """The arguments of :func:`~icv_envs.sim._kernels.formation_feature_rows`
-        for the current state (the headings' ``cos``/``sin`` from NumPy), for
-        :meth:`_features` and :meth:`_post_rows`."""
-        w = self.world
-        tr = w.traffic
-        road = w.road
-        cx, cy = tr.center()
-        x_ref, lane_ref, v_ref, member = w.manager.references(tr)
-        period = float(road.length) if road.periodic else -1.0
-        return (cx, cy, tr.speed, *tr.heading_cos_sin(), x_ref, lane_ref, v_ref, member,
-                float(road.lane_width), int(road.total_lanes), period, road.n_lanes, road.lane_ends, road._ob_lane,
-                road._ob_lo, road._ob_hi, road._ramp_iv)
-
-    def _obs_scales(self) -> tuple[np.ndarray, np.ndarray]:
-        """Feature scales (the module docstring's table): absolute (row 0) and relative (other rows)."""
-        c = self.config
-        w = self.world
-        vmax = float(c["speed_range"][1])
-        pd = float(self._obs_type.pd) if hasattr(self._obs_type, "pd") else self.PERCEPTION_DISTANCE
-        # kept per road and scales (a reset builds a new road), read-only
-        kept = getattr(self, "_obs_scales_kept", None)
-        if kept is not None and kept[0] is w.road and kept[1] == (vmax, pd):
-            return kept[2]
-        width = w.road.total_lanes * w.road.lane_width
-        scale_abs = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
-        scale_rel = np.array([1, pd, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
-        scale_abs.flags.writeable = scale_rel.flags.writeable = False
-        self._obs_scales_kept = (w.road, (vmax, pd), (scale_abs, scale_rel))
-        return scale_abs, scale_rel
-
-    def _wrap_dx(self, dx):
-        return self.world.road.wrap(dx)
-
-    def _wrap_period(self) -> float | None:
-        if type(self)._wrap_dx is not HighwayFormationEnv._wrap_dx:
-            return None  # a subclass folds differently: the array path
-        road = self.world.road
-        return float(road.length) if road.periodic else -1.0
-
-    def _neighbours(self, rows: np.ndarray, F: np.ndarray, K: int, pd: float):
-        """The ``K`` nearest vehicles by longitudinal distance within ``pd``
-        (round the ring each vehicle at most once), nearest first; ties: rear first."""
-        # compiled (icv_envs.sim._kernels.nearest_along_road)
-        return nearest_along_road(np.ascontiguousarray(F[:, 1]), np.asarray(rows, dtype=np.int64),
-                                  *self._neighbour_args(K, pd))
-
-    def _neighbour_args(self, K: int, pd: float) -> tuple:
-        """:func:`~icv_envs.sim._kernels.nearest_along_road`'s arguments after
-        the x column and the rows (for :meth:`_neighbours` and :meth:`_post_rows`)."""
-        road = self.world.road
-        return int(K), float(pd), bool(road.periodic), float(road.length)
-
-    def _rewards_rows(self, rows: np.ndarray, crashed_now: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, dict]:
-        """Per-agent reward: weighted sum of progress (speed / v_max), safety
-        (-1 on a collision, else minus the headway shortfall
-        ``max(0, 1 - gap / (s0 + v T))`` with ``s0 = 2 m``, ``T = 1 s``),
-        comfort (minus the mean of the squared normalised acceleration and
-        steering) and formation keeping (members:
-        ``exp(-(dx / L_s)^2 - (dy / lane_width)^2)`` of the target error; free
-        vehicles: 0)."""
-        # compiled but the exp (icv_envs.sim._kernels.formation_reward_terms; the
-        # array code it replaced is its reference in tests/test_kernels.py)
-        args = self._reward_args(rows, crashed_now)
-        return self._reward_total(formation_reward_terms(*args[:6], F, *args[6:]))
-
-    def _reward_args(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
-        """:func:`~icv_envs.sim._kernels.formation_reward_terms`' arguments but
-        the feature rows (which come after the sixth), for
-        :meth:`_rewards_rows` and :meth:`_post_rows`."""
-        c = self.config
-        w = self.world
-        tr = w.traffic
-        wts = c["reward"]
-        gap, _ = w._own_lane_gaps_kept()  # (the kernels only read it)
-        ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
-        return (np.asarray(rows, dtype=np.int64), tr.speed, float(c["speed_range"][1]), gap,
-                np.asarray(crashed_now, dtype=bool), np.ascontiguousarray(ua, dtype=np.float64),
-                float(c["formation"]["spacing"]), float(w.road.lane_width), float(wts["progress"]),
-                float(wts["safety"]), float(wts["comfort"]))
-
-    def _reward_total(self, terms: tuple) -> tuple[np.ndarray, dict]:
-        """The reward and its components from the kernel's terms
-        ``(progress, safety, comfort, exponent, member, partial)``: the
-        formation term ``exp`` (NumPy's) for members, 0 for the others."""
-        progress, safety, comfort, expo, member, partial = terms
-        form = np.where(member, np.exp(expo), 0.0)
-        total = partial + self.config["reward"]["formation"] * form
-        return total, {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
-
-    def _post_rows(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
-        """:meth:`IcvAgentsEnv._post_rows` in one compiled call
-        (:func:`icv_envs.sim._kernels.formation_post_rows`: the kernels of
-        :meth:`_features`, :meth:`_rewards_rows` and the ``Kinematics``
-        observation with the arrays those methods give them; the ``exp`` of
-        the formation term from NumPy, as there), the same numbers bit for
-        bit (``tests/test_kernels.py``). Taken when the observation is
-        ``Kinematics``, the road has no exits (their column is written
-        between the features and the observation) and none of the hooks
-        it stands for (``_POST_HOOKS``) is replaced, on a subclass, on the
-        class or on the instance; otherwise the separate calls."""
-        road = self.world.road
-        obs_type = self._obs_type
-        if not len(rows) or road.n_exits or type(obs_type) is not Kinematics or not own_hooks(self, _POST_HOOKS):
-            return super()._post_rows(rows, crashed_now)
-        options = obs_type.kernel_options()  # (idx, V, s_abs, s_rel, absolute, normalize, clip)
-        T, member, obs = formation_post_rows(*self._feature_args(), *self._reward_args(rows, crashed_now),
-                                             *self._neighbour_args(options[1] - 1, obs_type.pd), *options,
-                                             float(self._wrap_period()))
-        progress, safety, comfort, expo, partial = T  # (row views)
-        total, parts = self._reward_total((progress, safety, comfort, expo, member, partial))
-        return total, parts, obs
-
-    def global_state(self, slots: list[str]) -> np.ndarray:
-        """Fixed-size global state: one row per possible agent (slot order),
-        absolute normalised features, zeros for absent vehicles."""
-        c = self.config
-        w = self.world
-        out = np.zeros((len(slots), len(STATE_FEATURES)), dtype=np.float32)
-        tr = w.traffic
-        if tr.n:
-            F = self._features()
-            vmax = float(c["speed_range"][1])
-            width = w.road.total_lanes * w.road.lane_width
-            scale = np.array([1, w.road.length, width, vmax, vmax, 1, 1, 100.0, width, vmax, 1, 1, 1])
-            slot_of = {name: i for i, name in enumerate(slots)}
-            idx = np.array([slot_of.get(f"icv_{v}", -1) for v in tr.vid])
-            ok = idx >= 0
-            out[idx[ok]] = uclip(F[ok] / scale, -1, 1)
-        return out
+    # ------------------------------------------------- spaces, observations, rewards
+    # features, observations, rewards and the one-pass _post_rows:
+    # envs/highway_rows.HighwayRows (a mixin, as the intersection's IntersectionRows)
 
     # ------------------------------------------------------------------ expert
     # expert_actions(): IcvAgentsEnv's, cached on the vehicle state
@@ -536,6 +369,5 @@ class HighwayFormationEnv(IcvAgentsEnv):
         self.controlled_vehicles = [ego] if ego is not None else []
 
 
-# the hooks HighwayFormationEnv._post_rows stands for (icv_envs._hooks.own_hooks)
-_POST_HOOKS = hook_table(HighwayFormationEnv, "_features", "_rewards_rows", "_observe_rows", "_neighbours", "_wrap_dx",
-                         "_wrap_period", "_obs_scales")
+# the hooks HighwayRows._post_rows stands for (icv_envs._hooks.own_hooks)
+HighwayFormationEnv._post_hooks = hook_table(HighwayFormationEnv, *POST_HOOK_NAMES)

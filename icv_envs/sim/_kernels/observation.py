@@ -236,7 +236,7 @@ def _kinematics_columns(F, i, x, y, v, c, s):
 def formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
                            n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv):
     """The feature rows of
-    :meth:`icv_envs.envs.highway_formation.HighwayFormationEnv._features`
+    :meth:`icv_envs.envs.highway_rows.HighwayRows._features`
     in one pass, the trigonometry (``ch``, ``sh``: ``cos``/``sin`` of the
     headings) given from NumPy: ``1, x, y, v ch, v sh, ch, sh``; for
     members the target errors ``wrap(x_ref - x)`` (``period < 0``: a
@@ -315,7 +315,7 @@ def formation_post_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, l
     observations: when ``V > 1`` and there are two vehicles or more,
     :func:`nearest_along_road` on a contiguous copy of the x column
     (``K`` .. ``road_length``), then :func:`kinematics_rows` (``idx`` ..
-    ``o_period``). For ``HighwayFormationEnv._post_rows`` on roads without
+    ``o_period``). For ``HighwayRows._post_rows`` (HighwayFormation) on roads without
     exits (the exits' column is written in Python between the features and
     the observation). Returns ``(T, member, obs)``, ``T`` the float reward
     terms by rows ``progress, safety, comfort, exponent, partial`` (one
