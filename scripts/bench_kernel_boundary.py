@@ -1,0 +1,225 @@
+"""What the Python <-> numba boundary costs in a step (issue 10, stop 44).
+
+    PYTHONPATH=$PWD python scripts/bench_kernel_boundary.py [--case intersection|batched|both] [--out FILE]
+
+Every compiled kernel call pays for its dispatch (a fixed part, then each
+argument unboxed: an array costs more than a number) and for every array it
+returns (boxed into a new ``ndarray``). This script
+
+1. measures those unit costs in this run, on this machine, with trivial
+   kernels (one array argument; twenty arrays; twenty floats; one and five
+   returned arrays): the reference the estimate below is built from;
+2. times the case's step with nothing wrapped (process CPU time, the
+   second of two windows: the first loads any kernel the warm-up did not);
+3. runs the case again with every kernel reachable from a Python module of
+   the package (module attributes that are numba dispatchers, outside
+   ``rl`` and ``experiments``) wrapped by a counter of its calls, of its
+   array and other arguments and of the arrays it returns (tuples looked
+   into), after a warm-up that loaded every kernel the case uses;
+4. prints the counts per step and the estimate ``calls x fixed + arrays x
+   per-array + others x per-number + returned x per-returned-array``, in us
+   and as a share of the step.
+
+Cases: ``intersection``: multi-vp at 2200 veh/h, seed 0, every vehicle an
+agent with the expert's action from the infos, 100 s of warm-up then 150 s
+(as ``icv-envs bench intersection``); ``batched``: 16 HighwayFormation
+worlds of 20 agents with zero actions, 100 steps of warm-up then 200 (as
+``scripts/bench_trees.py --case batched``), per world-step. Kernels called
+from inside other kernels are compiled calls and not counted (they cost no
+boundary). The estimate is a model (unit costs from trivial kernels), not a
+measurement of the step: read it as the size of what batching calls
+together could save, not as a figure to the microsecond.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import importlib
+import json
+import pkgutil
+import time
+
+import numpy as np
+from numba import njit
+from numba.core.registry import CPUDispatcher
+
+import icv_envs
+
+
+def _unit_costs(n: int = 200_000) -> dict:
+    """Per-call costs (us) of trivial kernels, timed here."""
+
+    @njit
+    def one(a):
+        return a[0]
+
+    @njit
+    def twenty(a0, a1, a2, a3, a4, a5, a6, a7, a8, a9, b0, b1, b2, b3, b4, b5, b6, b7, b8, b9):
+        return a0[0]
+
+    @njit
+    def twenty_f(a0, a1, a2, a3, a4, a5, a6, a7, a8, a9, b0, b1, b2, b3, b4, b5, b6, b7, b8, b9):
+        return a0
+
+    @njit
+    def ret1(a):
+        return a.copy()
+
+    @njit
+    def ret5(a):
+        return a.copy(), a.copy(), a.copy(), a.copy(), a.copy()
+
+    x = np.zeros(10)
+    arrays = [np.zeros(10) for _ in range(20)]
+    floats = [1.5] * 20
+
+    def per_call(fn, *args):
+        fn(*args)
+        t = time.perf_counter()
+        for _ in range(n):
+            fn(*args)
+        return (time.perf_counter() - t) / n * 1e6
+
+    t1, t20, t20f, r1, r5 = (per_call(one, x), per_call(twenty, *arrays), per_call(twenty_f, *floats),
+                             per_call(ret1, x), per_call(ret5, x))
+    per_array = (t20 - t1) / 19
+    return {"fixed": t1 - per_array, "per_array": per_array, "per_number": (t20f - t1 + per_array) / 20,
+            "per_returned_array": (r5 - r1) / 4}
+
+
+def _intersection():
+    from icv_envs.envs.intersection_v0 import parallel_env
+
+    env = parallel_env(method="multi-vp", throughput=2200.0, duration=450.0)
+    state = {"infos": env.reset(seed=0)[1]}
+
+    def step():
+        infos = state["infos"]
+        state["infos"] = env.step({a: infos[a]["expert_action"] for a in env.agents})[4]
+
+    while env.core.world.time < 100 - 1e-9:
+        step()
+
+    def window():
+        steps = 0
+        t0 = env.core.world.time
+        while env.core.world.time < t0 + 150 - 1e-9:
+            step()
+            steps += 1
+        return steps
+
+    return window
+
+
+def _batched():
+    from icv_envs.vector import BatchedWorlds
+
+    bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=False)
+    bw.reset()
+    a = np.zeros((16, bw.K, 2), dtype=np.float32)
+    for _ in range(100):
+        bw.step(a)
+
+    def window():
+        for _ in range(200):
+            bw.step(a)
+        return 200 * 16  # world-steps
+
+    return window
+
+
+def _wrap_kernels(counts: collections.Counter) -> list:
+    """Every numba dispatcher bound in a Python module of the package,
+    replaced by a counting wrapper; returns what to restore."""
+    undo = []
+    wrappers = {}
+    for info in pkgutil.walk_packages(icv_envs.__path__, "icv_envs."):
+        parts = info.name.split(".")
+        if "rl" in parts or "experiments" in parts or "_kernels" in parts or parts[-1] == "_kernels":
+            continue
+        try:
+            mod = importlib.import_module(info.name)
+        except Exception:  # optional extras (sumo, torch) not installed
+            continue
+        for name, obj in list(vars(mod).items()):
+            if not isinstance(obj, CPUDispatcher):
+                continue
+            if id(obj) not in wrappers:
+                wrappers[id(obj)] = _counter(obj, counts)
+            undo.append((mod, name, obj))
+            setattr(mod, name, wrappers[id(obj)])
+    return undo
+
+
+def _returned(r) -> int:
+    if isinstance(r, np.ndarray):
+        return 1
+    if isinstance(r, tuple):
+        return sum(_returned(x) for x in r)
+    return 0
+
+
+def _counter(kernel, counts):
+    def counted(*args):
+        counts["calls"] += 1
+        for x in args:
+            counts["arrays" if isinstance(x, np.ndarray) else "others"] += 1
+        out = kernel(*args)
+        counts["returned_arrays"] += _returned(out)
+        return out
+
+    return counted
+
+
+def run_case(case: str, unit: dict) -> dict:
+    make = {"intersection": _intersection, "batched": _batched}[case]
+    window = make()
+    window()  # (the first window loads what the warm-up did not: the second is timed)
+    c0 = time.process_time()
+    n = window()
+    step_us = (time.process_time() - c0) / n * 1e6
+    window = make()  # a fresh run of the same steps (same seed), the timed window counted
+    window()
+    counts = collections.Counter()
+    undo = _wrap_kernels(counts)
+    try:
+        n2 = window()
+    finally:
+        for mod, name, obj in undo:
+            setattr(mod, name, obj)
+    per = {k: counts[k] / n2 for k in ("calls", "arrays", "others", "returned_arrays")}
+    parts = {"fixed": per["calls"] * unit["fixed"], "arrays": per["arrays"] * unit["per_array"],
+             "others": per["others"] * unit["per_number"],
+             "returned": per["returned_arrays"] * unit["per_returned_array"]}
+    est = sum(parts.values())
+    return {"case": case, "step_us": step_us, "per_step": per, "estimate_us": est, "estimate_parts_us": parts,
+            "share_of_step": est / step_us}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--case", choices=("intersection", "batched", "both"), default="both")
+    p.add_argument("--out")
+    a = p.parse_args()
+    unit = _unit_costs()
+    print("unit costs here (us): " + ", ".join(f"{k} {v:.3f}" for k, v in unit.items()))
+    res = {"unit_costs_us": unit, "cases": []}
+    for case in (("intersection", "batched") if a.case == "both" else (a.case,)):
+        r = run_case(case, unit)
+        res["cases"].append(r)
+        ps = r["per_step"]
+        what = "world-step" if case == "batched" else "step"
+        print(f"{case}: {r['step_us']:.0f} us per {what}; {ps['calls']:.1f} kernel calls, {ps['arrays']:.0f} array "
+              f"arguments, {ps['others']:.0f} other arguments, {ps['returned_arrays']:.1f} returned arrays; "
+              f"boundary about {r['estimate_us']:.1f} us = {100 * r['share_of_step']:.0f}% of the {what} ("
+              + ", ".join(f"{k} {v:.1f}" for k, v in r["estimate_parts_us"].items()) + ")")
+    line = json.dumps(res)
+    if a.out:
+        with open(a.out, "w") as fh:
+            fh.write(line + "\n")
+    print(line)
+
+
+if __name__ == "__main__":
+    main()
