@@ -18,7 +18,12 @@ returns (boxed into a new ``ndarray``). This script
    into), after a warm-up that loaded every kernel the case uses;
 4. prints the counts per step and the estimate ``calls x fixed + arrays x
    per-array + others x per-number + returned x per-returned-array``, in us
-   and as a share of the step.
+   and as a share of the step;
+5. replays the counted window's kernel calls back to back (copies of their
+   arguments, taken before each call), with nothing between them but a
+   loop: what the step would cost if every line of Python around the
+   kernels took no time (kernels and their boundary; the rest of the step
+   is that Python).
 
 Cases: ``intersection``: multi-vp at 2200 veh/h, seed 0, every vehicle an
 agent with the expert's action from the infos, 100 s of warm-up then 150 s
@@ -129,7 +134,7 @@ def _batched():
     return window
 
 
-def _wrap_kernels(counts: collections.Counter) -> list:
+def _wrap_kernels(counts: collections.Counter, calls: list | None = None) -> list:
     """Every numba dispatcher bound in a Python module of the package,
     replaced by a counting wrapper; returns what to restore."""
     undo = []
@@ -146,7 +151,7 @@ def _wrap_kernels(counts: collections.Counter) -> list:
             if not isinstance(obj, CPUDispatcher):
                 continue
             if id(obj) not in wrappers:
-                wrappers[id(obj)] = _counter(obj, counts)
+                wrappers[id(obj)] = _counter(obj, counts, calls)
             undo.append((mod, name, obj))
             setattr(mod, name, wrappers[id(obj)])
     return undo
@@ -160,16 +165,44 @@ def _returned(r) -> int:
     return 0
 
 
-def _counter(kernel, counts):
+def _clone(x):
+    """A copy of a kernel argument for the replay (arrays copied, read-only
+    ones kept read-only; tuples looked into; numbers as they are)."""
+    if isinstance(x, np.ndarray):
+        c = x.copy()
+        if not x.flags.writeable:
+            c.setflags(write=False)
+        return c
+    if isinstance(x, tuple):
+        return tuple(_clone(v) for v in x)
+    return x
+
+
+def _counter(kernel, counts, calls=None):
     def counted(*args):
         counts["calls"] += 1
         for x in args:
             counts["arrays" if isinstance(x, np.ndarray) else "others"] += 1
+        if calls is not None:  # (copies taken before the call: some kernels write into their arguments)
+            calls.append((kernel, _clone(args), _clone(args)))
         out = kernel(*args)
         counts["returned_arrays"] += _returned(out)
         return out
 
     return counted
+
+
+def _replay(calls: list) -> float:
+    """The recorded kernel calls again, back to back with no Python in
+    between but the loop: CPU seconds of the second of two passes (the
+    first loads any specialisation the copies need, and writes into its own
+    copies; the second runs on the other, untouched copies)."""
+    for kernel, args, _ in calls:
+        kernel(*args)
+    c0 = time.process_time()
+    for kernel, _, args in calls:
+        kernel(*args)
+    return time.process_time() - c0
 
 
 def run_case(case: str, unit: dict) -> dict:
@@ -182,19 +215,21 @@ def run_case(case: str, unit: dict) -> dict:
     window = make()  # a fresh run of the same steps (same seed), the timed window counted
     window()
     counts = collections.Counter()
-    undo = _wrap_kernels(counts)
+    calls = []
+    undo = _wrap_kernels(counts, calls)
     try:
         n2 = window()
     finally:
         for mod, name, obj in undo:
             setattr(mod, name, obj)
+    replay_us = _replay(calls) / n2 * 1e6
     per = {k: counts[k] / n2 for k in ("calls", "arrays", "others", "returned_arrays")}
     parts = {"fixed": per["calls"] * unit["fixed"], "arrays": per["arrays"] * unit["per_array"],
              "others": per["others"] * unit["per_number"],
              "returned": per["returned_arrays"] * unit["per_returned_array"]}
     est = sum(parts.values())
     return {"case": case, "step_us": step_us, "per_step": per, "estimate_us": est, "estimate_parts_us": parts,
-            "share_of_step": est / step_us}
+            "share_of_step": est / step_us, "replay_us": replay_us, "replay_share_of_step": replay_us / step_us}
 
 
 def main() -> None:
@@ -214,6 +249,9 @@ def main() -> None:
               f"arguments, {ps['others']:.0f} other arguments, {ps['returned_arrays']:.1f} returned arrays; "
               f"boundary about {r['estimate_us']:.1f} us = {100 * r['share_of_step']:.0f}% of the {what} ("
               + ", ".join(f"{k} {v:.1f}" for k, v in r["estimate_parts_us"].items()) + ")")
+        print(f"  the same kernel calls replayed back to back: {r['replay_us']:.1f} us per {what} = "
+              f"{100 * r['replay_share_of_step']:.0f}% of it (kernels and their boundary); the rest, "
+              f"{r['step_us'] - r['replay_us']:.0f} us, is the Python around them")
     line = json.dumps(res)
     if a.out:
         with open(a.out, "w") as fh:
