@@ -106,6 +106,26 @@ def test_collisions_by_fault_blames_the_striking_policy_vehicle():
     assert sum(d["expert"] for d in by.values()) == 0
 
 
+def test_set_expert_driven_sets_and_checks():
+    """Who drives: None for "every vehicle", the ids otherwise, an empty set
+    when no vehicle is expert-driven (from stop 44 without selecting any);
+    a mask of another shape than the ids is an error naming both."""
+    w = _two_car_world(100.0, 80.0, 10.0)
+    vid = w.traffic.vid
+    w.set_expert_driven(vid, np.array([True, True]))
+    assert w._expert_vids is None and w._plan_vids is None
+    w.set_expert_driven(vid, np.array([True, False]))
+    assert w._expert_vids == {int(vid[0])} and w._plan_vids == {int(vid[0])}
+    w.set_expert_driven(vid, np.array([False, False]))
+    assert w._expert_vids == set() and w._plan_vids == set()
+    w.set_expert_driven(vid, np.array([False, False]), np.array([False, True]))
+    assert w._expert_vids == set() and w._plan_vids == {int(vid[1])}
+    w.set_expert_driven(vid[:1], np.array([True]))  # (not every vehicle listed: the listed ones)
+    assert w._expert_vids == {int(vid[0])}
+    with pytest.raises(ValueError, match=r"expert_mask has shape \(3,\); allowed: \(2,\)"):
+        w.set_expert_driven(vid, np.array([False, False, True]))
+
+
 def test_collisions_by_fault_in_env_metrics_separates_expert_and_policy():
     env = HighwayFormationEnv(config={"scenario": "free", "vehicles_count": 8, "duration": 20.0})
     env.ma_reset(seed=0)

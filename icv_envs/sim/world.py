@@ -342,18 +342,23 @@ class World:
         :meth:`lane_index` (:meth:`_reservations`)."""
         vids = np.asarray(vids)
         em = np.asarray(expert_mask, dtype=bool)
+        if em.shape != vids.shape:
+            raise ValueError(f"expert_mask has shape {em.shape}; allowed: {vids.shape}, one entry per vehicle id")
         # None: every vehicle (the physics comes next and only removes vehicles, so ``vids`` covering the
-        # traffic covers every vehicle :meth:`classify_collisions` meets)
+        # traffic covers every vehicle :meth:`classify_collisions` meets); an empty set when none is
+        # (a learned policy drives every vehicle: the batched worlds' usual step), without a selection
         # (np.count_nonzero(m) == m.size: m.all() without a ufunc reduction)
         covers = len(vids) == self.traffic.n
-        every = np.count_nonzero(em) == em.size and covers
-        self._expert_vids = None if every else set(vids[em].tolist())
+        n_em = np.count_nonzero(em)
+        every = n_em == em.size and covers
+        self._expert_vids = None if every else set(vids[em].tolist()) if n_em else set()
         if plan_mask is None or plan_mask is expert_mask:  # (the plan mask is the expert mask)
-            pm, every_plan = em, every
+            pm, n_pm, every_plan = em, n_em, every
         else:
             pm = em | np.asarray(plan_mask, dtype=bool)
-            every_plan = np.count_nonzero(pm) == pm.size and covers
-        self._plan_vids = None if every_plan else set(vids[pm].tolist())
+            n_pm = np.count_nonzero(pm)
+            every_plan = n_pm == pm.size and covers
+        self._plan_vids = None if every_plan else set(vids[pm].tolist()) if n_pm else set()
         self._index = None
 
     def classify_collisions(self, i, j, road_rows, new_crash, cx, cy) -> None:
