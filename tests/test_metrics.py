@@ -214,5 +214,10 @@ def test_record_min_gap_takes_the_one_call_path(monkeypatch):
     assert run_metrics(w)["min_gap"] == pytest.approx(15.0)
     w.invalidate()
     w.traffic.lc_lane = np.array([1, -1, -1])  # a lane change under way holds lane 1
+    held = []
+    real_held = world_mod.World._held_lanes
+    monkeypatch.setattr(world_mod.World, "_held_lanes", lambda self: held.append(1) or real_held(self))
     w.record_min_gap()
     assert calls == [1]
+    assert held == [1]  # (the reservations asked once: the index is built from them, from stop 44)
+    assert w.lane_index(reserved=True) is not w.lane_index(reserved=False)  # (the held view and the body's)

@@ -93,26 +93,27 @@ class World:
         lanes is also listed in its target lane; without, only where its body
         is (the view used for gaps in metrics and rewards)."""
         if self._index is None:
-            self._index = [None, None]
-            self._gaps = None
-        k = 0 if reserved else 1
-        if self._index[k] is None:
-            # both views at once: one index when nobody holds a reservation
-            # (the two views are the same; nobody carrying out a plan: none
-            # to look for), else the two in one call (a step that asks for
-            # one view asks for the other: the gaps and the controllers)
-            res = self._held_lanes()
-            cx, cy = self.traffic.center()
-            args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
-            if res is not None:
-                body, held = lane_index(*args, periodic=self.road.periodic, reserved_lane=res,
-                                        length=self.traffic.length, heading=self.traffic.heading, pair=True)
-                self._index = [held, body]
-            else:
-                one = lane_index(*args, periodic=self.road.periodic, length=self.traffic.length,
-                                 heading=self.traffic.heading)
-                self._index = [one, one]
-        return self._index[k]
+            self._build_index(self._held_lanes())
+        return self._index[0 if reserved else 1]
+
+    def _build_index(self, res) -> None:
+        """Both views of :meth:`lane_index` for the current state, given the
+        reservations ``res`` (:meth:`_held_lanes`): one index when nobody
+        holds a reservation (the two views are the same; nobody carrying
+        out a plan: none to look for), else the two in one call (a step that
+        asks for one view asks for the other: the gaps and the controllers).
+        The gaps of the state before are dropped."""
+        self._gaps = None
+        cx, cy = self.traffic.center()
+        args = (cx, cy, self.traffic.width, self.road.lane_width, self.road.total_lanes, self.road.length)
+        if res is not None:
+            body, held = lane_index(*args, periodic=self.road.periodic, reserved_lane=res,
+                                    length=self.traffic.length, heading=self.traffic.heading, pair=True)
+            self._index = [held, body]
+        else:
+            one = lane_index(*args, periodic=self.road.periodic, length=self.traffic.length,
+                             heading=self.traffic.heading)
+            self._index = [one, one]
 
     def _held_lanes(self):
         """The reservations of :meth:`_reservations` when some vehicle holds
@@ -421,23 +422,30 @@ class World:
         The gaps and time headways feed :class:`icv_envs.sim.metrics.HeadwayStats`."""
         tr = self.traffic
         if tr.n > 1:
-            if self._index is None and type(self.headways) is HeadwayStats and self._held_lanes() is None:
-                # nothing built for this state yet and nobody holds a lane:
-                # the index, the gaps and their record in one compiled call
-                # (neighbours.lane_gap_pass, from stop 43: the three calls
-                # below with the same arguments)
-                h = self.headways
-                cx, cy = tr.center()
-                road = self.road
-                keys, xs, I, offset, gap, lead, g_min, th_min, count = lane_gap_pass(
-                    cx, cy, tr.width, tr.length, tr.heading, float(road.lane_width), int(road.total_lanes),
-                    bool(road.periodic), float(road.length), LANE_INDEX_GHOST, int(road.total_lanes), tr.speed, h._hist,
-                    HEADWAY_BIN, STOPPED_SPEED)
-                one = LaneIndex(keys, I[0], I[1], xs, offset)
-                self._index = [one, one]
-                self._gaps = (gap, lead)
-                h.add_record(g_min, th_min, count)
-            else:
+            recorded = False
+            if self._index is None and type(self.headways) is HeadwayStats:
+                # nothing built for this state yet: the reservations asked
+                # once (the index is built from them when somebody holds a lane)
+                res = self._held_lanes()
+                if res is None:
+                    # nobody holds a lane: the index, the gaps and their record
+                    # in one compiled call (neighbours.lane_gap_pass, from stop
+                    # 43: the three calls below with the same arguments)
+                    h = self.headways
+                    cx, cy = tr.center()
+                    road = self.road
+                    keys, xs, I, offset, gap, lead, g_min, th_min, count = lane_gap_pass(
+                        cx, cy, tr.width, tr.length, tr.heading, float(road.lane_width), int(road.total_lanes),
+                        bool(road.periodic), float(road.length), LANE_INDEX_GHOST, tr.speed, h._hist, HEADWAY_BIN,
+                        STOPPED_SPEED)
+                    one = LaneIndex(keys, I[0], I[1], xs, offset)
+                    self._index = [one, one]
+                    self._gaps = (gap, lead)
+                    h.add_record(g_min, th_min, count)
+                    recorded = True
+                else:
+                    self._build_index(res)
+            if not recorded:
                 gap, _ = self._own_lane_gaps_kept()
                 self.headways.record(gap, self.traffic.speed)
         if tr.n:

@@ -366,13 +366,14 @@ def own_lane_gap_rows(keys, i_rows, i_lanes, i_x, offset, cx, cy, length, lane_w
 
 
 @nb.njit(cache=True)
-def lane_gap_pass(cx, cy, width, length, heading, lane_width, n_lanes, periodic, road_length, ghost, total_lanes,
-                  speed, hist, bin_width, stopped_speed):
+def lane_gap_pass(cx, cy, width, length, heading, lane_width, n_lanes, periodic, road_length, ghost, speed, hist,
+                  bin_width, stopped_speed):
     """The first lane-index query of a policy step, when nobody holds a
     reservation (from stop 43, ``World.record_min_gap``): the body-only
-    index (:func:`build_lane_index` with the footprint, no reserved lanes),
-    each vehicle's own-lane gap and leader (:func:`own_lane_gap_rows` on
-    that index) and the headway statistics' record of the gaps
+    index (:func:`build_lane_index` with the footprint, no reserved lanes,
+    over ``n_lanes``: the road's total lanes), each vehicle's own-lane gap
+    and leader (:func:`own_lane_gap_rows` on that index, the same lanes)
+    and the headway statistics' record of the gaps
     (:func:`~icv_envs.sim._kernels.stats.headway_record`, ``hist`` updated
     in place): the three calls the world made one after the other, with the
     same arguments, in one. Returns ``(keys, xs, I, offset, gap, lead,
@@ -381,7 +382,7 @@ def lane_gap_pass(cx, cy, width, length, heading, lane_width, n_lanes, periodic,
     0.35 us)."""
     keys, rows, lanes, xs, offset = build_lane_index(cx, cy, width, length, heading, True, lane_width, n_lanes,
                                                      np.zeros(0, dtype=np.int64), periodic, road_length, ghost)
-    gap, lead = own_lane_gap_rows(keys, rows, lanes, xs, offset, cx, cy, length, lane_width, total_lanes)
+    gap, lead = own_lane_gap_rows(keys, rows, lanes, xs, offset, cx, cy, length, lane_width, n_lanes)
     g_min, th_min, count = headway_record(gap, speed, hist, bin_width, stopped_speed)
     I = np.empty((2, rows.shape[0]), dtype=np.int64)
     I[0] = rows
