@@ -202,14 +202,6 @@ _RUN_ONLY = {"--scenario": ("scenario", ("highway-formation",)), "--policy": ("p
              "--video": ("video", ("highway-formation", "intersection"))}
 
 
-def _reject_foreign_run_options(args) -> None:
-    for flag, (attr, env) in _RUN_ONLY.items():
-        v = getattr(args, attr, None)
-        if v not in (None, False) and args.env not in env:
-            raise ValueError(f"{flag} {v!r} does not apply to run {args.env}: it is an option of run "
-                             + " / run ".join(env))
-
-
 #: ``bench`` options that apply to some targets only: given for another, they are an error
 _BENCH_ONLY = {"--sizes": ("sizes", ("highway-formation",)), "--stock-seconds": ("stock_seconds", ("highway-formation",)),
                "--seconds": ("seconds", ("highway-formation", "highway-ramps", "intersection")),
@@ -218,12 +210,16 @@ _BENCH_ONLY = {"--sizes": ("sizes", ("highway-formation",)), "--stock-seconds": 
                "--seeds": ("seeds", ("intersection",))}
 
 
-def _reject_foreign_bench_options(args) -> None:
-    for flag, (attr, targets) in _BENCH_ONLY.items():
+def _reject_foreign_options(args, command: str, chosen: str, table: dict) -> None:
+    """An option of ``table`` (:data:`_RUN_ONLY`, :data:`_BENCH_ONLY`) given
+    for a ``command`` target it does not belong to is an error naming the
+    option and the targets it belongs to (an option not given is None, a
+    flag not given False; a given 0 counts)."""
+    for flag, (attr, owners) in table.items():
         v = getattr(args, attr, None)
-        if v is not None and args.target not in targets:
-            raise ValueError(f"{flag} {v!r} does not apply to bench {args.target}: it is an option of bench "
-                             + " / bench ".join(targets))
+        if v is not None and v is not False and chosen not in owners:
+            raise ValueError(f"{flag} {v!r} does not apply to {command} {chosen}: it is an option of {command} "
+                             + f" / {command} ".join(owners))
 
 
 def _dispatch(args) -> int:
@@ -247,7 +243,7 @@ def _dispatch(args) -> int:
     if args.command == "list":
         return _list(args.json)
     if args.command == "run":
-        _reject_foreign_run_options(args)
+        _reject_foreign_options(args, "run", args.env, _RUN_ONLY)
     if args.command == "run" and args.env == "intersection":
         return _run_intersection(args)
     if args.command == "run" and args.env == "highway-ramps":
@@ -335,7 +331,7 @@ def _dispatch(args) -> int:
     if args.command == "bench":
         from icv_envs.experiments.bench import bench_highway_formation, bench_highway_ramps
 
-        _reject_foreign_bench_options(args)
+        _reject_foreign_options(args, "bench", args.target, _BENCH_ONLY)
         if args.vs_sumo and args.target != "highway-ramps":
             raise ValueError(f"--vs-sumo is an option of 'bench highway-ramps', not of 'bench {args.target}'")
         if args.api is not None and not args.vs_sumo:

@@ -346,6 +346,8 @@ def test_pickle_after_render(make, monkeypatch):
     (["run", "highway-ramps", "--scenario", "on-ramp"], r"--scenario 'on-ramp' does not apply to run highway-ramps"),
     (["run", "highway-ramps", "--policy", "random"], r"--policy 'random' does not apply to run highway-ramps"),
     (["run", "highway-ramps", "--video", "--out", "x"], r"--video True does not apply to run highway-ramps"),
+    # a given 0 is given (until stop 44 ``run`` took 0 for "not given", as a flag's False, and ran without it)
+    (["run", "highway-formation", "--vgr", "0"], r"--vgr 0.0 does not apply to run highway-formation"),
 ])
 def test_cli_options_of_another_env_are_errors(argv, match, capsys):
     assert main(argv + ["--seconds", "1"]) == 2
@@ -362,6 +364,7 @@ def test_cli_options_of_another_env_are_errors(argv, match, capsys):
     (["bench", "highway-formation", "--seeds", "2"], r"--seeds 2 does not apply to bench highway-formation"),
     (["bench", "train", "--seconds", "5"], r"--seconds 5.0 does not apply to bench train"),
     (["bench", "highway-ramps", "--stock-seconds", "2"], r"--stock-seconds 2.0 does not apply to bench highway-ramps"),
+    (["bench", "train", "--warmup", "0"], r"--warmup 0.0 does not apply to bench train"),
     (["bench", "intersection", "--seeds", "0"], r"--seeds must be an integer >= 1, got '0'"),
     (["bench", "intersection", "--warmup", "-1"], r"--warmup must be a finite number >= 0, got '-1'"),
 ])
