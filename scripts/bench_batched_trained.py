@@ -17,62 +17,42 @@ free road) acts by one shared trained policy, a model written by
 HighwayFormation env (default: ``results/learned/bc_onramp``, behaviour
 cloning of the formation expert with DAgger, deterministic actions).
 
-Timed: the batch's ``step`` calls only, in process CPU time (the policy's
-inference is timed apart and reported beside it: it is the learner's cost,
-not the env's). As ``icv_envs.rl.bench.batched_sps``: the same run (same
-seed, same steps) is made twice and the second is timed; ``--warmup``
-batch steps before the timed ``--steps``. In the same run, for the ratio:
-the same worlds with zero actions (``batched_sps``' default kind) and with
-the expert's action for every agent. Agent-steps count live agents only.
-Prints one line per kind and a JSON line last (also to ``--out``).
+The run is :func:`icv_envs.rl.bench.batched_sps` with the policy acting
+(the second of two identical runs timed, ``--warmup`` batch steps before
+the timed ``--steps``); the policy's inference is timed apart and left out
+of the env's figures (it is the learner's cost, reported beside them). In
+the same process, for the ratio: the same worlds with zero actions
+(``batched_sps``' default kind) and with the expert's action for every
+agent. Agent-steps count live agents only. Prints one line per kind and a
+JSON line last (also to ``--out``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import time
 from pathlib import Path
 
 import numpy as np
 
+from icv_envs.rl.bench import batched_sps
 from icv_envs.rl.models import load_model
 from icv_envs.vector import BatchedWorlds
 
 
-def run(kind: str, model, worlds: int, vehicles: int, steps: int, warmup: int, seed: int) -> dict:
-    """One kind of actions (``trained``, ``zero``, ``expert``), the second
-    of two identical runs timed."""
-    cfg = {"vehicles_count": int(vehicles), "initial_position": None}
-    for timed in (False, True):
-        bw = BatchedWorlds(worlds, config=cfg, seed=seed, expert=kind == "expert")
-        obs, mask = bw.reset()
-        acts = np.zeros((worlds, bw.K, 2), dtype=np.float32)
-        env_cpu = infer_cpu = 0.0
-        agent_steps = 0
-        for i in range(warmup + steps):
-            c0 = time.process_time()
-            if kind == "trained":
-                live = np.flatnonzero(mask.reshape(-1))
-                acts = np.zeros((worlds * bw.K, 2), dtype=np.float32)
-                if len(live):
-                    acts[live] = model.act(obs.reshape((worlds * bw.K,) + obs.shape[2:])[live])
-                acts = acts.reshape(worlds, bw.K, 2)
-            elif kind == "expert":
-                acts = bw.expert_actions
-            c1 = time.process_time()
-            obs, rew, term, trunc, mask2, info = bw.step(acts)
-            c2 = time.process_time()
-            if i >= warmup:
-                agent_steps += int(mask.sum())
-                infer_cpu += c1 - c0
-                env_cpu += c2 - c1
-            mask = mask2
-        bw.close()
-    return {"actions": kind, "worlds": int(worlds), "vehicles_per_world": int(vehicles), "steps": int(steps),
-            "agent_steps": agent_steps, "env_cpu_seconds": env_cpu, "inference_cpu_seconds": infer_cpu,
-            "agent_steps_per_cpu_s": agent_steps / env_cpu, "world_steps_per_cpu_s": worlds * steps / env_cpu,
-            "live_agents_per_world": agent_steps / (worlds * steps)}
+def shared_policy(model):
+    """``policy(obs, mask)`` of :func:`batched_sps`: the model's actions for
+    the live slots, zeros for the empty ones."""
+
+    def policy(obs, mask):
+        flat = mask.reshape(-1)
+        acts = np.zeros((flat.shape[0], 2), dtype=np.float32)
+        live = np.flatnonzero(flat)
+        if len(live):
+            acts[live] = model.act(obs.reshape((flat.shape[0],) + obs.shape[2:])[live])
+        return acts.reshape(mask.shape + (2,))
+
+    return policy
 
 
 def main() -> None:
@@ -91,10 +71,11 @@ def main() -> None:
                        bw.envs[0].action_space(bw.possible_agents[0]))
     bw.close()
     res = {"model": str(a.model), "runs": []}
-    for kind in ("trained", "zero", "expert"):
-        r = run(kind, model, a.worlds, a.vehicles, a.steps, a.warmup, a.seed)
+    common = dict(vehicles=a.vehicles, worlds=a.worlds, steps=a.steps, warmup=a.warmup, seed=a.seed)
+    for kind, kw in (("trained", {"policy": shared_policy(model)}), ("zero", {}), ("expert", {"expert": True})):
+        r = batched_sps(**common, **kw)
         res["runs"].append(r)
-        extra = (f"; the policy's inference {r['inference_cpu_seconds'] / (a.worlds * a.steps) * 1e6:.0f} us per "
+        extra = (f"; the policy's inference {r['policy_cpu_seconds'] / (a.worlds * a.steps) * 1e6:.0f} us per "
                  f"world-step more" if kind == "trained" else "")
         print(f"{kind:8s}: {r['agent_steps_per_cpu_s']:9.0f} agent-steps per CPU s of the env, "
               f"{r['live_agents_per_world']:.1f} live agents per world, {r['world_steps_per_cpu_s']:.0f} "

@@ -75,6 +75,41 @@ def test_batched_sps_action_kinds():
         batched_sps(vehicles=5, worlds=2, steps=3, actions="chaos")
 
 
+def test_batched_sps_policy_acts_and_is_timed_apart():
+    """Stop 44: a ``policy(obs, mask)`` acts instead of external actions,
+    given the batch's observations and masks; its calls' CPU time is left
+    out of the figures (reported apart); with another action kind, with the
+    expert or not callable it is an error, and so is the expert with another
+    action kind (it acts instead: the kind would be ignored)."""
+    import time
+
+    from icv_envs.rl.bench import batched_sps
+
+    seen = []
+
+    def policy(obs, mask):
+        seen.append((obs.shape, mask.shape, int(mask.sum())))
+        t = time.process_time()
+        while time.process_time() - t < 0.01:  # (10 ms of CPU a call)
+            pass
+        return np.zeros(mask.shape + (2,), dtype=np.float32)
+
+    res = batched_sps(vehicles=5, worlds=2, steps=4, seed=3, policy=policy, warmup=1)
+    zero = batched_sps(vehicles=5, worlds=2, steps=4, seed=3, warmup=1)
+    assert res["actions"] == "policy" and res["agent_steps"] == zero["agent_steps"] > 0
+    assert len(seen) == 2 * 5 and seen[0][0][:2] == seen[0][1] == (2, 5) and seen[0][2] == 10
+    assert res["policy_cpu_seconds"] >= 0.04
+    assert res["agent_steps"] / res["agent_steps_per_cpu_s"] < res["policy_cpu_seconds"]
+    with pytest.raises(ValueError, match=r"actions = 'uniform' with a policy, which acts instead"):
+        batched_sps(vehicles=5, worlds=2, steps=2, policy=policy, actions="uniform")
+    with pytest.raises(ValueError, match=r"actions = 'small' with expert=True, which acts instead"):
+        batched_sps(vehicles=5, worlds=2, steps=2, expert=True, actions="small")
+    with pytest.raises(ValueError, match="expert=True and a policy"):
+        batched_sps(vehicles=5, worlds=2, steps=2, expert=True, policy=policy)
+    with pytest.raises(ValueError, match="policy = 3; allowed: a callable"):
+        batched_sps(vehicles=5, worlds=2, steps=2, policy=3)
+
+
 def test_batched_sps_warmup_is_not_counted():
     """``warmup`` batch steps run before the timed ones and are not counted."""
     from icv_envs.rl.bench import batched_sps

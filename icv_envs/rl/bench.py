@@ -140,7 +140,7 @@ BATCHED_ACTIONS = ("zero", "small", "uniform")
 
 
 def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: bool = False, seed: int = 0,
-                config: dict | None = None, actions: str = "zero", warmup: int = 0) -> dict:
+                config: dict | None = None, actions: str = "zero", warmup: int = 0, policy=None) -> dict:
     """Agent-steps per second of :class:`icv_envs.vector.BatchedWorlds`:
     ``worlds`` HighwayFormation worlds of ``vehicles`` agents each, stepped
     together in this process. ``expert=False``: actions come from outside
@@ -161,6 +161,12 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
     costs about as much). ``warmup`` batch steps run before the timed
     ``steps`` (with random actions the first seconds of an episode still
     have most agents alive: time past them, over several episodes).
+    ``policy``: a callable ``policy(obs, mask) -> actions (worlds, K, 2)``
+    (a trained policy's, e.g. ``scripts/bench_batched_trained.py``'s) acts
+    instead; the CPU and wall time of its calls are measured apart and left
+    out of the figures (``policy_cpu_seconds``). ``expert`` and ``policy``
+    take the external actions' place, so either with another ``actions``
+    than the default is an error, and so are both together.
 
     Steady state: the same run (same seed, same steps) is made twice and
     only the second is timed. The first loads every compiled kernel the
@@ -170,35 +176,50 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
     batch steps before stop 38."""
     from icv_envs.vector import BatchedWorlds
 
-    kind = actions
-    if kind not in BATCHED_ACTIONS:
+    if actions not in BATCHED_ACTIONS:
         raise ValueError(f"actions = {actions!r}; allowed: {list(BATCHED_ACTIONS)}")
+    if (expert or policy is not None) and actions != "zero":
+        raise ValueError(f"actions = {actions!r} with {'expert=True' if expert else 'a policy'}, which acts instead; "
+                         f"allowed: the default 'zero'")
+    if expert and policy is not None:
+        raise ValueError("expert=True and a policy: allowed: one of them (or neither: external actions)")
+    if policy is not None and not callable(policy):
+        raise ValueError(f"policy = {policy!r}; allowed: a callable policy(obs, mask) -> actions")
     if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
         raise ValueError(f"warmup = {warmup!r}; allowed: an integer >= 0")
-    bound = {"small": 0.3, "uniform": 1.0}.get(kind)
+    bound = {"small": 0.3, "uniform": 1.0}.get(actions)
     cfg = {"vehicles_count": int(vehicles), "initial_position": None, **(config or {})}
     for timed in (False, True):
         bw = BatchedWorlds(worlds, config=cfg, seed=seed, expert=expert)
-        bw.reset()
+        obs, mask = bw.reset()
         acts = np.zeros((worlds, bw.K, 2), dtype=np.float32)
         rng = np.random.default_rng(seed)
         agent_steps = 0
+        policy_cpu = policy_wall = 0.0
         for i in range(warmup + steps):
             if i == warmup:
                 c0, t0 = time.process_time(), time.perf_counter()
             if expert:
                 acts = bw.expert_actions
+            elif policy is not None:
+                p0, q0 = time.process_time(), time.perf_counter()
+                acts = policy(obs, mask)
+                if i >= warmup:
+                    policy_cpu += time.process_time() - p0
+                    policy_wall += time.perf_counter() - q0
             elif bound is not None:
                 acts = rng.uniform(-bound, bound, size=(worlds, bw.K, 2)).astype(np.float32)
             if i >= warmup:
                 agent_steps += int(bw.mask.sum())
-            bw.step(acts)
-        cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+            obs, _, _, _, mask, _ = bw.step(acts)
+        cpu = time.process_time() - c0 - policy_cpu
+        wall = time.perf_counter() - t0 - policy_wall
         bw.close()
     return {"worlds": int(worlds), "vehicles_per_world": int(vehicles), "expert": bool(expert),
-            "actions": "expert" if expert else kind, "agent_steps": agent_steps,
-            "agent_steps_per_cpu_s": agent_steps / cpu, "agent_steps_per_wall_s": agent_steps / wall,
-            "world_steps_per_cpu_s": worlds * steps / cpu, "live_agents_per_world": agent_steps / (worlds * steps)}
+            "actions": "expert" if expert else "policy" if policy is not None else actions,
+            "agent_steps": agent_steps, "agent_steps_per_cpu_s": agent_steps / cpu,
+            "agent_steps_per_wall_s": agent_steps / wall, "world_steps_per_cpu_s": worlds * steps / cpu,
+            "live_agents_per_world": agent_steps / (worlds * steps), "policy_cpu_seconds": policy_cpu}
 
 
 def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096, seed: int = 0,
