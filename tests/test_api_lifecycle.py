@@ -365,6 +365,7 @@ def test_cli_options_of_another_env_are_errors(argv, match, capsys):
     (["bench", "train", "--seconds", "5"], r"--seconds 5.0 does not apply to bench train"),
     (["bench", "highway-ramps", "--stock-seconds", "2"], r"--stock-seconds 2.0 does not apply to bench highway-ramps"),
     (["bench", "train", "--warmup", "0"], r"--warmup 0.0 does not apply to bench train"),
+    (["bench", "intersection", "--throughput", "0"], r"throughput 0.0 is invalid; allowed: 0 < throughput"),
     (["bench", "intersection", "--seeds", "0"], r"--seeds must be an integer >= 1, got '0'"),
     (["bench", "intersection", "--warmup", "-1"], r"--warmup must be a finite number >= 0, got '-1'"),
 ])

@@ -135,7 +135,7 @@ def run_cli(args, echo=print) -> dict:
     tp = getattr(args, "throughput", None)
     if isinstance(tp, (list, tuple)):
         tp = tp[0] if tp else None
-    tp = float(tp) if tp else 2200.0
+    tp = 2200.0 if tp is None else float(tp)  # (a given 0 is checked, not taken for the default)
     if not 0 < tp <= 20000:
         raise ValueError(f"throughput {tp!r} is invalid; allowed: 0 < throughput <= 20000 vehicles/h")
     method = getattr(args, "method", None) or "multi-vp"
