@@ -71,9 +71,9 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
                        warmup: float = 100.0, seeds: int = 3, echo=print) -> dict:
     """The bench of the module docstring on seeds ``0 .. seeds-1``; returns
     the JSON record (the totals over the seeds, and ``per_seed``)."""
-    if not seconds > 0 or seconds != seconds or seconds == float("inf"):
+    if not 0 < seconds < float("inf"):  # (NaN fails the comparison too)
         raise ValueError(f"seconds = {seconds!r}; allowed: a finite number > 0")
-    if not warmup >= 0 or warmup != warmup or warmup == float("inf"):
+    if not 0 <= warmup < float("inf"):
         raise ValueError(f"warmup = {warmup!r}; allowed: a finite number >= 0")
     if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or seeds < 1:
         raise ValueError(f"seeds = {seeds!r}; allowed: an integer >= 1 (seeds 0 .. seeds-1)")
