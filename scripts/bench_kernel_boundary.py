@@ -1,6 +1,7 @@
 """What the Python <-> numba boundary costs in a step (issue 10, stop 44).
 
-    PYTHONPATH=$PWD python scripts/bench_kernel_boundary.py [--case intersection|batched|both] [--out FILE]
+    PYTHONPATH=$PWD python scripts/bench_kernel_boundary.py [--case intersection|batched|both] [--expert]
+        [--top 8] [--out FILE]
 
 Every compiled kernel call pays for its dispatch (a fixed part, then each
 argument unboxed: an array costs more than a number) and for every array it
@@ -16,7 +17,9 @@ returns (boxed into a new ``ndarray``). This script
    ``rl`` and ``experiments``) wrapped by a counter of its calls, of its
    array and other arguments and of the arrays it returns (tuples looked
    into), after a warm-up that loaded every kernel the case uses;
-4. prints the counts per step and the estimate ``calls x fixed + arrays x
+4. prints the counts per step (in all, and per kernel: the ``--top``
+   largest estimates; stop 40's ``results/bench/stop40/final/count_kernel_calls.py``
+   counted the batched case so) and the estimate ``calls x fixed + arrays x
    per-array + others x per-number + returned x per-returned-array``, in us
    and as a share of the step;
 5. replays the counted window's kernel calls back to back (copies of their
@@ -28,7 +31,8 @@ returns (boxed into a new ``ndarray``). This script
 Cases: ``intersection``: multi-vp at 2200 veh/h, seed 0, every vehicle an
 agent with the expert's action from the infos, 100 s of warm-up then 150 s
 (as ``icv-envs bench intersection``); ``batched``: 16 HighwayFormation
-worlds of 20 agents with zero actions, 100 steps of warm-up then 200 (as
+worlds of 20 agents with zero actions (``--expert``: the expert's action
+for every agent, computed every step), 100 steps of warm-up then 200 (as
 ``scripts/bench_trees.py --case batched``), per world-step. Kernels called
 from inside other kernels are compiled calls and not counted (they cost no
 boundary). The estimate is a model (unit costs from trivial kernels), not a
@@ -117,24 +121,24 @@ def _intersection():
     return window
 
 
-def _batched():
+def _batched(expert: bool = False):
     from icv_envs.vector import BatchedWorlds
 
-    bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=False)
+    bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=expert)
     bw.reset()
-    a = np.zeros((16, bw.K, 2), dtype=np.float32)
+    zeros = np.zeros((16, bw.K, 2), dtype=np.float32)
     for _ in range(100):
-        bw.step(a)
+        bw.step(bw.expert_actions if expert else zeros)
 
     def window():
         for _ in range(200):
-            bw.step(a)
+            bw.step(bw.expert_actions if expert else zeros)
         return 200 * 16  # world-steps
 
     return window
 
 
-def _wrap_kernels(counts: collections.Counter, calls: list | None = None) -> list:
+def _wrap_kernels(counts: collections.Counter, per: dict, calls: list) -> list:
     """Every numba dispatcher bound in a Python module of the package,
     replaced by a counting wrapper; returns what to restore."""
     undo = []
@@ -151,7 +155,7 @@ def _wrap_kernels(counts: collections.Counter, calls: list | None = None) -> lis
             if not isinstance(obj, CPUDispatcher):
                 continue
             if id(obj) not in wrappers:
-                wrappers[id(obj)] = _counter(obj, counts, calls)
+                wrappers[id(obj)] = _counter(obj, counts, per[obj.py_func.__name__], calls)
             undo.append((mod, name, obj))
             setattr(mod, name, wrappers[id(obj)])
     return undo
@@ -178,15 +182,18 @@ def _clone(x):
     return x
 
 
-def _counter(kernel, counts, calls=None):
+def _counter(kernel, counts, own, calls):
+    """``kernel`` counted into the totals ``counts`` and its own ``own``,
+    its calls recorded for the replay."""
     def counted(*args):
-        counts["calls"] += 1
-        for x in args:
-            counts["arrays" if isinstance(x, np.ndarray) else "others"] += 1
-        if calls is not None:  # (copies taken before the call: some kernels write into their arguments)
-            calls.append((kernel, _clone(args), _clone(args)))
+        arrays = sum(isinstance(x, np.ndarray) for x in args)
+        calls.append((kernel, _clone(args), _clone(args)))  # (copies before the call: some kernels write into them)
         out = kernel(*args)
-        counts["returned_arrays"] += _returned(out)
+        for c in (counts, own):
+            c["calls"] += 1
+            c["arrays"] += arrays
+            c["others"] += len(args) - arrays
+            c["returned_arrays"] += _returned(out)
         return out
 
     return counted
@@ -205,8 +212,16 @@ def _replay(calls: list) -> float:
     return time.process_time() - c0
 
 
-def run_case(case: str, unit: dict) -> dict:
-    make = {"intersection": _intersection, "batched": _batched}[case]
+def _estimate(c: dict, n: int, unit: dict) -> dict:
+    """The boundary's parts in us per step from the counts ``c`` of ``n``
+    steps and the unit costs."""
+    return {"fixed": c["calls"] / n * unit["fixed"], "arrays": c["arrays"] / n * unit["per_array"],
+            "others": c["others"] / n * unit["per_number"],
+            "returned": c["returned_arrays"] / n * unit["per_returned_array"]}
+
+
+def run_case(case: str, unit: dict, expert: bool = False) -> dict:
+    make = _intersection if case == "intersection" else lambda: _batched(expert)
     window = make()
     window()  # (the first window loads what the warm-up did not: the second is timed)
     c0 = time.process_time()
@@ -215,8 +230,9 @@ def run_case(case: str, unit: dict) -> dict:
     window = make()  # a fresh run of the same steps (same seed), the timed window counted
     window()
     counts = collections.Counter()
+    per_kernel = collections.defaultdict(collections.Counter)
     calls = []
-    undo = _wrap_kernels(counts, calls)
+    undo = _wrap_kernels(counts, per_kernel, calls)
     try:
         n2 = window()
     finally:
@@ -224,24 +240,32 @@ def run_case(case: str, unit: dict) -> dict:
             setattr(mod, name, obj)
     replay_us = _replay(calls) / n2 * 1e6
     per = {k: counts[k] / n2 for k in ("calls", "arrays", "others", "returned_arrays")}
-    parts = {"fixed": per["calls"] * unit["fixed"], "arrays": per["arrays"] * unit["per_array"],
-             "others": per["others"] * unit["per_number"],
-             "returned": per["returned_arrays"] * unit["per_returned_array"]}
+    parts = _estimate(counts, n2, unit)
     est = sum(parts.values())
-    return {"case": case, "step_us": step_us, "per_step": per, "estimate_us": est, "estimate_parts_us": parts,
-            "share_of_step": est / step_us, "replay_us": replay_us, "replay_share_of_step": replay_us / step_us}
+    kernels = sorted(({"kernel": k, **{f: c[f] / n2 for f in per}, "estimate_us": sum(_estimate(c, n2, unit).values())}
+                      for k, c in per_kernel.items()), key=lambda r: -r["estimate_us"])
+    return {"case": case, "expert": bool(expert), "step_us": step_us, "per_step": per, "estimate_us": est,
+            "estimate_parts_us": parts, "share_of_step": est / step_us, "replay_us": replay_us,
+            "replay_share_of_step": replay_us / step_us, "kernels": kernels}
 
 
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--case", choices=("intersection", "batched", "both"), default="both")
+    p.add_argument("--expert", action="store_true", help="batched case: the expert's action for every agent")
+    p.add_argument("--top", type=int, default=8, help="kernels listed per case (largest estimate first)")
     p.add_argument("--out")
     a = p.parse_args()
+    if a.expert and a.case == "intersection":
+        p.error("--expert applies to the batched case (the intersection's agents always act by the expert); "
+                "allowed with --case batched or both")
+    if a.top < 0:
+        p.error(f"--top {a.top}; allowed: an integer >= 0")
     unit = _unit_costs()
     print("unit costs here (us): " + ", ".join(f"{k} {v:.3f}" for k, v in unit.items()))
     res = {"unit_costs_us": unit, "cases": []}
     for case in (("intersection", "batched") if a.case == "both" else (a.case,)):
-        r = run_case(case, unit)
+        r = run_case(case, unit, expert=a.expert and case == "batched")
         res["cases"].append(r)
         ps = r["per_step"]
         what = "world-step" if case == "batched" else "step"
@@ -252,6 +276,9 @@ def main() -> None:
         print(f"  the same kernel calls replayed back to back: {r['replay_us']:.1f} us per {what} = "
               f"{100 * r['replay_share_of_step']:.0f}% of it (kernels and their boundary); the rest, "
               f"{r['step_us'] - r['replay_us']:.0f} us, is the Python around them")
+        for k in r["kernels"][:a.top]:
+            print(f"    {k['kernel']:30s} {k['calls']:5.2f} calls, {k['arrays']:5.1f} arrays, {k['others']:5.1f} others, "
+                  f"{k['returned_arrays']:4.1f} returned: about {k['estimate_us']:.2f} us")
     line = json.dumps(res)
     if a.out:
         with open(a.out, "w") as fh:
