@@ -1,7 +1,7 @@
 """What the Python <-> numba boundary costs in a step (issue 10, stop 44).
 
     PYTHONPATH=$PWD python scripts/bench_kernel_boundary.py [--case intersection|batched|both] [--expert]
-        [--top 8] [--out FILE]
+        [--seed 0] [--top 8] [--out FILE]
 
 Every compiled kernel call pays for its dispatch (a fixed part, then each
 argument unboxed: an array costs more than a number) and for every array it
@@ -28,7 +28,7 @@ returns (boxed into a new ``ndarray``). This script
    kernels took no time (kernels and their boundary; the rest of the step
    is that Python).
 
-Cases: ``intersection``: multi-vp at 2200 veh/h, seed 0, every vehicle an
+Cases (``--seed``, default 0): ``intersection``: multi-vp at 2200 veh/h, every vehicle an
 agent with the expert's action from the infos, 100 s of warm-up then 150 s
 (as ``icv-envs bench intersection``); ``batched``: 16 HighwayFormation
 worlds of 20 agents with zero actions (``--expert``: the expert's action
@@ -97,11 +97,11 @@ def _unit_costs(n: int = 200_000) -> dict:
             "per_returned_array": (r5 - r1) / 4}
 
 
-def _intersection():
+def _intersection(seed: int = 0):
     from icv_envs.envs.intersection_v0 import parallel_env
 
     env = parallel_env(method="multi-vp", throughput=2200.0, duration=450.0)
-    state = {"infos": env.reset(seed=0)[1]}
+    state = {"infos": env.reset(seed=seed)[1]}
 
     def step():
         infos = state["infos"]
@@ -121,10 +121,10 @@ def _intersection():
     return window
 
 
-def _batched(expert: bool = False):
+def _batched(expert: bool = False, seed: int = 0):
     from icv_envs.vector import BatchedWorlds
 
-    bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=expert)
+    bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=seed, expert=expert)
     bw.reset()
     zeros = np.zeros((16, bw.K, 2), dtype=np.float32)
     for _ in range(100):
@@ -220,8 +220,8 @@ def _estimate(c: dict, n: int, unit: dict) -> dict:
             "returned": c["returned_arrays"] / n * unit["per_returned_array"]}
 
 
-def run_case(case: str, unit: dict, expert: bool = False) -> dict:
-    make = _intersection if case == "intersection" else lambda: _batched(expert)
+def run_case(case: str, unit: dict, expert: bool = False, seed: int = 0) -> dict:
+    make = (lambda: _intersection(seed)) if case == "intersection" else lambda: _batched(expert, seed)
     window = make()
     window()  # (the first window loads what the warm-up did not: the second is timed)
     c0 = time.process_time()
@@ -244,7 +244,7 @@ def run_case(case: str, unit: dict, expert: bool = False) -> dict:
     est = sum(parts.values())
     kernels = sorted(({"kernel": k, **{f: c[f] / n2 for f in per}, "estimate_us": sum(_estimate(c, n2, unit).values())}
                       for k, c in per_kernel.items()), key=lambda r: -r["estimate_us"])
-    return {"case": case, "expert": bool(expert), "step_us": step_us, "per_step": per, "estimate_us": est,
+    return {"case": case, "expert": bool(expert), "seed": int(seed), "step_us": step_us, "per_step": per, "estimate_us": est,
             "estimate_parts_us": parts, "share_of_step": est / step_us, "replay_us": replay_us,
             "replay_share_of_step": replay_us / step_us, "kernels": kernels}
 
@@ -253,6 +253,7 @@ def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--case", choices=("intersection", "batched", "both"), default="both")
     p.add_argument("--expert", action="store_true", help="batched case: the expert's action for every agent")
+    p.add_argument("--seed", type=int, default=0, help="the run's seed (both cases)")
     p.add_argument("--top", type=int, default=8, help="kernels listed per case (largest estimate first)")
     p.add_argument("--out")
     a = p.parse_args()
@@ -265,7 +266,7 @@ def main() -> None:
     print("unit costs here (us): " + ", ".join(f"{k} {v:.3f}" for k, v in unit.items()))
     res = {"unit_costs_us": unit, "cases": []}
     for case in (("intersection", "batched") if a.case == "both" else (a.case,)):
-        r = run_case(case, unit, expert=a.expert and case == "batched")
+        r = run_case(case, unit, expert=a.expert and case == "batched", seed=a.seed)
         res["cases"].append(r)
         ps = r["per_step"]
         what = "world-step" if case == "batched" else "step"
