@@ -13,7 +13,9 @@ one process, arrays in and arrays out.
   Stable-Baselines3 ``VecEnv`` over the same worlds.
 * :class:`BatchedWorlds` -- the multi-agent envs in a fixed-K slot layout:
   slot ``k`` of world ``b`` is ``possible_agents[k]``; ``obs (B, K, V, F)``,
-  ``actions (B, K, 2)``, ``rewards``/``terminated``/``truncated (B, K)`` and
+  ``actions (B, K, 2)`` (``(B, K)`` integers with ``DiscreteMetaAction``:
+  the batch's spaces are the worlds' own, per slot, bounds and dtypes kept),
+  ``rewards``/``terminated``/``truncated (B, K)`` and
   ``mask (B, K)`` (True where the slot holds a live agent whose next action
   is used; observations of empty slots are zeros and their actions are
   ignored). A world whose episode is over
@@ -60,6 +62,27 @@ def _plain_continuous(at) -> bool:
     ``controls`` not replaced on the instance (a subclass such as
     ``FormationResidual`` adds the expert's action)."""
     return type(at) is ContinuousAction and "controls" not in at.__dict__
+
+
+def _slot_spaces(obs_space, act_space, B: int, K: int) -> tuple:
+    """The batch's ``(observation_space, action_space)`` over ``(B, K)``
+    slots from one agent's spaces, their bounds and dtypes kept (an
+    unnormalised observation is unbounded; empty slots hold zeros, which
+    every observation space of these envs contains): a ``Box`` per slot, or
+    ``MultiDiscrete`` for a ``Discrete`` action. Other spaces are refused."""
+    def box(sp):
+        shape = (B, K) + sp.shape
+        return spaces.Box(np.broadcast_to(sp.low, shape), np.broadcast_to(sp.high, shape), shape, dtype=sp.dtype)
+
+    if not isinstance(obs_space, spaces.Box):
+        raise ValueError(f"observation space {obs_space}; allowed for the slot layout: a Box")
+    if isinstance(act_space, spaces.Box):
+        act = box(act_space)
+    elif isinstance(act_space, spaces.Discrete):
+        act = spaces.MultiDiscrete(np.full((B, K), act_space.n), dtype=np.int64, start=np.full((B, K), act_space.start))
+    else:
+        raise ValueError(f"action space {act_space}; allowed for the slot layout: a Box or a Discrete")
+    return box(obs_space), act
 
 
 def _check_num(num: int, what: str) -> int:
@@ -116,9 +139,10 @@ class IcvVectorEnv(VectorEnv):
         return self._out(self._obs), {"expert_action": self._out(self._expert)}
 
     def step(self, actions):
-        acts = np.asarray(actions, dtype=np.float64)
-        if acts.shape != (self.num_envs, 2):
-            raise ValueError(f"actions have shape {acts.shape}; allowed: ({self.num_envs}, 2)")
+        acts = np.asarray(actions)
+        shape = (self.num_envs,) + tuple(self.single_action_space.shape)  # ((B, 2); (B,) for discrete actions)
+        if acts.shape != shape:
+            raise ValueError(f"actions have shape {acts.shape}; allowed: {shape}")
         infos: dict[str, Any] = {}
         for b, env in enumerate(self.envs):
             if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset[b]:
@@ -216,7 +240,10 @@ class BatchedWorlds:
     or ``"intersection"``; ``config``: the PettingZoo env's keyword
     arguments; ``expert``: also return the expert's action for every slot
     (``info["expert_actions"]``, ``(B, K, 2)``, zeros in empty slots).
-    Without ``expert`` the worlds never compute the expert: unless ``config``
+    Continuous actions (``ContinuousAction``, ``FormationResidual``) are
+    ``(B, K, 2)``; ``DiscreteMetaAction``'s are ``(B, K)`` integers
+    (``action_space`` a ``MultiDiscrete``), stepped through each world's
+    PettingZoo dicts. Without ``expert`` the worlds never compute the expert: unless ``config``
     says otherwise, ``expert_driven_check`` is False, so every vehicle is
     policy-driven (learned actions are never equal to the expert's anyway;
     the comparison cost a quarter of a 20-agent step)."""
@@ -252,8 +279,11 @@ class BatchedWorlds:
         self.single_observation_space = self.envs[0].observation_space(self.possible_agents[0])
         self.single_action_space = self.envs[0].action_space(self.possible_agents[0])
         obs_shape = self.single_observation_space.shape
-        self.observation_space = spaces.Box(-1.0, 1.0, (B, K) + obs_shape, dtype=np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (B, K, 2), dtype=np.float32)
+        self.observation_space, self.action_space = _slot_spaces(self.single_observation_space,
+                                                                 self.single_action_space, B, K)
+        # discrete actions (DiscreteMetaAction): ``actions (B, K)``, integers, through the worlds' dicts
+        self._discrete = isinstance(self.single_action_space, spaces.Discrete)
+        self._act_shape = (B, K) + tuple(self.single_action_space.shape)
         self.expert = bool(expert)
         self.copy = bool(copy)
         self._seeds = np.random.SeedSequence(int(seed)).spawn(B)
@@ -339,13 +369,19 @@ class BatchedWorlds:
         """``actions (B, K, 2)``; returns ``obs, rewards, terminated,
         truncated, mask, info`` (``info["reset"] (B,)``, ``info["final_obs"]``
         and with ``expert`` ``info["expert_actions"]``)."""
-        acts = np.asarray(actions, dtype=np.float64)
-        if acts.shape != (self.num_worlds, self.K, 2):
-            raise ValueError(f"actions have shape {acts.shape}; allowed: ({self.num_worlds}, {self.K}, 2)")
+        acts = np.asarray(actions)
+        if acts.shape != self._act_shape:
+            raise ValueError(f"actions have shape {acts.shape}; allowed: {self._act_shape}")
+        if self._discrete:  # checked, then as integers (empty slots: the space's first action, ignored)
+            acts = np.where(self.mask, self._check_discrete(acts), self.single_action_space.start).astype(np.int64)
+        elif acts.dtype.kind in "fiu":
+            acts = acts.astype(np.float64, copy=False)
+        else:
+            raise ValueError(f"actions have dtype {acts.dtype}; allowed: real numbers (float or int)")
         fin = np.isfinite(acts)
         finite = np.count_nonzero(fin) == fin.size
         if not finite:  # (the count first; the live slots' rows only then)
-            bad = ~fin.all(axis=-1) & self.mask
+            bad = ~fin.reshape(fin.shape[:2] + (-1,)).all(axis=-1) & self.mask
             if np.count_nonzero(bad):
                 b, k = np.argwhere(bad)[0]
                 raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k].tolist()} "
@@ -384,6 +420,26 @@ class BatchedWorlds:
             info["expert_actions"] = self._out(self.expert_actions)
         return (self._out(self.obs), self.rewards.copy(), self.terminated.copy(), self.truncated.copy(),
                 self._out(self.mask), info)
+
+    def _check_discrete(self, acts: np.ndarray) -> None:
+        """Discrete actions: every live slot's an integer (or an integer-valued
+        float) in the action space's range; an error names the first bad
+        world and slot (empty slots are ignored, whatever they hold)."""
+        sp = self.single_action_space
+        lo, hi = int(sp.start), int(sp.start) + int(sp.n) - 1
+        if acts.dtype.kind in "iu":
+            ok = (acts >= lo) & (acts <= hi)
+        elif acts.dtype.kind == "f":
+            with np.errstate(invalid="ignore"):
+                ok = np.isfinite(acts) & (acts == np.round(acts)) & (acts >= lo) & (acts <= hi)
+        else:
+            raise ValueError(f"actions have dtype {acts.dtype}; allowed: integers in [{lo}, {hi}]")
+        bad = ~ok & self.mask
+        if np.count_nonzero(bad):
+            b, k = np.argwhere(bad)[0]
+            raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k]!r} is invalid; "
+                             f"allowed: an integer in [{lo}, {hi}]")
+        return np.where(ok, acts, lo)  # (the bad values are in empty slots only)
 
     def _step_dicts(self, b: int, env, acts: np.ndarray) -> None:
         """World ``b``'s step through the PettingZoo dicts (action types other than continuous)."""

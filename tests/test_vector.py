@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from icv_envs.envs.highway_formation_v0 import parallel_env
 from icv_envs.vector import BatchedWorlds, IcvVectorEnv
@@ -318,3 +321,102 @@ def test_batched_worlds_follow_a_changed_action_type():
     obs = bw.step(acts)[0]
     o = ref.step_rows(np.full((ref.core._vehicles().n, 2), 0.5))
     np.testing.assert_array_equal(obs[0, bw._slots_of_vid(o.vid)], o.obs)
+
+
+# ----------------------------------------------------------------- the spaces
+# (stop 45: the batch declared Box(-1, 1, (B, K, ...)) observations and
+# Box(-1, 1, (B, K, 2)) actions whatever the worlds' config: an unnormalised
+# observation fell outside its space, and with DiscreteMetaAction no action
+# of the declared space was accepted; IcvVectorEnv's MultiDiscrete sample was
+# refused as having the wrong shape)
+_OBS = [{"type": "Kinematics"}, {"type": "Kinematics", "normalize": False}, {"type": "OccupancyGrid"}]
+_ACT = [{"type": "ContinuousAction"}, {"type": "DiscreteMetaAction"}, {"type": "FormationResidual", "bound": 0.25}]
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(obs=st.sampled_from(_OBS), act=st.sampled_from(_ACT), env_name=st.sampled_from(["highway_formation",
+                                                                                        "highway_ramps"]),
+       seed=st.integers(0, 2**16))
+def test_batched_worlds_spaces_hold_what_they_return_and_take(obs, act, env_name, seed):
+    """For every observation and action type: the batch's observations lie in
+    its ``observation_space`` (dtype included), a sample of its
+    ``action_space`` steps it, and each world's live slots hold what a
+    separate env with the same seed returns for the same actions."""
+    cfg = {"observation": obs, "action": act, "duration": 2.0}
+    cfg.update({"vehicles_count": 4, "initial_position": None} if env_name == "highway_formation"
+               else {"vgr": 0.5, "max_vehicles": 6})
+    bw = BatchedWorlds(2, env=env_name, config=cfg, seed=seed)
+    mod = __import__(f"icv_envs.envs.{env_name}_v0", fromlist=["parallel_env"])
+    refs = [mod.parallel_env(**cfg, expert_in_info=False, expert_driven_check=False) for _ in range(2)]
+    o, mask = bw.reset()
+    assert bw.observation_space.contains(o) and o.dtype == bw.single_observation_space.dtype
+    for b, env in enumerate(refs):
+        env.reset(seed=bw.episode_seed(b, 0))
+    bw.action_space.seed(seed)
+    for _ in range(3):
+        live = bw.mask.copy()
+        acts = bw.action_space.sample()
+        assert bw.action_space.contains(acts)
+        o, rew, term, trunc, mask, info = bw.step(acts)
+        assert bw.observation_space.contains(o)
+        for b, env in enumerate(refs):
+            ro, rr, _, _, _ = env.step({a: acts[b, bw.slot_of[a]] for a in env.agents})
+            assert sorted(np.flatnonzero(mask[b]).tolist()) == sorted(bw.slot_of[a] for a in env.agents)
+            for a in env.agents:
+                np.testing.assert_array_equal(o[b, bw.slot_of[a]], ro[a])
+            for a in rr:
+                if live[b, bw.slot_of[a]]:
+                    assert rew[b, bw.slot_of[a]] == rr[a]
+
+
+def test_batched_worlds_discrete_actions_bad_input():
+    """Discrete actions are ``(B, K)`` integers (integer-valued floats too);
+    a value out of range or not an integer in a live slot is an error naming
+    the world and slot; empty slots are ignored, whatever they hold."""
+    bw = BatchedWorlds(1, env="highway_ramps", config={"vgr": 0.5, "duration": 20.0, "max_vehicles": 8,
+                                                       "action": {"type": "DiscreteMetaAction"}})
+    _, mask = bw.reset()
+    assert isinstance(bw.action_space, spaces.MultiDiscrete) and bw.action_space.shape == (1, bw.K)
+    assert mask.sum() < bw.K
+    acts = np.ones((1, bw.K))
+    acts[~mask] = np.nan  # ignored: empty slots
+    bw.step(acts)
+    live = np.argwhere(bw.mask)[0]
+    for bad in (5, -1, 1.5, np.nan):
+        acts = np.ones((1, bw.K))
+        acts[tuple(live)] = bad
+        with pytest.raises(ValueError, match=rf"world 0 slot {live[1]} .*allowed: an integer in \[0, 4\]"):
+            bw.step(acts)
+    with pytest.raises(ValueError, match=rf"shape \(1, {bw.K}, 2\); allowed: \(1, {bw.K}\)"):
+        bw.step(np.ones((1, bw.K, 2)))
+    with pytest.raises(ValueError, match="dtype <U1; allowed: integers"):
+        bw.step(np.full((1, bw.K), "a"))
+    cont = BatchedWorlds(1, config=CFG)
+    cont.reset()
+    with pytest.raises(ValueError, match="dtype <U1; allowed: real numbers"):
+        cont.step(np.full((1, cont.K, 2), "a"))
+
+
+def test_gym_vector_env_discrete_actions_match_separate_envs():
+    """``IcvVectorEnv`` with ``DiscreteMetaAction``: actions ``(B,)`` from its
+    ``MultiDiscrete`` space step it, as separate envs with the same seeds."""
+    import gymnasium as gym
+
+    cfg = dict(CFG, action={"type": "DiscreteMetaAction"})
+    v = IcvVectorEnv(num_envs=2, config=cfg)
+    obs, _ = v.reset(seed=4)
+    refs = [gym.make("icv_envs/HighwayFormation-v0", config=cfg) for _ in range(2)]
+    for b, env in enumerate(refs):
+        assert np.array_equal(env.reset(seed=4 + b)[0], obs[b])
+    v.action_space.seed(0)
+    for _ in range(4):
+        acts = v.action_space.sample()
+        obs, rew, term, trunc, _ = v.step(acts)
+        assert v.observation_space.contains(obs)
+        for b, env in enumerate(refs):
+            o, r, te, tr, _ = env.step(acts[b])
+            assert np.array_equal(o, obs[b]) and r == rew[b]
+            if te or tr:
+                break
+    with pytest.raises(ValueError, match=r"shape \(2, 2\); allowed: \(2,\)"):
+        v.step(np.zeros((2, 2), dtype=np.int64))
