@@ -334,17 +334,16 @@ _ACT = [{"type": "ContinuousAction"}, {"type": "DiscreteMetaAction"}, {"type": "
 
 
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(obs=st.sampled_from(_OBS), act=st.sampled_from(_ACT), env_name=st.sampled_from(["highway_formation",
-                                                                                        "highway_ramps"]),
-       seed=st.integers(0, 2**16))
+@given(obs=st.sampled_from(_OBS), act=st.sampled_from(_ACT),
+       env_name=st.sampled_from(["highway_formation", "highway_ramps", "intersection"]), seed=st.integers(0, 2**16))
 def test_batched_worlds_spaces_hold_what_they_return_and_take(obs, act, env_name, seed):
     """For every observation and action type: the batch's observations lie in
     its ``observation_space`` (dtype included), a sample of its
     ``action_space`` steps it, and each world's live slots hold what a
     separate env with the same seed returns for the same actions."""
     cfg = {"observation": obs, "action": act, "duration": 2.0}
-    cfg.update({"vehicles_count": 4, "initial_position": None} if env_name == "highway_formation"
-               else {"vgr": 0.5, "max_vehicles": 6})
+    cfg.update({"highway_formation": {"vehicles_count": 4, "initial_position": None},
+                "highway_ramps": {"vgr": 0.5, "max_vehicles": 6}, "intersection": {"throughput": 3000.0}}[env_name])
     bw = BatchedWorlds(2, env=env_name, config=cfg, seed=seed)
     mod = __import__(f"icv_envs.envs.{env_name}_v0", fromlist=["parallel_env"])
     refs = [mod.parallel_env(**cfg, expert_in_info=False, expert_driven_check=False) for _ in range(2)]
