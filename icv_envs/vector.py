@@ -85,10 +85,16 @@ def _slot_spaces(obs_space, act_space, B: int, K: int) -> tuple:
     return box(obs_space), act
 
 
-def _check_num(num: int, what: str) -> int:
-    if not (isinstance(num, (int, np.integer)) and not isinstance(num, bool) and num >= 1):
-        raise ValueError(f"{what} = {num!r}; allowed: an integer >= 1")
+def _check_num(num: int, what: str, lo: int = 1) -> int:
+    if not (isinstance(num, (int, np.integer)) and not isinstance(num, bool) and num >= lo):
+        raise ValueError(f"{what} = {num!r}; allowed: an integer >= {lo}")
     return int(num)
+
+
+def _check_flag(v, what: str) -> bool:
+    if not isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"{what} = {v!r}; allowed: True or False")
+    return bool(v)
 
 
 class IcvVectorEnv(VectorEnv):
@@ -101,12 +107,18 @@ class IcvVectorEnv(VectorEnv):
         if env_id not in icv_envs.GYM_IDS:
             raise ValueError(f"env_id {env_id!r} is not a single-agent icv_envs env; allowed: {sorted(icv_envs.GYM_IDS)}")
         self.num_envs = _check_num(num_envs, "num_envs")
-        mode = AutoresetMode(autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
+        try:
+            mode = AutoresetMode(autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
+        except ValueError:
+            mode = None
         if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
-            raise ValueError(f"autoreset_mode = {autoreset_mode!r}; allowed: NEXT_STEP or SAME_STEP")
+            raise ValueError(f"autoreset_mode = {autoreset_mode!r}; allowed: AutoresetMode.NEXT_STEP or SAME_STEP "
+                             f"(or the strings 'NextStep', 'SameStep')")
         self.autoreset_mode = mode
         self.metadata = {"autoreset_mode": mode, "render_modes": []}
-        self.copy = bool(copy)
+        self.copy = _check_flag(copy, "copy")
+        if config is not None and not isinstance(config, dict):
+            raise ValueError(f"config = {config!r}; allowed: None or a dict (the env's config)")
         self.envs = [gym.make(env_id, config=dict(config or {})).unwrapped for _ in range(self.num_envs)]
         self.single_observation_space = self.envs[0].observation_space
         self.single_action_space = self.envs[0].action_space
@@ -126,12 +138,15 @@ class IcvVectorEnv(VectorEnv):
 
     def reset(self, *, seed: int | list | None = None, options: dict | None = None):
         B = self.num_envs
-        if seed is None or isinstance(seed, (int, np.integer)):
-            seeds = [None if seed is None else int(seed) + b for b in range(B)]
-        else:
-            seeds = list(seed)
+        if seed is None or (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool)):
+            seeds = [None if seed is None else _check_num(seed, "seed", 0) + b for b in range(B)]
+        elif isinstance(seed, (list, tuple, np.ndarray)):
+            seeds = [None if s is None else _check_num(s, f"seed[{b}]", 0) for b, s in enumerate(seed)]
             if len(seeds) != B:
                 raise ValueError(f"{len(seeds)} seeds for {B} worlds; pass one int or one seed per world")
+        else:
+            raise ValueError(f"seed = {seed!r}; allowed: None, an integer >= 0 (world b gets seed + b) or a list of "
+                             f"{B} integers >= 0 or None")
         for b, env in enumerate(self.envs):
             self._obs[b], info = env.reset(seed=seeds[b], options=options)
             self._expert[b] = info.get("expert_action", 0.0)
@@ -257,11 +272,16 @@ class BatchedWorlds:
         if env not in self.ENVS:
             raise ValueError(f"env = {env!r}; allowed: {list(self.ENVS)}")
         self.num_worlds = B = _check_num(num_worlds, "num_worlds")
+        self.expert = _check_flag(expert, "expert")
+        self.copy = _check_flag(copy, "copy")
+        seed = _check_num(seed, "seed", 0)
+        if config is not None and not isinstance(config, dict):
+            raise ValueError(f"config = {config!r}; allowed: None or a dict of the env's keyword arguments")
         cfg = dict(config or {})
         cfg.setdefault("expert_in_info", False)  # the batch asks the expert once per step itself
         # without ``expert`` the batch never computes the expert: no action is compared with it
         # (every vehicle policy-driven, see the envs' ``expert_driven_check``)
-        cfg.setdefault("expert_driven_check", bool(expert))
+        cfg.setdefault("expert_driven_check", self.expert)
         mod = importlib.import_module(f"icv_envs.envs.{env}_v0")
         self.envs = [mod.parallel_env(**cfg) for _ in range(B)]
         self.possible_agents = list(self.envs[0].possible_agents)
@@ -284,9 +304,7 @@ class BatchedWorlds:
         # discrete actions (DiscreteMetaAction): ``actions (B, K)``, integers, through the worlds' dicts
         self._discrete = isinstance(self.single_action_space, spaces.Discrete)
         self._act_shape = (B, K) + tuple(self.single_action_space.shape)
-        self.expert = bool(expert)
-        self.copy = bool(copy)
-        self._seeds = np.random.SeedSequence(int(seed)).spawn(B)
+        self._seeds = np.random.SeedSequence(seed).spawn(B)
         self._episode = np.zeros(B, dtype=np.int64)
         self.obs = np.zeros((B, K) + obs_shape, dtype=np.float32)
         self._obs_flat = self.obs.reshape(B, K, -1)  # (a view: each slot's observation flattened, for the scatter)

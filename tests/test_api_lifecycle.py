@@ -401,3 +401,21 @@ def test_parallel_reset_builds_no_ego_observation_and_keeps_a_replaced_reset(mon
     assert calls[0] == "own" and 1 in calls  # the replaced reset ran, and with it the ego's observation
     assert list(obs_a) == list(obs_b) and all(np.array_equal(obs_a[k], obs_b[k]) for k in obs_a)
     assert all(np.array_equal(inf_a[k]["expert_action"], inf_b[k]["expert_action"]) for k in inf_a)
+
+
+@pytest.mark.parametrize("make", [
+    lambda: gym.make("icv_envs/HighwayFormation-v0"), lambda: gym.make("icv_envs/Intersection-v0"),
+    lambda: highway_formation_v0.parallel_env(), lambda: highway_ramps_v0.parallel_env(),
+    lambda: intersection_v0.parallel_env(), lambda: intersection_v0.env(),
+])
+def test_reset_options_other_than_config_are_errors(make):
+    """``reset(options=...)`` takes ``{"config": {...}}`` only (stop 45: any
+    other key was accepted and ignored, a typo such as ``"confg"`` silently
+    reset with the old config); a non-dict is an error too."""
+    env = make()
+    with pytest.raises(ValueError, match=r"unknown reset option keys \['confg'\]; allowed: \['config'\]"):
+        env.reset(seed=0, options={"confg": {"duration": 5.0}})
+    with pytest.raises(ValueError, match=r"reset options = \[1\]; allowed: None or a dict"):
+        env.reset(seed=0, options=[1])
+    env.reset(seed=0, options={})  # (empty: nothing to apply)
+    env.close()

@@ -419,3 +419,29 @@ def test_gym_vector_env_discrete_actions_match_separate_envs():
                 break
     with pytest.raises(ValueError, match=r"shape \(2, 2\); allowed: \(2,\)"):
         v.step(np.zeros((2, 2), dtype=np.int64))
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda: BatchedWorlds(1, seed=-1), r"seed = -1; allowed: an integer >= 0"),
+    (lambda: BatchedWorlds(1, seed=1.5), r"seed = 1.5; allowed"),  # (was truncated to 1)
+    (lambda: BatchedWorlds(1, seed=True), r"seed = True; allowed"),
+    (lambda: BatchedWorlds(1, copy="no"), r"copy = 'no'; allowed: True or False"),  # (was bool('no') = True)
+    (lambda: BatchedWorlds(1, expert="yes"), r"expert = 'yes'; allowed: True or False"),
+    (lambda: BatchedWorlds(1, config=[("duration", 1.0)]), r"config = .*allowed: None or a dict"),
+    (lambda: IcvVectorEnv(num_envs=1, copy=0), r"copy = 0; allowed: True or False"),
+    (lambda: IcvVectorEnv(num_envs=1, config=[1]), r"config = \[1\]; allowed: None or a dict"),
+    (lambda: IcvVectorEnv(num_envs=1, autoreset_mode="bogus"), r"autoreset_mode = 'bogus'; allowed: .*NEXT_STEP"),
+    (lambda: IcvVectorEnv(num_envs=2, config=CFG).reset(seed=-3), r"seed = -3; allowed: an integer >= 0"),
+    (lambda: IcvVectorEnv(num_envs=2, config=CFG).reset(seed=[1, -1]), r"seed\[1\] = -1; allowed"),
+    (lambda: IcvVectorEnv(num_envs=2, config=CFG).reset(seed=1.5), r"seed = 1.5; allowed: None, an integer"),
+    (lambda: IcvVectorEnv(num_envs=2, config=CFG).reset(options={"bogus": 1}),
+     r"unknown reset option keys \['bogus'\]; allowed: \['config'\]"),
+])
+def test_vector_bad_arguments_are_named(make, match):
+    """Every argument of the batch constructors and the vector env's reset is
+    checked (stop 45: a float seed was truncated, a string flag taken as
+    True, an unknown reset option ignored, other bad values failed deep
+    inside with numpy's or Python's message)."""
+    with pytest.raises(ValueError, match=match):
+        make()
+    IcvVectorEnv(num_envs=2, config=CFG).reset(seed=[1, None])  # (one seed per world, None: unseeded)

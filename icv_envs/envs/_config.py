@@ -27,7 +27,7 @@ import numpy as np
 __all__ = [
     "MAX_DURATION", "MAX_AGENTS", "UNUSED_COMMON", "MAX_ACCEL", "MAX_SCREEN", "num", "section", "check_keys", "flag",
     "accel_range", "speed_range", "is_speed_pair", "check_render", "check_unused", "check_possible_agents", "typed_options",
-    "pick_type",
+    "pick_type", "check_reset_options",
 ]
 
 MAX_DURATION = 86400.0  # s
@@ -88,6 +88,18 @@ def check_keys(d: dict, name: str, allowed, required=()) -> None:
     missing = sorted(set(required) - set(d))
     if missing:
         raise ValueError(f"{name} needs the keys {missing}; got {d!r}")
+
+
+def check_reset_options(options) -> None:
+    """``reset(options=...)``: None or a dict whose only key is ``"config"``
+    (merged into the env's config, as highway-env's reset takes it). Other
+    keys were accepted and ignored until stop 45; the config itself is
+    checked where it is applied."""
+    if options is None:
+        return
+    if not isinstance(options, dict):
+        raise ValueError(f"reset options = {options!r}; allowed: None or a dict {{'config': {{...}}}}")
+    check_keys(options, "reset option", ("config",))
 
 
 def flag(config: dict, key: str, optional: bool = False) -> None:

@@ -12,6 +12,8 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
+from icv_envs.envs._config import check_reset_options
+
 __all__ = ["EgoEnv"]
 
 
@@ -29,6 +31,7 @@ class EgoEnv:
         """:meth:`reset` up to the new world, without the ego's observation
         and info (the multi-agent reset builds every agent's instead, from
         stop 43: it discarded the ego's)."""
+        check_reset_options(options)
         gym.Env.reset(self, seed=seed, options=options)
         if options and "config" in options:
             self.configure(options["config"])

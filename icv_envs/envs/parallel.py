@@ -7,6 +7,8 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils.agent_selector import AgentSelector
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
+from icv_envs.envs._config import check_reset_options
+
 __all__ = ["CoreParallelEnv", "OpenRoadAECWrapper", "module_functions"]
 
 
@@ -65,6 +67,7 @@ class CoreParallelEnv(ParallelEnv):
         return self._act_space
 
     def reset(self, seed: int | None = None, options: dict | None = None):
+        check_reset_options(options)
         if options and "config" in options:
             # validate first, then apply: a rejected config leaves the env as it was
             n = self.core.preview_config(options["config"])
