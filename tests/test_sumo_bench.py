@@ -113,3 +113,12 @@ def test_ramps_vs_sumo_through_the_array_path():
     assert res["api"] == "rows" and res["icv_vehicle_steps_per_cpu_s"] > 0
     with pytest.raises(ValueError, match=r"api = 'x'; allowed: \['dicts', 'lean', 'rows'\]"):
         ramps_vs_sumo(seconds=6.0, measure=2.0, api="x")
+
+
+def test_vs_sumo_too_short_names_the_cli_option(capsys):
+    """``--seconds`` at most the timed 100 s: the error names ``--seconds``
+    and the bound (stop 45: it named the internal ``measure`` only)."""
+    pytest.importorskip("libsumo")
+    pytest.importorskip("sumo")
+    assert main(["bench", "highway-ramps", "--vs-sumo", "--seconds", "50"]) == 2
+    assert "--seconds must exceed 100" in capsys.readouterr().err

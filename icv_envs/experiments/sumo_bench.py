@@ -90,7 +90,8 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
     if not sumo_available():
         raise RuntimeError("--vs-sumo needs SUMO: pip install 'icv-envs[bench]' (eclipse-sumo, libsumo)")
     if not 0 < measure < seconds:
-        raise ValueError(f"measure = {measure!r}; allowed: 0 < measure < seconds = {seconds}")
+        raise ValueError(f"seconds = {seconds!r} with measure = {measure!r}; allowed: 0 < measure < seconds (the "
+                         f"bench times the last {measure:g} s of the run: --seconds must exceed {measure:g})")
     if api not in APIS:
         raise ValueError(f"api = {api!r}; allowed: {list(APIS)}")
     env = parallel_env(vgr=float(vgr), duration=float(seconds), method="formation", **APIS[api])
