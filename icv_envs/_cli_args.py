@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 
 __all__ = ["_HelpFormatter", "_choice", "_floats", "_names", "_positive_float", "_positive_int", "_seed_list",
-           "_sizes"]
+           "_sizes", "_nonneg_int"]
 
 
 def _positive_float(name, allow_zero: bool = False):
@@ -40,6 +40,21 @@ def _positive_int(name):
     return parse
 
 
+def _nonneg_int(name):
+    """A parser of an integer >= 0 for option ``name`` (a seed: gymnasium
+    refuses a negative one, deep inside a run, with its own error type)."""
+    def parse(text):
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 0, got {text!r}") from None
+        if v < 0:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 0, got {text!r}")
+        return v
+
+    return parse
+
+
 def _floats(name):
     def parse(text):
         try:
@@ -63,7 +78,14 @@ def _seed_list(text):
 
 
 def _names(text):
-    return [v.strip() for v in text.split(",") if v.strip()]
+    """Comma-separated names; an empty list is an error (it fell back to the
+    defaults until stop 45), and so is a repeated name."""
+    vals = [v.strip() for v in text.split(",") if v.strip()]
+    if not vals:
+        raise argparse.ArgumentTypeError(f"the list is empty, got {text!r}")
+    if len(set(vals)) != len(vals):
+        raise argparse.ArgumentTypeError(f"the list repeats a name, got {text!r}")
+    return vals
 
 
 def _sizes(text):

@@ -7,7 +7,7 @@
     icv-envs compare highway-ramps --methods formation,lane-lp,idm --vgr 0.1,0.2,0.33,0.5 --seeds 3 --seconds 600 --out DIR
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
     icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333] [--vs-sumo [--api dicts|lean|rows]]
-    icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,...,5000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
+    icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,1500,2000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
     icv-envs bench intersection [--seconds 500] [--warmup 100] [--seeds 3] [--throughput 2200] [--method multi-vp]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
@@ -31,7 +31,7 @@ import sys
 from pathlib import Path
 
 from icv_envs import __version__
-from icv_envs._cli_args import (_HelpFormatter, _choice, _floats, _names, _positive_float, _positive_int,
+from icv_envs._cli_args import (_HelpFormatter, _choice, _floats, _names, _nonneg_int, _positive_float, _positive_int,
                                 _seed_list, _sizes)
 from icv_envs.envs.highway_ramps import METHODS as RAMP_METHODS
 from icv_envs.envs.intersection import METHODS as INTERSECTION_METHODS
@@ -87,7 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="run the four Fig. 7 scenarios with the expert; metrics + GIFs", formatter_class=fmt)
     d.add_argument("--out", default="demo_out", help="output directory")
-    d.add_argument("--seed", type=int, default=0, help="episode seed")
+    d.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="episode seed")
     d.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0, help="simulated seconds per scenario")
     d.add_argument("--no-video", action="store_true", help="skip the GIFs")
 
@@ -98,7 +98,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--policy", type=_choice("policy", POLICIES), default=None,
                    help=f"highway-formation (default expert): who drives every vehicle, {', '.join(POLICIES)}")
     r.add_argument("--seconds", type=_positive_float("--seconds"), default=60.0, help="simulated seconds")
-    r.add_argument("--seed", type=int, default=0, help="episode seed")
+    r.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="episode seed")
     r.add_argument("--out", default=None, help="directory for metrics.json (and video.gif)")
     r.add_argument("--video", action="store_true", help="highway-formation, intersection: also write video.gif to --out")
     r.add_argument("--config", default=None, help="JSON object of extra env config keys (see docs/envs/)")
@@ -122,8 +122,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="intersection: vehicles/h entering the intersection, comma-separated (default 1000,1500,2000,2500,3000)")
     c.add_argument("--lane-use", dest="lane_use", default=None,  # checked by the env config (exit 2)
                    help=f"intersection: {', '.join(LANE_USES)} (default paper)")
-    c.add_argument("--vgr", type=_floats("--vgr"), default=[0.1, 0.2, 0.33, 0.5],
-                   help="highway-ramps: vehicles/s per on-ramp, comma-separated")
+    c.add_argument("--vgr", type=_floats("--vgr"), default=None,
+                   help="highway-ramps: vehicles/s per on-ramp, comma-separated (default 0.1,0.2,0.33,0.5)")
     c.add_argument("--warmup", type=float, default=None,
                    help="intersection: seconds run before the statistics start (default 100)")
     c.add_argument("--seeds", type=_seed_list, default=[0, 1, 2],
@@ -132,7 +132,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--out", default="compare_out", help="output directory (CSV, JSON, plots)")
     c.add_argument("--backend", type=_choice("backend", BACKENDS), default="process",
                    help="process (local pool) or ray")
-    c.add_argument("--workers", type=int, default=None, help="local pool size (default: all cores)")
+    c.add_argument("--workers", type=_positive_int("--workers"), default=None,
+                   help="local pool size (--backend process; default: all cores)")
 
     b = sub.add_parser("bench", help="speed benchmarks (ratios against a reference measured in the same run)",
                        formatter_class=fmt)
@@ -179,7 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
     ds.add_argument("--env", required=True, help="Gymnasium id (the ego) or PettingZoo id (one episode per vehicle)")
     ds.add_argument("--episodes", type=int, required=True, help="env episodes (seeds SEED, SEED+1, ...)")
     ds.add_argument("--out", required=True, help="directory of the Minari datasets (MINARI_DATASETS_PATH)")
-    ds.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    ds.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="seed of the first episode")
     ds.add_argument("--config", default=None, help="JSON dict of env config (or a .json file)")
     ds.add_argument("--dataset-id", dest="dataset_id", default=None, help="default: icv_envs/<family>/expert-v0")
     return p
@@ -200,6 +201,11 @@ _RUN_ONLY = {"--scenario": ("scenario", ("highway-formation",)), "--policy": ("p
              "--method": ("method", ("highway-ramps", "intersection")), "--vgr": ("vgr", ("highway-ramps",)),
              "--throughput": ("throughput", ("intersection",)), "--lane-use": ("lane_use", ("intersection",)),
              "--video": ("video", ("highway-formation", "intersection"))}
+
+
+#: ``compare`` options that apply to one target only: given for another, they are an error
+_COMPARE_ONLY = {"--vgr": ("vgr", ("highway-ramps",)), "--throughput": ("throughput", ("intersection",)),
+                 "--lane-use": ("lane_use", ("intersection",)), "--warmup": ("warmup", ("intersection",))}
 
 
 #: ``bench`` options that apply to some targets only: given for another, they are an error
@@ -252,8 +258,7 @@ def _dispatch(args) -> int:
         args.method = args.method or DEFAULT_METHOD["highway-ramps"]
         args.vgr = 1.0 / 3.0 if args.vgr is None else args.vgr
         validate_grid([args.method], [args.vgr], 1, args.seconds)
-        m = run_ramps(args.method, args.vgr, args.seed, args.seconds,
-                      json.loads(args.config) if args.config else None)
+        m = run_ramps(args.method, args.vgr, args.seed, args.seconds, _json_config(args.config) or None)
         if args.out:
             Path(args.out).mkdir(parents=True, exist_ok=True)
             (Path(args.out) / "metrics.json").write_text(json.dumps(m))
@@ -269,6 +274,11 @@ def _dispatch(args) -> int:
             print(format_matrix(conflict_model(args.lane_use)))
         print(json.dumps(report))
         return 0
+    if args.command == "compare":
+        _reject_foreign_options(args, "compare", args.target, _COMPARE_ONLY)
+        from icv_envs.experiments._checks import check_workers
+
+        check_workers(args.workers, args.backend)
     if args.command == "compare" and args.target == "intersection":
         from icv_envs.experiments.intersection_compare import run_cli as compare_intersection_cli
 
@@ -280,6 +290,7 @@ def _dispatch(args) -> int:
         from icv_envs.experiments.compare import compare_highway_ramps
 
         args.methods = args.methods or ["formation", "lane-lp", "idm"]
+        args.vgr = [0.1, 0.2, 0.33, 0.5] if args.vgr is None else args.vgr
 
         summary = compare_highway_ramps(args.methods, args.vgr, args.seeds, args.seconds, args.out,
                                         backend=args.backend, workers=args.workers, progress=_progress())
@@ -293,14 +304,7 @@ def _dispatch(args) -> int:
     if args.command == "run":
         from icv_envs.experiments.run import run_highway_formation
 
-        config = None
-        if args.config:
-            try:
-                config = json.loads(args.config)
-            except json.JSONDecodeError as exc:
-                raise ValueError(f"--config is not valid JSON: {exc}") from None
-            if not isinstance(config, dict):
-                raise ValueError(f"--config must be a JSON object, got {args.config!r}")
+        config = _json_config(args.config) or None
         if args.video and not args.out:
             raise ValueError("--video needs --out DIR to write the video to")
         m = run_highway_formation(args.scenario or "lane-drop", args.policy or "expert", args.seconds, args.seed, args.out, args.video,
@@ -407,7 +411,8 @@ def _run_intersection(args) -> int:
     expert; prints the metrics (and writes metrics.json / video.gif to --out)."""
     import time
 
-    from icv_envs.experiments.intersection_compare import validate_grid
+    from icv_envs.experiments._checks import check_run_config
+    from icv_envs.experiments.intersection_compare import OWNED_CONFIG, validate_grid
     from icv_envs.envs.intersection_v0 import parallel_env
 
     method = args.method or DEFAULT_METHOD["intersection"]
@@ -417,7 +422,7 @@ def _run_intersection(args) -> int:
     if args.video and not args.out:
         raise ValueError("--video needs --out DIR to write the video to")
     cfg = {"expert_in_info": False}
-    cfg.update(_json_config(args.config))
+    cfg.update(check_run_config(_json_config(args.config), dict(OWNED_CONFIG, lane_use="--lane-use")))
     cfg.update({"method": method, "throughput": float(args.throughput), "duration": float(args.seconds),
                 "lane_use": args.lane_use})
     env = parallel_env(render_mode="rgb_array" if args.video else None, **cfg)

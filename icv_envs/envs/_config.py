@@ -20,6 +20,7 @@ vehicle model; they are deliberately generous:
 from __future__ import annotations
 
 import math
+import warnings
 from numbers import Real
 
 import numpy as np
@@ -91,15 +92,22 @@ def check_keys(d: dict, name: str, allowed, required=()) -> None:
 
 
 def check_reset_options(options) -> None:
-    """``reset(options=...)``: None or a dict whose only key is ``"config"``
-    (merged into the env's config, as highway-env's reset takes it). Other
-    keys were accepted and ignored until stop 45; the config itself is
-    checked where it is applied."""
+    """``reset(options=...)``: None or a dict; the env reads its ``"config"``
+    (merged into the env's config, as highway-env's reset takes it; checked
+    where it is applied). A non-dict is an error. Any other key is ignored
+    with a warning naming it, not refused: PettingZoo's own API test
+    (``parallel_api_test``) resets with ``options={"options": 1}`` and
+    requires the env to accept it (decided at stop 45; until then other keys
+    were ignored silently, so a typo such as ``"confg"`` reset with the old
+    config without a word)."""
     if options is None:
         return
     if not isinstance(options, dict):
         raise ValueError(f"reset options = {options!r}; allowed: None or a dict {{'config': {{...}}}}")
-    check_keys(options, "reset option", ("config",))
+    unknown = sorted(map(str, set(options) - {"config"}))
+    if unknown:
+        warnings.warn(f"reset option(s) {unknown} are not used by this env and are ignored; it reads only "
+                      f"'config'", UserWarning, stacklevel=4)
 
 
 def flag(config: dict, key: str, optional: bool = False) -> None:

@@ -222,8 +222,8 @@ possible agents, `acceleration_range` within +-20 m/s^2 (see `icv_envs/envs/_con
 highway-env keys the env does not use (`other_vehicles_type`, `manual_control`,
 `show_trajectories`) must keep their defaults. A config passed to
 `reset(options={"config": ...})` is validated before it is applied: a rejected one
-leaves the env as it was. `"config"` is the only reset option; any other key is an
-error.
+leaves the env as it was. `"config"` is the only reset option the env reads; any other key is
+ignored with a warning naming it (PettingZoo's API test resets with other keys).
 """
 
 from __future__ import annotations

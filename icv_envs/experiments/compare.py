@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from icv_envs.envs.highway_ramps import MAX_VGR, METHODS
+from icv_envs.experiments._checks import check_run_config, check_seed, check_workers
 
 __all__ = ["run_ramps", "compare_highway_ramps", "run_jobs", "CSV_COLUMNS", "validate_grid"]
 
@@ -59,17 +60,27 @@ def validate_methods(methods) -> None:
     bad = [m for m in methods if m not in METHODS]
     if bad:
         raise ValueError(f"unknown methods {bad}; allowed: {list(METHODS)}")
+    if len(set(methods)) != len(methods):
+        raise ValueError(f"methods = {methods!r} repeat a method; allowed: distinct methods")
 
 
 def validate_grid(methods, vgrs, seeds, seconds) -> None:
+    """Raise ValueError naming the bad value: ``methods`` and ``vgrs`` lists
+    (a bare string or number is not a list), known methods, 0 < vgr <=
+    :data:`MAX_VGR`, seeds (:func:`_seed_list`), seconds > 0 (bools are not numbers)."""
+    for name, vals, eg in (("methods", methods, "['formation']"), ("vgrs", vgrs, "[0.33]")):
+        if not isinstance(vals, (list, tuple)):
+            raise ValueError(f"{name} = {vals!r}; allowed: a list, e.g. {eg}")
     validate_methods(methods)
     if not list(vgrs):
         raise ValueError("no VGR given")
+    if len(set(vgrs)) != len(vgrs):
+        raise ValueError(f"vgrs = {vgrs!r} repeat a value; allowed: distinct values")
     for v in vgrs:
-        if not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= MAX_VGR:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= MAX_VGR:
             raise ValueError(f"vgr {v!r} is invalid; allowed: 0 < vgr <= {MAX_VGR} vehicles/s per ramp")
     _seed_list(seeds)
-    if not isinstance(seconds, (int, float)) or not math.isfinite(seconds) or seconds <= 0:
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds) or seconds <= 0:
         raise ValueError(f"seconds = {seconds!r}; allowed: a number > 0")
 
 
@@ -91,8 +102,11 @@ def run_ramps(method: str, vgr: float, seed: int, seconds: float, config: dict |
     the totals plus ``timeseries`` and heat maps."""
     from icv_envs.envs.highway_ramps_v0 import parallel_env
 
-    env = parallel_env(method=method, vgr=float(vgr), duration=float(seconds), **(config or {}))
-    env.reset(seed=int(seed))
+    seed = check_seed(seed)
+    config = check_run_config(config, {"method": "method (--method)", "vgr": "vgr (--vgr)",
+                                       "duration": "seconds (--seconds)"})
+    env = parallel_env(method=method, vgr=float(vgr), duration=float(seconds), **config)
+    env.reset(seed=seed)
     t0 = time.perf_counter()
     while not env.episode_over:
         ex = env.expert_actions()
@@ -161,6 +175,9 @@ def compare_highway_ramps(methods, vgrs, seeds, seconds: float, out, backend: st
                           workers: int | None = None, progress: bool = True, config: dict | None = None) -> dict:
     validate_grid(methods, vgrs, seeds, seconds)
     check_backend(backend)
+    check_workers(workers, backend)
+    check_run_config(config, {"method": "methods (--methods)", "vgr": "vgrs (--vgr)",
+                              "duration": "seconds (--seconds)"})
     out = Path(out)
     (out / "runs").mkdir(parents=True, exist_ok=True)
     jobs = [(m, float(v), s, float(seconds), config) for m in methods for v in vgrs for s in _seed_list(seeds)]

@@ -52,6 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from icv_envs.envs.intersection import MAX_THROUGHPUT, METHODS, IntersectionEnv
+from icv_envs.experiments._checks import check_run_config, check_seed, check_workers
 from icv_envs.experiments.compare import check_backend, run_jobs
 from icv_envs.experiments.seeds import parse_seeds
 
@@ -78,7 +79,14 @@ _COLOURS = {"multi-vp": "tab:red", "single-vp": "tab:blue", "fcfs": "tab:grey", 
 
 
 def validate_grid(methods, throughputs, seeds, seconds) -> None:
-    """Raise ValueError naming the bad value: unknown method, throughput <= 0, seeds < 1, seconds <= 0."""
+    """Raise ValueError naming the bad value: ``methods`` and ``throughputs``
+    lists (a bare string or number is not a list) of distinct values, unknown
+    method, throughput <= 0, seeds < 1, seconds <= 0."""
+    for name, vals, eg in (("methods", methods, "['multi-vp']"), ("throughputs", throughputs, "[1500.0]")):
+        if not isinstance(vals, (list, tuple)):
+            raise ValueError(f"{name} = {vals!r}; allowed: a list, e.g. {eg}")
+        if len(set(vals)) != len(vals):
+            raise ValueError(f"{name} = {vals!r} repeat a value; allowed: distinct values")
     methods = list(methods)
     if not methods:
         raise ValueError("no methods given; allowed: " + ", ".join(METHODS))
@@ -95,16 +103,22 @@ def validate_grid(methods, throughputs, seeds, seconds) -> None:
         raise ValueError(f"seconds = {seconds!r}; allowed: a number > 0")
 
 
+#: config keys an intersection run's own arguments set (a config may not set them too)
+OWNED_CONFIG = {"method": "method (--method)", "throughput": "throughput (--throughput)",
+                "duration": "seconds (--seconds)"}
+
+
 def run_intersection(method: str, throughput: float, seed: int, seconds: float, config: dict | None = None) -> dict:
     """One run of the intersection driven by the method's expert; returns its metrics (``config`` may set
     ``warmup``: seconds run before the clock and the statistics start)."""
     from icv_envs.envs.intersection_v0 import parallel_env
 
+    seed = check_seed(seed)
     cfg = {"expert_in_info": False}
-    cfg.update(config or {})
+    cfg.update(check_run_config(config, OWNED_CONFIG))
     cfg.update({"method": method, "throughput": float(throughput), "duration": float(seconds)})
     env = parallel_env(**cfg)
-    env.reset(seed=int(seed))
+    env.reset(seed=seed)
     t0 = time.perf_counter()
     while not env.episode_over:
         ex = env.expert_actions()
@@ -135,8 +149,10 @@ def compare_intersection(methods, throughputs, seeds, seconds: float, out, backe
     ``seeds``: a count N (seeds 0..N-1) or a seed list / range string
     (:func:`icv_envs.experiments.seeds.parse_seeds`)."""
     validate_grid(methods, throughputs, seeds, seconds)
-    seeds = parse_seeds(seeds)
     check_backend(backend)
+    check_workers(workers, backend)
+    check_run_config(config, OWNED_CONFIG)
+    seeds = parse_seeds(seeds)
     if config:
         # fail fast on a bad config, before starting workers
         from icv_envs.envs.intersection import IntersectionEnv
@@ -336,6 +352,8 @@ def parse_throughputs(text: str) -> list[float]:
         raise ValueError(f"--throughput must be comma-separated numbers of vehicles/h, got {text!r}") from None
     if not vals:
         raise ValueError("--throughput is empty")
+    if len(set(vals)) != len(vals):
+        raise ValueError(f"--throughput {text!r} repeats a demand; allowed: distinct demands")
     for v in vals:
         if not math.isfinite(v) or not 0 < v <= MAX_THROUGHPUT:
             raise ValueError(f"throughput {v!r} is invalid; allowed: 0 < throughput <= {MAX_THROUGHPUT:g} vehicles/h")
@@ -350,10 +368,12 @@ def run_cli(args, echo=print) -> dict:
     ``lane_use`` and ``warmup`` (default 100 s).  Prints one line per (method,
     demand) and one per method with its capacity, and returns the summary
     (the CLI prints it as the last JSON line)."""
-    methods = getattr(args, "methods", None) or ["multi-vp", "single-vp", "fcfs"]
+    methods = getattr(args, "methods", None)
+    methods = ["multi-vp", "single-vp", "fcfs"] if methods is None else methods  # (a given empty list is an error)
     if isinstance(methods, str):
         methods = [m.strip() for m in methods.split(",") if m.strip()]
-    tps = getattr(args, "throughput", None) or list(DEFAULT_DEMANDS)
+    tps = getattr(args, "throughput", None)
+    tps = list(DEFAULT_DEMANDS) if tps is None else tps
     if isinstance(tps, str):
         tps = parse_throughputs(tps)
     config = {"warmup": float(getattr(args, "warmup", None) if getattr(args, "warmup", None) is not None else 100.0)}

@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import json
 import time
+from numbers import Real
 from pathlib import Path
 
 import numpy as np
 
 from icv_envs.envs.scenarios import SCENARIOS
+from icv_envs.experiments._checks import check_run_config, check_seed
 from icv_envs.policies import make_policy
 
 __all__ = ["run_highway_formation", "formation_errors", "ENVS"]
@@ -53,11 +55,17 @@ def run_highway_formation(
 
     if scenario not in SCENARIOS:
         raise ValueError(f"unknown scenario {scenario!r}; allowed: {sorted(SCENARIOS)}")
-    if not isinstance(seconds, (int, float)) or not np.isfinite(seconds) or seconds <= 0:
+    if isinstance(seconds, (bool, np.bool_)) or not isinstance(seconds, Real) or not np.isfinite(seconds) \
+            or seconds <= 0:
         raise ValueError(f"seconds = {seconds!r} is invalid; allowed: a number > 0")
-    pol = make_policy(policy, seed)
+    seed = check_seed(seed)
+    if not isinstance(video, (bool, np.bool_)):
+        raise ValueError(f"video = {video!r}; allowed: True or False")
+    if video and out is None:
+        raise ValueError("video=True needs out (the directory video.gif is written to)")
     cfg = {"scenario": scenario, "duration": float(seconds)}
-    cfg.update(config or {})
+    cfg.update(check_run_config(config, {"scenario": "scenario (--scenario)", "duration": "seconds (--seconds)"}))
+    pol = make_policy(policy, seed)
     env = parallel_env(render_mode="rgb_array" if video else None, **cfg)
     frames = []
     t0 = time.perf_counter()
