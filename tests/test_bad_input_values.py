@@ -140,3 +140,27 @@ def test_integer_actions_are_accepted():
     env.reset(seed=0)
     env.step({a: np.array([1, -1]) for a in env.agents})  # integer arrays are numbers
     env.step({a: [0, 0] for a in env.agents})
+
+
+@pytest.mark.parametrize("section, match", [
+    ({"observation": {"type": "OccupancyGrid", "grid_size": [["-10", "10"], ["-10", "10"]]}}, "grid_size"),
+    ({"observation": {"type": "OccupancyGrid", "grid_step": [True, True]}}, "grid_step"),
+    ({"action": {"type": "DiscreteMetaAction", "target_speeds": ["5", "10"]}}, "target_speeds"),
+    ({"action": {"type": "DiscreteMetaAction", "target_speeds": [True, 2.0]}}, "target_speeds"),
+    ({"action": {"type": "FormationResidual", "bound": [True, 1]}}, "bound"),
+    ({"observation": {"type": "Kinematics", "normalize": False, "clip": True}},
+     "clip = True with normalize = False"),
+])
+def test_nested_config_numbers_are_not_misread(section, match):
+    """Strings and bools inside the action and observation options were
+    converted to numbers (``"5"`` -> 5 m/s, ``True`` -> a 1 m grid step) and
+    an explicit ``clip=True`` on raw observations was ignored (stop 45);
+    numpy numbers and arrays of numbers stay accepted."""
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+
+    with pytest.raises(ValueError, match=match):
+        parallel_env(vehicles_count=4, **section)
+    for ok in ({"action": {"type": "FormationResidual", "bound": np.float32(0.5)}},
+               {"action": {"type": "DiscreteMetaAction", "target_speeds": np.array([5, 10, 20])}},
+               {"observation": {"type": "OccupancyGrid", "grid_size": np.array([[-10, 10], [-10, 10]])}}):
+        parallel_env(vehicles_count=4, **ok)

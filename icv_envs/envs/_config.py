@@ -28,7 +28,7 @@ import numpy as np
 __all__ = [
     "MAX_DURATION", "MAX_AGENTS", "UNUSED_COMMON", "MAX_ACCEL", "MAX_SCREEN", "num", "section", "check_keys", "flag",
     "accel_range", "speed_range", "is_speed_pair", "check_render", "check_unused", "check_possible_agents", "typed_options",
-    "pick_type", "check_reset_options",
+    "pick_type", "check_reset_options", "real_numbers",
 ]
 
 MAX_DURATION = 86400.0  # s
@@ -89,6 +89,28 @@ def check_keys(d: dict, name: str, allowed, required=()) -> None:
     missing = sorted(set(required) - set(d))
     if missing:
         raise ValueError(f"{name} needs the keys {missing}; got {d!r}")
+
+
+def real_numbers(v):
+    """``v`` as a float64 array when it is a real number or a (nested, not
+    ragged) list / tuple / array of real numbers, else None: a bool or a
+    string is not a number here (``np.asarray`` turns ``"5"`` and ``True``
+    into 5.0 and 1.0; a config of them was accepted, misread, until stop 45)."""
+    if isinstance(v, (bool, np.bool_, str, bytes)):
+        return None
+    if isinstance(v, np.ndarray):
+        return v.astype(np.float64) if v.dtype.kind in "fiu" else None
+    if isinstance(v, Real):
+        return np.asarray(float(v))
+    if isinstance(v, (list, tuple)):
+        parts = [real_numbers(x) for x in v]
+        if any(p is None for p in parts):
+            return None
+        try:
+            return np.asarray(parts, dtype=np.float64)
+        except ValueError:  # (ragged)
+            return None
+    return None
 
 
 def check_reset_options(options) -> None:

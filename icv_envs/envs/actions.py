@@ -63,7 +63,7 @@ import math
 import numpy as np
 from gymnasium import spaces
 
-from icv_envs.envs._config import pick_type, typed_options
+from icv_envs.envs._config import pick_type, real_numbers, typed_options
 from icv_envs._ufuncs import clip as uclip
 
 
@@ -193,8 +193,8 @@ class FormationResidual(ContinuousAction):
     def __init__(self, env, config: dict) -> None:
         super().__init__(env, config)
         b = self.options["bound"]
-        arr = np.asarray(b, dtype=np.float64) if isinstance(b, (int, float, list, tuple, np.ndarray)) \
-            and not isinstance(b, bool) else np.array([np.nan])
+        arr = real_numbers(b)
+        arr = np.array([np.nan]) if arr is None else arr
         if arr.shape not in ((), (2,)) or not np.all(np.isfinite(arr)) or np.any(arr <= 0) or np.any(arr > 2):
             raise ValueError(f"action bound = {b!r} is invalid; allowed: a number or [bound_accel, bound_steer] "
                              f"in (0, 2]")
@@ -234,10 +234,8 @@ class DiscreteMetaAction(ActionType):
             ts = np.arange(lo, hi + 1e-9, 5.0)
             if ts[-1] < hi - 1e-9:
                 ts = np.append(ts, hi)
-        try:
-            arr = np.asarray(ts, dtype=np.float64)
-        except (TypeError, ValueError):
-            arr = np.array([np.nan])
+        arr = real_numbers(ts)
+        arr = np.array([np.nan]) if arr is None else arr
         if arr.ndim != 1 or len(arr) < 1 or not np.all(np.isfinite(arr)) or np.any(np.diff(arr) <= 0) \
                 or arr[0] < 0 or arr[-1] > hi:
             raise ValueError(f"action target_speeds = {ts!r}; allowed: increasing speeds in [0, v_max = {hi}] m/s")

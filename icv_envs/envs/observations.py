@@ -52,7 +52,7 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
-from icv_envs.envs._config import pick_type, typed_options
+from icv_envs.envs._config import pick_type, real_numbers, typed_options
 from icv_envs.sim._kernels import kinematics_rows
 from icv_envs._ufuncs import clip as uclip
 
@@ -116,6 +116,10 @@ class Kinematics(ObservationType):
         # any is asked for), so ``idx`` indexes that array directly
         self.extra = extra if any(k in self.features for k in extra) else ()
         self.absolute, self.normalize, self.clip = _bool(o, "absolute"), _bool(o, "normalize"), _bool(o, "clip")
+        if not self.normalize and config.get("clip") is True:
+            # (highway-env's convention: clip bounds the normalised values; raw ones are never clipped)
+            raise ValueError("observation clip = True with normalize = False; allowed: clip applies to normalised "
+                             "observations only (leave clip out, or set normalize = True)")
         bound = 1.0 if self.normalize and self.clip else np.inf
         self.space_ = spaces.Box(-bound, bound, (self.V, len(self.idx)), dtype=np.float32)
 
@@ -180,11 +184,9 @@ class OccupancyGrid(ObservationType):
         super().__init__(env, config)
         o = self.options
         self.idx = self._features(self.FEATURES, ("presence", "vx", "vy"))
-        try:
-            gs = np.asarray(o["grid_size"], dtype=np.float64)
-            st = np.asarray(o["grid_step"], dtype=np.float64)
-        except (TypeError, ValueError):
-            gs, st = np.zeros(0), np.zeros(0)
+        gs, st = real_numbers(o["grid_size"]), real_numbers(o["grid_step"])
+        gs = np.zeros(0) if gs is None else gs
+        st = np.zeros(0) if st is None else st
         if gs.shape != (2, 2) or not np.all(np.isfinite(gs)) or np.any(gs[:, 1] <= gs[:, 0]):
             raise ValueError(f"observation grid_size = {o['grid_size']!r}; allowed: [[x_min, x_max], [y_min, y_max]] "
                              f"metres with min < max")
