@@ -500,3 +500,10 @@ def test_experiment_runners_check_their_arguments(tmp_path, monkeypatch):
     for make, match in cases:
         with pytest.raises(ValueError, match=match):
             make()
+
+
+def test_gym_make_with_a_config_key_as_keyword_points_to_config():
+    """``gym.make(id, duration=2)``: the error names the key and where it goes
+    (stop 45: Python's own "unexpected keyword argument" only)."""
+    with pytest.raises(TypeError, match=r"unknown keyword argument\(s\) \['duration'\]; the env takes config="):
+        gym.make("icv_envs/HighwayFormation-v0", duration=2.0)

@@ -45,10 +45,14 @@ class IcvAgentsEnv(EgoEnv, AgentsStep, DictEdge, AbstractEnv):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
     OBS_FEATURES: tuple = ()
 
-    def __init__(self, config: dict | None = None, render_mode: str | None = None) -> None:
+    def __init__(self, config: dict | None = None, render_mode: str | None = None, **kwargs) -> None:
         # highway-env's AbstractEnv.__init__ without its final reset(): an env
         # is usable after reset() only (Gymnasium's contract), so step() and
         # render() before it raise "call reset() before ..."
+        if kwargs:  # (gym.make(id, duration=5): Python's own TypeError did not say where config goes)
+            raise TypeError(f"unknown keyword argument(s) {sorted(kwargs)}; the env takes config={{...}} and "
+                            f"render_mode, as highway-env's: gym.make(id, config={{{next(iter(sorted(kwargs)))!r}: "
+                            f"...}})")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode={render_mode!r} is invalid; allowed: {self.metadata['render_modes']} or None")
         self.world = None
