@@ -64,9 +64,9 @@ METHOD_HELP = {
     "fcfs-tight": "tile reservation with 0.2 s / 0.5 m buffers",
 }
 POLICY_HELP = {
-    "expert": "the env's scripted expert (infos[agent]['expert_action'])",
-    "zero": "coast straight: action [0, 0]",
-    "random": "uniform random actions (seeded)",
+    "expert": "the env's scripted expert (infos[agent]['expert_action'], in the env's action type)",
+    "zero": "coast straight: action [0, 0] (DiscreteMetaAction: IDLE)",
+    "random": "uniform random actions over the action space (seeded)",
 }
 
 

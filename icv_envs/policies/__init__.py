@@ -5,9 +5,12 @@ infos) -> {agent: action}`` for a PettingZoo parallel env of this package:
 
 * ``expert``: the formation expert (:class:`FormationExpert`), the paper's
   controller (Bezier lane changes, preview steering, feedback law, IDM
-  safety envelope);
-* ``zero``: coast straight (action ``[0, 0]``), a do-nothing baseline;
-* ``random``: uniform random actions (seeded).
+  safety envelope), in the env's action type (``FormationResidual``: the
+  zero residual); an error for ``DiscreteMetaAction``, which has no form
+  of the expert's continuous action;
+* ``zero``: coast straight (action ``[0, 0]``; ``DiscreteMetaAction``:
+  IDLE), a do-nothing baseline;
+* ``random``: uniform random actions over the action space (seeded).
 """
 
 from __future__ import annotations
@@ -27,19 +30,33 @@ def make_policy(name: str, seed: int | None = None):
     if name == "expert":
 
         def expert(env, observations, infos):
+            to_action = env.core._act_type.expert_action  # (until stop 45 the raw [u_a, u_s], whatever the type)
+            if to_action(np.zeros(2)) is None:
+                raise ValueError(f"policy 'expert' drives with the expert's continuous [u_a, u_s], which action type "
+                                 f"{env.core._act_type.name!r} cannot take; allowed with it: zero, random")
             acts = env.expert_actions()
-            return {a: acts[a] for a in env.agents}
+            return {a: to_action(acts[a]) for a in env.agents}
 
         return expert
     if name == "zero":
 
         def zero(env, observations, infos):
+            idle = getattr(env.core._act_type, "actions", None)  # (DiscreteMetaAction's names)
+            if idle is not None:
+                k = next(k for k, v in idle.items() if v == "IDLE")
+                return {a: k for a in env.agents}
             return {a: np.zeros(2, dtype=np.float32) for a in env.agents}
 
         return zero
     rng = np.random.default_rng(seed)
 
     def random(env, observations, infos):
-        return {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}
+        agents = env.agents
+        if not agents:
+            return {}
+        space = env.action_space(agents[0])
+        if hasattr(space, "n"):  # (Discrete)
+            return {a: int(space.start + rng.integers(space.n)) for a in agents}
+        return {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in agents}
 
     return random

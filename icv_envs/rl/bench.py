@@ -58,6 +58,13 @@ ICV_ID = "icv_envs/HighwayFormation-v0"
 REFERENCE_ID = "highway-fast-v0"
 
 
+def _check_int(name: str, v, lo: int) -> int:
+    """``v`` as an int if it is an integer (not a bool) >= ``lo``; else ``ValueError`` naming ``name``."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+        raise ValueError(f"{name} = {v!r}; allowed: an integer >= {lo}")
+    return int(v)
+
+
 def _make(env_id: str, vehicles: int):
     import gymnasium as gym
 
@@ -79,6 +86,9 @@ def _idle_action(env):
 
 def env_sps(env_id: str, vehicles: int = 20, steps: int = 2000, seed: int = 0) -> dict:
     """Env steps per second with the idle action, resets included."""
+    _check_int("vehicles", vehicles, 1)
+    _check_int("steps", steps, 1)
+    _check_int("seed", seed, 0)
     env = _make(env_id, vehicles)
     action = _idle_action(env)
     env.reset(seed=seed)
@@ -99,6 +109,9 @@ def env_sps(env_id: str, vehicles: int = 20, steps: int = 2000, seed: int = 0) -
 
 def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -> dict:
     """Env steps per second inside SB3 PPO training (total and rollout phase)."""
+    _check_int("vehicles", vehicles, 1)
+    _check_int("steps", steps, 1)
+    _check_int("seed", seed, 0)
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
@@ -178,6 +191,8 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
 
     if actions not in BATCHED_ACTIONS:
         raise ValueError(f"actions = {actions!r}; allowed: {list(BATCHED_ACTIONS)}")
+    if not isinstance(expert, (bool, np.bool_)):
+        raise ValueError(f"expert = {expert!r}; allowed: True or False")
     if (expert or policy is not None) and actions != "zero":
         raise ValueError(f"actions = {actions!r} with {'expert=True' if expert else 'a policy'}, which acts instead; "
                          f"allowed: the default 'zero'")
@@ -185,8 +200,14 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
         raise ValueError("expert=True and a policy: allowed: one of them (or neither: external actions)")
     if policy is not None and not callable(policy):
         raise ValueError(f"policy = {policy!r}; allowed: a callable policy(obs, mask) -> actions")
-    if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
-        raise ValueError(f"warmup = {warmup!r}; allowed: an integer >= 0")
+    for name, v, lo in (("vehicles", vehicles, 1), ("worlds", worlds, 1), ("steps", steps, 1), ("seed", seed, 0),
+                        ("warmup", warmup, 0)):
+        _check_int(name, v, lo)
+    if config is not None and not isinstance(config, dict):
+        raise ValueError(f"config = {config!r}; allowed: None or a dict of env config")
+    if config and "vehicles_count" in config and config["vehicles_count"] != vehicles:
+        raise ValueError(f"config['vehicles_count'] = {config['vehicles_count']!r} clashes with vehicles = "
+                         f"{vehicles!r}; allowed: the vehicle count given once, as vehicles")
     bound = {"small": 0.3, "uniform": 1.0}.get(actions)
     cfg = {"vehicles_count": int(vehicles), "initial_position": None, **(config or {})}
     for timed in (False, True):

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from icv_envs.rl.envs import env_family, make_gym_env, make_parallel_env, resolve_env
+from icv_envs.rl.envs import _check_config, env_family, make_gym_env, make_parallel_env, resolve_env
 
 __all__ = ["record_expert_dataset", "DEFAULT_DATASET_ID"]
 
@@ -100,11 +100,21 @@ def record_expert_dataset(env, episodes: int, out, seed: int = 0, config: dict |
     """Record ``episodes`` env episodes of the expert as a Minari dataset under
     ``out``; returns a summary (dataset id, path, episodes, steps, seconds)."""
     import minari
+    from minari.dataset.minari_dataset import DATASET_ID_RE
 
     if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
         raise ValueError(f"episodes = {episodes!r}; allowed: an integer >= 1")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed = {seed!r}; allowed: an integer >= 0")
     spec = resolve_env(env)
-    cfg = dict(config or {})
+    if dataset_id is not None:
+        # minari parses ids as (namespace/)name-vN and needs the version (it fails after writing otherwise)
+        m = DATASET_ID_RE.fullmatch(dataset_id) if isinstance(dataset_id, str) else None
+        if m is None or m.group("version") is None:
+            raise ValueError(f"dataset_id = {dataset_id!r}; allowed: None (the default "
+                             f"{DEFAULT_DATASET_ID.format(family=env_family(spec))!r}) or a Minari id "
+                             f"(namespace/)name-vN, e.g. 'icv_envs/my_data/expert-v0'")
+    cfg = _check_config(config)
     # the recording reads the expert's label and these info keys every step
     if cfg.get("expert_in_info", True) is not True:
         raise ValueError(f"config['expert_in_info'] = {cfg['expert_in_info']!r}; the dataset records the expert's "

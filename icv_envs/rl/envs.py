@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -86,25 +88,34 @@ def resolve_env(name) -> EnvSpec:
     raise ValueError(f"unknown env {name!r}; known envs: {', '.join(known_envs())}")
 
 
+def _check_config(config) -> dict:
+    """``config`` as a new dict: None or a dict (a mapping) of env config."""
+    if config is not None and not isinstance(config, Mapping):
+        raise ValueError(f"config = {config!r}; allowed: None or a dict of env config")
+    return dict(config or {})
+
+
 def make_gym_env(spec: EnvSpec | str, config: dict | None = None, render_mode: str | None = None):
     """``gym.make(id, config=config)`` for a Gymnasium id of this package."""
     import gymnasium as gym
 
     spec = resolve_env(spec)
+    config = _check_config(config)
     if spec.kind != "gym":
         raise ValueError(f"env {spec.id!r} is a PettingZoo env; a Gymnasium id is needed here: "
                          f"{', '.join(sorted(icv_envs.GYM_IDS))}")
-    return gym.make(spec.id, config=dict(config or {}), render_mode=render_mode)
+    return gym.make(spec.id, config=config, render_mode=render_mode)
 
 
 def make_parallel_env(spec: EnvSpec | str, config: dict | None = None, render_mode: str | None = None):
     """``module.parallel_env(**config)`` for a PettingZoo env of this package."""
     spec = resolve_env(spec)
+    config = _check_config(config)
     if spec.kind != "pettingzoo":
         raise ValueError(f"env {spec.id!r} is a Gymnasium env; a PettingZoo env is needed here: "
                          f"{', '.join(sorted(icv_envs.PETTINGZOO_IDS))}")
     module = importlib.import_module(spec.module)
-    return module.parallel_env(render_mode=render_mode, **dict(config or {}))
+    return module.parallel_env(render_mode=render_mode, **config)
 
 
 def episode_finished(env) -> bool:
@@ -142,17 +153,26 @@ def step_until_agents(env) -> list[tuple]:
 
 def parse_config(text) -> dict:
     """``--config`` value: a JSON object, or the path of a JSON file holding one
-    (None or empty: ``{}``)."""
+    (None or empty: ``{}``); also a dict (copied) or a ``pathlib.Path`` of a JSON file."""
     if text is None or text == "":
         return {}
     if isinstance(text, dict):
         return dict(text)
-    src = text
-    p = Path(text)
-    if not text.lstrip().startswith("{") and p.suffix == ".json":
+    if isinstance(text, os.PathLike):
+        p = Path(text)
         if not p.is_file():
-            raise ValueError(f"--config file {text!r} does not exist")
+            raise ValueError(f"--config file {str(p)!r} does not exist")
         src = p.read_text()
+    elif not isinstance(text, str):
+        raise ValueError(f"--config = {text!r}; allowed: None, a dict, a JSON object string, or the path of a "
+                         f".json file")
+    else:
+        src = text
+        p = Path(text)
+        if not text.lstrip().startswith("{") and p.suffix == ".json":
+            if not p.is_file():
+                raise ValueError(f"--config file {text!r} does not exist")
+            src = p.read_text()
     try:
         cfg = json.loads(src)
     except json.JSONDecodeError as exc:

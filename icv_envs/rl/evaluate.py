@@ -16,7 +16,10 @@
   is its expert). A reference on an env that does not have it, or a
   ``config`` naming another ``method``, raises ``ValueError``
   (:data:`REFERENCE_POLICIES`);
-* ``"zero"`` (coast straight), ``"random"`` (uniform, seeded);
+* ``"zero"`` (coast straight), ``"random"`` (uniform, seeded); with
+  ``DiscreteMetaAction`` ``zero`` is the IDLE action and ``random`` uniform
+  over the actions, while ``expert`` and the reference methods (continuous
+  ``expert_action``) raise ``ValueError``;
 * the path of a model written by ``baselines/ppo_single.py``,
   ``ppo_shared.py`` or ``bc_expert.py`` (its directory or its ``model.zip``).
 
@@ -73,6 +76,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from gymnasium import spaces
 
 from icv_envs.envs.highway_ramps import METHODS as _RAMP_METHODS
 from icv_envs.envs.intersection import METHODS as _INTERSECTION_METHODS
@@ -129,6 +133,30 @@ def _check_int(name, v, lo):
     return int(v)
 
 
+def _check_drives(name: str, act_type) -> None:
+    """The expert and the reference methods drive with the env's ``expert_action``
+    (``[u_a, u_s]``): ``ValueError`` for an action type that has no form of it."""
+    if (name == "expert" or name in _ALL_REFERENCES) and act_type.expert_action(np.zeros(2)) is None:
+        raise ValueError(f"policy {name!r} drives with the env's continuous expert action [u_a, u_s], which action "
+                         f"type {act_type.name!r} cannot take; allowed with {act_type.name}: zero, random or a "
+                         f"model path")
+
+
+def _idle_action(space, act_type):
+    """The ``zero`` policy's action (coast straight) in a discrete space: its IDLE
+    action; None for a continuous space (zeros)."""
+    if not isinstance(space, spaces.Discrete):
+        return None
+    return np.int64(next(k for k, a in act_type.actions.items() if a == "IDLE"))
+
+
+def _random_actions(rng, space, n: int) -> np.ndarray:
+    """``n`` uniform actions of ``space`` (continuous: float32 in ``[low, high]``)."""
+    if isinstance(space, spaces.Discrete):
+        return space.start + rng.integers(space.n, size=n)
+    return rng.uniform(space.low, space.high, (n, *space.shape)).astype(np.float32)
+
+
 def _load_policy(policy):
     """``(name, LoadedModel | None)``."""
     if isinstance(policy, str) and (policy in NAMED_POLICIES or policy in _ALL_REFERENCES):
@@ -151,6 +179,8 @@ def evaluate(env_id_or_module, policy, episodes: int = 5, seed: int = 0, config:
     seed = _check_int("seed", seed, 0)
     if config is not None and not isinstance(config, dict):
         raise ValueError(f"config must be a dict or None, got {type(config).__name__}")
+    if not isinstance(deterministic, (bool, np.bool_)):
+        raise ValueError(f"deterministic = {deterministic!r}; allowed: True or False")
     name, model = _load_policy(policy)
     if config is None:
         config = dict(model.meta.get("config") or {}) if model is not None else {}
@@ -194,6 +224,8 @@ def _run_parallel(spec: EnvSpec, name, model, episodes, seed, config, determinis
             model.check_spaces(spec.id, env.observation_space(a0), env.action_space(a0))
         rng = np.random.default_rng(seed)
         act_space = env.action_space(a0)
+        _check_drives(name, env.core._act_type)
+        idle = _idle_action(act_space, env.core._act_type)
         rows = []
         for ep in range(episodes):
             obs, infos = env.reset(seed=seed + ep)
@@ -203,16 +235,20 @@ def _run_parallel(spec: EnvSpec, name, model, episodes, seed, config, determinis
                 if not agents:  # open road: nobody on it now, more vehicles due
                     actions = {}
                 elif name == "expert" or name in _ALL_REFERENCES:
+                    # (the expert's [u_a, u_s] in the env's action type: FormationResidual's is the zero
+                    # residual; until stop 45 the raw [u_a, u_s] was sent as the residual, not the expert)
+                    to_action = env.core._act_type.expert_action
                     if all("expert_action" in infos.get(a, {}) for a in agents):
-                        actions = {a: infos[a]["expert_action"] for a in agents}
+                        actions = {a: to_action(infos[a]["expert_action"]) for a in agents}
                     else:
                         ex = env.expert_actions()
-                        actions = {a: ex[a] for a in agents}
+                        actions = {a: to_action(ex[a]) for a in agents}
                 elif name == "zero":
-                    actions = {a: np.zeros(act_space.shape, dtype=np.float32) for a in agents}
+                    actions = {a: np.zeros(act_space.shape, dtype=np.float32) if idle is None else idle
+                               for a in agents}
                 elif name == "random":
-                    u = rng.uniform(act_space.low, act_space.high, (len(agents), *act_space.shape))
-                    actions = {a: u[i].astype(np.float32) for i, a in enumerate(agents)}
+                    u = _random_actions(rng, act_space, len(agents))
+                    actions = {a: u[i] for i, a in enumerate(agents)}
                 else:
                     acts = model.act(np.stack([obs[a] for a in agents]), deterministic)
                     actions = {a: acts[i] for i, a in enumerate(agents)}
@@ -234,19 +270,27 @@ def _run_gym(spec: EnvSpec, name, model, episodes, seed, config, deterministic) 
             model.check_spaces(spec.id, env.observation_space, env.action_space)
         rng = np.random.default_rng(seed)
         space = env.action_space
+        _check_drives(name, env.unwrapped._act_type)
+        idle = _idle_action(space, env.unwrapped._act_type)
         rows = []
         for ep in range(episodes):
             obs, info = env.reset(seed=seed + ep)
             total, steps, done = 0.0, 0, False
             while not done:
                 if name == "expert" or name in _ALL_REFERENCES:
+                    core = env.unwrapped
                     action = info.get("expert_action")
-                    if action is None:
-                        action = np.zeros(space.shape, dtype=np.float32)
+                    if action is None:  # (expert_in_info False: from the expert itself; it drove zeros until stop 45)
+                        row = core._ego_row()
+                        action = core.expert_actions()[row] if row >= 0 else np.zeros(2, dtype=np.float32)
+                    action = core._act_type.expert_action(action)
                 elif name == "zero":
-                    action = np.zeros(space.shape, dtype=np.float32)
+                    action = np.zeros(space.shape, dtype=np.float32) if idle is None else idle
                 elif name == "random":
-                    action = rng.uniform(space.low, space.high).astype(np.float32)
+                    if isinstance(space, spaces.Discrete):
+                        action = _random_actions(rng, space, 1)[0]
+                    else:
+                        action = rng.uniform(space.low, space.high).astype(np.float32)
                 else:
                     action = model.act(obs[None], deterministic)[0]
                 obs, r, terminated, truncated, info = env.step(action)

@@ -124,11 +124,11 @@ def model_fits(meta: dict, task: Task) -> bool:
 
 def find_models(models_dir, task: Task) -> list[tuple[str, Path, dict]]:
     """``(label, directory, run.json)`` of every model under ``models_dir``
-    trained on ``task``, sorted by label."""
+    trained on ``task``, sorted by label (``models_dir`` None: no models)."""
     found = []
-    root = Path(models_dir)
-    if not root.is_dir():
+    if models_dir is None:
         return found
+    root = _check_models_dir(models_dir)
     for meta_path in sorted(root.glob("*/run.json")):
         meta = json.loads(meta_path.read_text())
         if not (meta_path.parent / "model.zip").is_file() and meta.get("algo") != "ensemble":
@@ -136,6 +136,14 @@ def find_models(models_dir, task: Task) -> list[tuple[str, Path, dict]]:
         if model_fits(meta, task):
             found.append((meta_path.parent.name, meta_path.parent, meta))
     return found
+
+
+def _check_models_dir(models_dir) -> Path:
+    """``models_dir`` as a Path; ``ValueError`` unless it is an existing directory."""
+    if not isinstance(models_dir, (str, Path)) or not Path(models_dir).is_dir():
+        raise ValueError(f"models_dir = {str(models_dir)!r} is not an existing directory; allowed: a directory of "
+                         f"saved models (DIR/*/model.zip + run.json), or None in the Python API (no saved models)")
+    return Path(models_dir)
 
 
 # ---------------------------------------------------------------- metrics
@@ -266,14 +274,28 @@ def run_leaderboard(out="results/leaderboard", models_dir="results/learned", tas
                     backend: str = "auto") -> list[dict]:
     """Evaluate, aggregate and write CSV + Markdown + PNG; returns the rows."""
     out = Path(out)
+    if tasks is not None and not isinstance(tasks, (list, tuple)):
+        raise ValueError(f"tasks = {tasks!r}; allowed: None (every task) or a list of task names of {', '.join(TASKS)}")
     names = list(TASKS) if tasks is None else list(tasks)
-    bad = [t for t in names if t not in TASKS]
+    if not names:
+        raise ValueError(f"tasks = {tasks!r} is empty; allowed: None (every task) or a non-empty list of "
+                         f"{', '.join(TASKS)}")
+    bad = [t for t in names if not isinstance(t, str) or t not in TASKS]
     if bad:
         raise ValueError(f"unknown tasks {bad}; allowed: {', '.join(TASKS)}")
+    dup = sorted({t for t in names if names.count(t) > 1})
+    if dup:
+        raise ValueError(f"tasks {dup} given more than once in {names}; allowed: each task once")
     if episodes is not None and (isinstance(episodes, bool) or int(episodes) != episodes or episodes < 1):
         raise ValueError(f"episodes = {episodes!r} is invalid; allowed: an integer >= 1 (or None: each task's own)")
-    if reps < 10:
+    if isinstance(reps, bool) or not isinstance(reps, (int, np.integer)) or reps < 10:
         raise ValueError(f"reps = {reps!r} is invalid; allowed: an integer >= 10")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed = {seed!r} is invalid; allowed: an integer >= 0")
+    if backend not in ("auto", "rliable", "numpy"):
+        raise ValueError(f"backend {backend!r} is invalid; allowed: auto, rliable, numpy")
+    if models_dir is not None:
+        _check_models_dir(models_dir)
     jobs = [(TASKS[t], *p) for t in names for p in _policies(TASKS[t], models_dir)]
     try:
         from tqdm import tqdm
@@ -443,7 +465,9 @@ def plot(path: Path, rows: list[dict], models_dir) -> None:
 # ---------------------------------------------------------------- CLI
 def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--out", default="results/leaderboard", help="output directory (leaderboard.csv/.md/.png, evals/)")
-    p.add_argument("--models", default="results/learned", help="directory of saved models (DIR/*/model.zip)")
+    p.add_argument("--models", default=None,
+                   help="directory of saved models (DIR/*/model.zip); 'none': the built-in policies only "
+                        "(default: results/learned when it exists, else none)")
     p.add_argument("--tasks", default=None, help=f"comma-separated subset of {', '.join(TASKS)}")
     p.add_argument("--episodes", type=int, default=None, help="episodes per policy (default: each task's own)")
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode k resets with seed + k")
@@ -454,8 +478,15 @@ def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     tasks = None if args.tasks is None else [t.strip() for t in args.tasks.split(",") if t.strip()]
+    # a given directory must exist (a typo evaluated the built-in policies only, silently, until stop 45);
+    # not given: the repository's results/learned when run from a checkout, else no saved models
+    models = args.models
+    if models is None:
+        models = "results/learned" if Path("results/learned").is_dir() else None
+    elif models.lower() == "none":
+        models = None
     try:
-        rows = run_leaderboard(args.out, args.models, tasks, args.episodes, args.seed, args.reps, args.reuse)
+        rows = run_leaderboard(args.out, models, tasks, args.episodes, args.seed, args.reps, args.reuse)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

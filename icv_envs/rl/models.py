@@ -147,6 +147,21 @@ def ensemble_member_dirs(ensemble_dir, meta: dict) -> list[Path]:
     return [Path(n) if Path(n).is_absolute() else Path(ensemble_dir) / n for n in meta.get("members") or []]
 
 
+def _check_member(run_json: Path, name, d: Path) -> None:
+    """``ValueError`` naming the ensemble member ``name`` (directory ``d``) unless it is a saved model."""
+    if d.is_dir():
+        if (d / "model.zip").is_file():
+            return
+        why = "is itself an ensemble" if _is_ensemble(d) else "holds no model.zip"
+    elif d.is_file() or d.with_name(d.name + ".zip").is_file():
+        return
+    else:
+        why = "does not exist"
+    where = "" if str(d) == str(name) else f" ({str(d)!r})"
+    raise ValueError(f"{str(run_json)!r}: ensemble member {name!r}{where} {why}; allowed: the directory (or "
+                     f"model.zip) of a single model written by the baselines/ scripts")
+
+
 def _load_ensemble(run_json: Path, meta: dict) -> LoadedEnsemble:
     names = meta.get("members")
     if not isinstance(names, list) or len(names) < 2:
@@ -154,6 +169,7 @@ def _load_ensemble(run_json: Path, meta: dict) -> LoadedEnsemble:
                          f"under 'members', got {names!r}")
     members = []
     for n, d in zip(names, ensemble_member_dirs(run_json.parent, meta)):
+        _check_member(run_json, n, d)
         m = load_model(d)
         if isinstance(m, LoadedEnsemble):
             raise ValueError(f"{str(run_json)!r}: member {n!r} is itself an ensemble; allowed: single models")
@@ -177,19 +193,23 @@ def _load_ensemble(run_json: Path, meta: dict) -> LoadedEnsemble:
 
 
 def write_ensemble(out, members) -> Path:
-    """An ensemble directory ``out`` of the model directories ``members``
-    (stored relative to ``out``); the members are loaded once to check them.
-    ``run.json`` carries the first member's env, config and spaces."""
+    """An ensemble directory ``out`` of the model directories ``members`` (a
+    list or tuple of paths, stored relative to ``out``); the members are
+    loaded once to check them before anything is written. ``run.json``
+    carries the first member's env, config and spaces. ``out`` must not hold
+    a model (``model.zip`` or a model's ``run.json``); an ensemble's
+    ``run.json`` there is replaced."""
+    if not isinstance(members, (list, tuple)) or not all(isinstance(m, (str, os.PathLike)) for m in members):
+        raise ValueError(f"members = {members!r}; allowed: a list or tuple of at least two model directories")
     out = Path(out)
+    if (out / "model.zip").exists() or ((out / "run.json").exists() and not _is_ensemble(out)):
+        raise ValueError(f"out = {str(out)!r} holds a model (model.zip or its run.json); allowed: a new directory "
+                         f"or an ensemble's directory")
+    # absolute member paths for the check: ``out`` may not exist yet
+    ens = _load_ensemble(out / "run.json", {"algo": "ensemble", "members": [str(Path(m).resolve()) for m in members]})
     out.mkdir(parents=True, exist_ok=True)
     rel = [os.path.relpath(Path(m).resolve(), out.resolve()) for m in members]
     meta = {"algo": "ensemble", "members": rel}
-    (out / "run.json").write_text(json.dumps(meta))
-    try:
-        ens = _load_ensemble(out / "run.json", meta)
-    except ValueError:
-        (out / "run.json").unlink()
-        raise
     first = ens.members[0].meta
     meta.update({k: first.get(k) for k in ("env", "env_kind", "env_module", "config", "scenarios",
                                            "observation_shape", "action_shape") if k in first})

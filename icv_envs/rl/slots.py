@@ -34,7 +34,7 @@ every one of them in ``agents`` from ``reset`` until the episode ends:
   frees; ``overflow_vehicle_steps`` counts those vehicle-steps (0 in a run
   means every vehicle was the learner's) and ``placeholder_fraction`` the
   share of empty slot-steps. A slot left out of the actions dict is also
-  driven by the expert.
+  driven by the expert; a key that is not a slot is an error.
 
 ``K`` (:func:`slot_count`, from the config, not one per possible arrival):
 
@@ -106,8 +106,28 @@ def _trip_time_intersection(core) -> float:
     return dist / float(c["desired_speed"])
 
 
+def _check_z(z) -> None:
+    """``z``, the margin of :func:`slot_count` in standard deviations above the mean: a finite real >= 0."""
+    if isinstance(z, (bool, np.bool_)) or not isinstance(z, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(z) or z < 0:
+        raise ValueError(f"z = {z!r}; allowed: a finite number >= 0 (the slot margin in standard deviations "
+                         f"above the mean number of vehicles alive)")
+
+
+def _check_actions(actions, allowed: list, what: str) -> None:
+    """``actions`` must be a dict whose keys are all in ``allowed`` (``what`` names them)."""
+    if not isinstance(actions, dict):
+        raise ValueError(f"actions must be a dict {{name: action}}, got {type(actions).__name__}; "
+                         f"allowed names: {what} {allowed}")
+    allowed_set = set(allowed)
+    unknown = [a for a in actions if a not in allowed_set]
+    if unknown:
+        raise ValueError(f"actions for names that are not {what}: {unknown}; allowed: {allowed}")
+
+
 def slot_count(par_env, z: float = 1.0) -> int:
     """``K`` for the PettingZoo env ``par_env`` (see the module docstring)."""
+    _check_z(z)
     core = par_env.core
     c = core.config
     P = len(par_env.possible_agents)
@@ -131,6 +151,7 @@ class SlotParallelEnv(ParallelEnv):
     package, built with ``missing_action="expert"``); see the module docstring."""
 
     def __init__(self, env, slots: int | None = None, z: float = 1.0) -> None:
+        _check_z(z)
         core = env.core
         if core.config["missing_action"] != "expert":
             raise ValueError("SlotParallelEnv needs the env built with missing_action='expert' (vehicles without a "
@@ -212,6 +233,7 @@ class SlotParallelEnv(ParallelEnv):
     def step(self, actions: dict):
         if not self.agents:
             raise RuntimeError("the episode is over: call reset()")
+        _check_actions(actions, self.possible_agents, "slots")
         live = set(self.env.agents)
         act, acted = {}, [False] * self.K
         for i, (s, v) in enumerate(zip(self.possible_agents, self._slot)):
@@ -270,6 +292,7 @@ def slot_parallel_env(name, config: dict | None = None, slots: int | None = None
                       max_cycles: int | None = None, render_mode: str | None = None) -> SlotParallelEnv:
     """:class:`SlotParallelEnv` over the PettingZoo env ``name`` (id or module
     name) with ``config`` (``missing_action`` is set to ``"expert"``)."""
+    _check_z(z)
     cfg = dict(config or {})
     if cfg.get("missing_action", "expert") != "expert":
         raise ValueError(f"missing_action = {cfg['missing_action']!r}; the slot layout needs 'expert'")
@@ -339,8 +362,9 @@ class VehicleEpisodes:
     def step(self, actions: dict):
         if self._over:
             raise RuntimeError("the episode is over: call reset()")
+        _check_actions(actions, self.agents, "agents (the slots holding a live vehicle)")
         before = set(self.agents)
-        obs, rew, _te, tr, infos = self.slot_env.step({s: a for s, a in actions.items() if s in before})
+        obs, rew, _te, tr, infos = self.slot_env.step(actions)
         o, r, te, trn, inf = {}, {}, {}, {}, {}
         agents = []
         for s in self.possible_agents:
@@ -377,6 +401,8 @@ def module(name, config: dict | None = None, slots: int | None = None, z: float 
     ``raw_env`` (AEC, converted) and ``env`` (AEC with the order-enforcing wrapper)."""
     from pettingzoo.utils.conversions import parallel_to_aec_wrapper
     from pettingzoo.utils.wrappers import OrderEnforcingWrapper
+
+    _check_z(z)
 
     def parallel_env(render_mode=None, max_cycles=None, **kw):
         return slot_parallel_env(name, {**(config or {}), **kw}, slots=slots, z=z, max_cycles=max_cycles,

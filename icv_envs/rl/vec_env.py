@@ -107,6 +107,22 @@ from icv_envs.rl.envs import episode_finished
 
 __all__ = ["ParallelVecEnv"]
 
+_ENV_ATTRS = ("possible_agents", "observation_space", "action_space", "reset", "step")
+
+
+def _check_seed(seed) -> int | None:
+    """A base seed: None or an integer (not a bool) >= 0."""
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise ValueError(f"seed = {seed!r}; allowed: None or an integer >= 0")
+    return None if seed is None else int(seed)
+
+
+def _check_index(name: str, v, n: int) -> int:
+    """An index: an integer (not a bool) in ``0 .. n - 1``."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v < n:
+        raise ValueError(f"{name} = {v!r}; allowed: an integer in 0 .. {n - 1}")
+    return int(v)
+
 
 class ParallelVecEnv(VecEnv):
     """SB3 ``VecEnv`` over ``n_copies`` PettingZoo parallel envs, one slot per
@@ -118,9 +134,18 @@ class ParallelVecEnv(VecEnv):
     """
 
     def __init__(self, env_fn: Callable[[], Any], n_copies: int = 1, seed: int | None = None) -> None:
-        if not isinstance(n_copies, (int, np.integer)) or n_copies < 1:
+        if isinstance(n_copies, bool) or not isinstance(n_copies, (int, np.integer)) or n_copies < 1:
             raise ValueError(f"n_copies = {n_copies!r}; allowed: an integer >= 1")
-        self.envs = [env_fn() for _ in range(int(n_copies))]
+        seed = _check_seed(seed)
+        if not callable(env_fn):
+            raise ValueError(f"env_fn = {env_fn!r}; allowed: a callable that builds a PettingZoo ParallelEnv")
+        self.envs = []
+        for _ in range(int(n_copies)):
+            env = env_fn()
+            if not all(hasattr(env, a) for a in _ENV_ATTRS):
+                raise ValueError(f"env_fn returned {env!r}; allowed: a PettingZoo ParallelEnv (with "
+                                 f"{', '.join(_ENV_ATTRS)})")
+            self.envs.append(env)
         if len({id(e) for e in self.envs}) != len(self.envs):
             raise ValueError("env_fn returned the same env instance twice; it must build a new env per call")
         self.possible_agents = list(self.envs[0].possible_agents)
@@ -150,7 +175,7 @@ class ParallelVecEnv(VecEnv):
         self._len = np.zeros(n, dtype=np.int64)
         self._t_start = np.full(n, time.perf_counter())
         self._actions: np.ndarray | None = None
-        self._base_seed = None if seed is None else int(seed)
+        self._base_seed = seed
         self._episode = [0] * self.n_copies
         self._restart_episodes = True
         self.slot_steps = 0  # slot-steps stepped so far
@@ -165,10 +190,17 @@ class ParallelVecEnv(VecEnv):
     # ------------------------------------------------------------------ slots
     def slot(self, copy: int, agent: str) -> int:
         """The slot index of ``agent`` in env copy ``copy``."""
-        return copy * self.n_agents + self._slot_index[agent]
+        try:
+            k = self._slot_index.get(agent)
+        except TypeError:  # unhashable
+            k = None
+        if k is None:
+            raise ValueError(f"agent = {agent!r}; allowed: one of the possible agents {self.possible_agents}")
+        return _check_index("copy", copy, self.n_copies) * self.n_agents + k
 
     def slot_agent(self, i: int) -> tuple[int, str]:
         """``(copy, agent)`` of slot ``i``."""
+        i = _check_index("i", i, self.num_envs)
         return i // self.n_agents, self.possible_agents[i % self.n_agents]
 
     def episode_seed(self, copy: int, episode: int) -> int:
@@ -180,9 +212,10 @@ class ParallelVecEnv(VecEnv):
         """Set the base seed; the next :meth:`reset` restarts every copy at
         episode 0 (copy ``c`` gets ``seed + c``). Returns the first-episode
         seed of each slot."""
+        seed = _check_seed(seed)
         if seed is None:
             seed = int(np.random.randint(0, np.iinfo(np.uint32).max - 1_000_000, dtype=np.int64))
-        self._base_seed = int(seed)
+        self._base_seed = seed
         self._restart_episodes = True
         return [self.episode_seed(i // self.n_agents, 0) for i in range(self.num_envs)]
 
@@ -250,7 +283,7 @@ class ParallelVecEnv(VecEnv):
     # ------------------------------------------------------------------ step
     def step_async(self, actions: np.ndarray) -> None:
         actions = np.asarray(actions)
-        if actions.shape[0] != self.num_envs:
+        if actions.ndim == 0 or actions.shape[0] != self.num_envs:
             raise ValueError(f"actions have shape {actions.shape}; expected ({self.num_envs}, ...) (one row per slot)")
         self._actions = actions
 
