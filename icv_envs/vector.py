@@ -129,7 +129,7 @@ class IcvVectorEnv(VectorEnv):
         self._rew = np.zeros(B, dtype=np.float64)
         self._term = np.zeros(B, dtype=bool)
         self._trunc = np.zeros(B, dtype=bool)
-        self._expert = np.zeros((B, 2), dtype=np.float32)
+        self._step_infos: list[dict] = [{} for _ in range(B)]
         self._autoreset = np.zeros(B, dtype=bool)
         self.env_id = env_id
 
@@ -147,30 +147,35 @@ class IcvVectorEnv(VectorEnv):
         else:
             raise ValueError(f"seed = {seed!r}; allowed: None, an integer >= 0 (world b gets seed + b) or a list of "
                              f"{B} integers >= 0 or None")
+        infos: dict[str, Any] = {}
         for b, env in enumerate(self.envs):
             self._obs[b], info = env.reset(seed=seeds[b], options=options)
-            self._expert[b] = info.get("expert_action", 0.0)
+            infos = self._add_info(infos, info, b)
         self._autoreset[:] = False
-        return self._out(self._obs), {"expert_action": self._out(self._expert)}
+        return self._out(self._obs), infos
 
     def step(self, actions):
         acts = np.asarray(actions)
         shape = (self.num_envs,) + tuple(self.single_action_space.shape)  # ((B, 2); (B,) for discrete actions)
         if acts.shape != shape:
             raise ValueError(f"actions have shape {acts.shape}; allowed: {shape}")
+        # every world's info aggregated as Gymnasium's SyncVectorEnv does (key -> (B, ...) array plus the
+        # "_key" mask; until stop 45 only "expert_action" was kept); the last step's info of each world is
+        # kept for the SB3 adapter (its per-world infos)
         infos: dict[str, Any] = {}
         for b, env in enumerate(self.envs):
             if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset[b]:
                 self._obs[b], info = env.reset()
                 self._rew[b], self._term[b], self._trunc[b] = 0.0, False, False
+                self._step_infos[b] = info
             else:
                 self._obs[b], self._rew[b], self._term[b], self._trunc[b], info = env.step(acts[b])
+                self._step_infos[b] = info
                 if self.autoreset_mode == AutoresetMode.SAME_STEP and (self._term[b] or self._trunc[b]):
                     infos = self._add_info(infos, {"final_obs": self._obs[b].copy(), "final_info": info}, b)
                     self._obs[b], info = env.reset()
-            self._expert[b] = info.get("expert_action", 0.0)
+            infos = self._add_info(infos, info, b)
         self._autoreset = self._term | self._trunc
-        infos["expert_action"] = self._out(self._expert)
         return self._out(self._obs), self._rew.copy(), self._term.copy(), self._trunc.copy(), infos
 
     def close_extras(self, **kwargs) -> None:
@@ -215,10 +220,13 @@ class _Sb3Adapter:  # made a real SB3 VecEnv subclass on first use (SB3 is an op
             def step_wait(self):
                 obs, rew, term, trunc, infos = self.venv.step(self._actions)
                 dones = term | trunc
-                out = [{} for _ in range(self.num_envs)]
+                # each world's own info of the step (the final step's for a world that ended), as SB3's
+                # DummyVecEnv passes it (until stop 45 only SB3's two keys)
+                out = [dict(i) for i in self.venv._step_infos]
+                for b in range(self.num_envs):  # (every step, as DummyVecEnv sets it)
+                    out[b]["TimeLimit.truncated"] = bool(trunc[b] and not term[b])
                 for b in np.flatnonzero(dones):
                     out[b]["terminal_observation"] = infos["final_obs"][b]
-                    out[b]["TimeLimit.truncated"] = bool(trunc[b] and not term[b])
                 return obs, rew.astype(np.float32), dones, out
 
             def seed(self, seed=None):

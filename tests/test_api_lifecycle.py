@@ -507,3 +507,80 @@ def test_gym_make_with_a_config_key_as_keyword_points_to_config():
     (stop 45: Python's own "unexpected keyword argument" only)."""
     with pytest.raises(TypeError, match=r"unknown keyword argument\(s\) \['duration'\]; the env takes config="):
         gym.make("icv_envs/HighwayFormation-v0", duration=2.0)
+
+
+def test_aec_env_takes_an_agent_that_arrives_truncated_in_the_last_step():
+    """HighwayRamps and the intersection: a vehicle spawned in the episode's
+    last step is reported once, already truncated; PettingZoo's conversion
+    then deleted an action it never had (KeyError until stop 45, seeds 1-3 of
+    0-4 at 20 s; PettingZoo's api_test on the intersection failed so)."""
+    from pettingzoo.test import api_test
+
+    for seed in (1, 2, 3):
+        env = highway_ramps_v0.env(duration=20.0, missing_action="expert")
+        env.reset(seed=seed)
+        for a in env.agent_iter():
+            _, _, te, tr, _ = env.last()
+            env.step(None if te or tr else np.zeros(2, np.float32))
+    api_test(intersection_v0.env(duration=5.0, throughput=2000.0), num_cycles=200)
+
+
+def test_a_rejected_reset_config_is_not_applied():
+    """``reset(options={"config": ...})`` that would change a PettingZoo env's
+    spaces is refused before it is applied (stop 45: it was applied, then
+    refused, and every later reset failed)."""
+    env = highway_formation_v0.parallel_env(duration=3.0, vehicles_count=4)
+    o0, _ = env.reset(seed=0)
+    with pytest.raises(ValueError, match="changes the spaces"):
+        env.reset(seed=0, options={"config": {"observation": {"type": "OccupancyGrid"}}})
+    assert env.core.config["observation"]["type"] == "Kinematics"
+    o1, _ = env.reset(seed=0)
+    assert all(np.array_equal(o0[a], o1[a]) for a in o0)
+
+
+def test_expert_actions_cannot_be_changed_by_the_caller():
+    """``expert_actions()``: the PettingZoo dict holds rows of a copy (adding
+    noise to them changed what a FormationResidual env then applied, stop
+    45), the core's array is read-only."""
+    def run(noise):
+        env = highway_formation_v0.parallel_env(duration=3.0, vehicles_count=4, action={"type": "FormationResidual"})
+        env.reset(seed=0)
+        out = []
+        for _ in range(8):
+            ex = env.expert_actions()
+            for a in ex:
+                ex[a] += noise
+            out.append(np.stack(list(env.step({a: np.zeros(2, np.float32) for a in env.agents})[0].values())))
+        return out, env
+
+    clean, _ = run(0.0)
+    noisy, env = run(0.5)
+    assert all(np.array_equal(x, y) for x, y in zip(clean, noisy))
+    with pytest.raises(ValueError, match="read-only"):
+        env.core.expert_actions()[0] += 1.0
+
+
+def test_step_after_the_episode_names_reset():
+    """A step after the episode ended says so (stop 45: it named the agents
+    already reported done as live agents without actions)."""
+    env = highway_formation_v0.parallel_env(duration=1.0, vehicles_count=4)
+    env.reset(seed=0)
+    while env.agents:
+        env.step({a: np.zeros(2, np.float32) for a in env.agents})
+    with pytest.raises(RuntimeError, match="the episode is over .*call reset"):
+        env.step({})
+    with pytest.raises(RuntimeError, match="the episode is over"):
+        env.step_rows(np.zeros((0, 2)))
+
+
+def test_a_config_edited_in_place_is_validated_at_reset():
+    """``env.unwrapped.config[key] = value`` then ``reset()`` (highway-env's
+    habit) is validated as ``configure()`` is (stop 45: a 9-lane road was
+    built); a valid edit is applied."""
+    env = gym.make("icv_envs/HighwayFormation-v0")
+    env.unwrapped.config["lanes_count"] = 9
+    with pytest.raises(ValueError, match=r"config\['lanes_count'\] = 9 is invalid"):
+        env.reset(seed=0)
+    env.unwrapped.config["lanes_count"] = 3
+    env.reset(seed=0)
+    assert env.unwrapped.config["lanes_count"] == 3

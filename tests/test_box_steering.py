@@ -73,7 +73,7 @@ def test_box_steering_equals_the_array_code(method, throughput, seed, random_sha
             lane_changes += int(((w.fleet.lc_lane >= 0) & (rs.phase == 0)).sum())
             arcs += int(((rs.phase == 1) & w.layout.arc[rs.pid]).sum())
             departed += int((rs.phase == 2).sum())
-        acts = core.expert_actions()
+        acts = core.expert_actions().copy()  # (read-only from stop 45: this test mutated the env's cache)
         rand = rng.random(len(acts)) < random_share
         acts[rand] = rng.uniform(-1.0, 1.0, (int(rand.sum()), 2))
         obs, rew, term, trunc, infos = env.step(dict(zip(env.agents, acts.astype(np.float32))))
@@ -157,7 +157,7 @@ def test_envelope_pairs_equal_the_array_code(method, throughput, seed, random_sh
             pairs += int((cor.lead >= 0).sum())
             passed_total += want[2]
             binding += int((cap < 0).sum())
-        acts = core.expert_actions()
+        acts = core.expert_actions().copy()  # (read-only from stop 45: this test mutated the env's cache)
         rand = rng.random(len(acts)) < random_share
         acts[rand] = rng.uniform(-1.0, 1.0, (int(rand.sum()), 2))
         obs, rew, term, trunc, infos = env.step(dict(zip(env.agents, acts.astype(np.float32))))

@@ -250,7 +250,7 @@ def test_compiled_route_equals_the_array_code(method, seed):
             assert got.dtype == v.dtype and np.array_equal(got, v), k
         for ph in seen:
             seen[ph] += int((rs.phase == ph).sum())
-        acts = core.expert_actions()
+        acts = core.expert_actions().copy()  # (read-only from stop 45: this test mutated the env's cache)
         rand = rng.random(len(acts)) < 0.3
         acts[rand] = rng.uniform(-1.0, 1.0, (int(rand.sum()), 2))
         env.step(dict(zip(env.agents, acts.astype(np.float32))))

@@ -444,3 +444,69 @@ def test_vector_bad_arguments_are_named(make, match):
     with pytest.raises(ValueError, match=match):
         make()
     IcvVectorEnv(num_envs=2, config=CFG).reset(seed=[1, None])  # (one seed per world, None: unseeded)
+
+
+def _same_tree(a, b, path=""):
+    if isinstance(a, dict):
+        assert set(a) == set(b), (path, sorted(set(a) ^ set(b)))
+        for k in a:
+            _same_tree(a[k], b[k], f"{path}/{k}")
+    elif isinstance(a, np.ndarray) and a.dtype == object:
+        for x, y in zip(a, b):
+            _same_tree(x, y, path)
+    else:
+        assert np.array_equal(np.asarray(a), np.asarray(b)), path
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_gym_vector_env_matches_sync_vector_env_infos_included(mode):
+    """Observations, rewards, terminations, truncations and the infos (every
+    key, with Gymnasium's ``_key`` masks, ``final_obs`` / ``final_info``) equal
+    ``SyncVectorEnv``'s over the same ids and seeds, across episode ends (stop
+    45: the infos held ``expert_action`` only)."""
+    import gymnasium as gym
+    from gymnasium.vector import SyncVectorEnv
+
+    cfg = dict(duration=2.0, vehicles_count=6)
+    v = IcvVectorEnv("icv_envs/HighwayFormation-v0", 2, config=cfg, autoreset_mode=mode)
+    s = SyncVectorEnv([lambda: gym.make("icv_envs/HighwayFormation-v0", config=cfg)] * 2, autoreset_mode=mode)
+    o1, i1 = v.reset(seed=5)
+    o2, i2 = s.reset(seed=5)
+    assert np.array_equal(o1, o2)
+    _same_tree(i1, i2)
+    assert "speed" in i1 and "_speed" in i1
+    rng = np.random.default_rng(0)
+    for _ in range(25):  # (two episode ends)
+        a = rng.uniform(-1, 1, (2, 2)).astype(np.float32)
+        r1, r2 = v.step(a), s.step(a)
+        for x, y in zip(r1[:4], r2[:4]):
+            assert np.array_equal(x, y)
+        _same_tree(r1[4], r2[4])
+
+
+def test_sb3_adapter_passes_each_worlds_info():
+    """``to_sb3()``: each world's info is its env's own info of the step (the
+    final step's for a world that ended, with SB3's ``terminal_observation``
+    and ``TimeLimit.truncated``), as SB3's DummyVecEnv gives (stop 45: only
+    SB3's two keys)."""
+    pytest.importorskip("stable_baselines3")
+    import gymnasium as gym
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    cfg = dict(duration=2.0, vehicles_count=6)
+    ours = IcvVectorEnv("icv_envs/HighwayFormation-v0", 2, config=cfg).to_sb3()
+    ref = DummyVecEnv([lambda: gym.make("icv_envs/HighwayFormation-v0", config=cfg)] * 2)
+    ours.seed(3)
+    ref.seed(3)
+    assert np.array_equal(ours.reset(), ref.reset())
+    rng = np.random.default_rng(1)
+    ended = 0
+    for _ in range(12):
+        a = rng.uniform(-1, 1, (2, 2)).astype(np.float32)
+        o1, r1, d1, inf1 = ours.step(a)
+        o2, r2, d2, inf2 = ref.step(a)
+        assert np.array_equal(o1, o2) and np.array_equal(r1, r2) and np.array_equal(d1, d2)
+        for x, y in zip(inf1, inf2):
+            _same_tree(x, y)
+        ended += int(d1.sum())
+    assert ended >= 2  # (each world's episode ended: the terminal infos were compared)

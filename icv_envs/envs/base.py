@@ -96,16 +96,39 @@ class IcvAgentsEnv(EgoEnv, AgentsStep, DictEdge, AbstractEnv):
                 self.__dict__.pop(k, None)
             self.__dict__.update(derived)
             raise
+        self._config_checked = copy.deepcopy(self.config)
 
-    def preview_config(self, config: dict | None) -> int:
+    def _check_config_edits(self) -> None:
+        """Validate a config edited in place since it was last validated
+        (``env.config["lanes_count"] = 3`` then ``reset()``, highway-env's
+        habit: until stop 45 such an edit skipped every check, a 9-lane road
+        was built); an unchanged config is not validated again."""
+        try:
+            same = self.config == self.__dict__.get("_config_checked")
+        except (ValueError, TypeError):  # (an array among the values: compare by validating)
+            same = False
+        if not same:
+            self.configure({})
+
+    def preview_config(self, config: dict | None, spaces: bool = False):
         """Validate ``config`` as :meth:`configure` would, without applying it;
-        returns the number of possible agents it would give."""
+        returns the number of possible agents it would give (with ``spaces``:
+        ``(n, observation_space, action_space)``, the spaces a reset with it
+        would build)."""
         saved = copy.deepcopy(self.config)
         derived = {k: self.__dict__[k] for k in self._CONFIG_DERIVED if k in self.__dict__}
+        before = dict(self.__dict__) if spaces else None
         try:
             self.configure(config)
-            return self._n_possible_agents()
+            n = self._n_possible_agents()
+            if not spaces:
+                return n
+            self.define_spaces()
+            return n, self.observation_space, self.action_space
         finally:
+            if before is not None:  # (define_spaces' attributes too)
+                self.__dict__.clear()
+                self.__dict__.update(before)
             self.config = saved
             self.__dict__.update(derived)
 
@@ -232,12 +255,17 @@ class IcvAgentsEnv(EgoEnv, AgentsStep, DictEdge, AbstractEnv):
 
     def expert_actions(self) -> np.ndarray:
         """The expert's (the env method's controller's) normalised actions for
-        every vehicle now (rows in vehicle order), computed once per state."""
+        every vehicle now (rows in vehicle order), computed once per state and
+        returned read-only (the env's own copy: until stop 45 a caller adding
+        noise to it in place changed what the env then applied as the expert's;
+        copy it to modify it)."""
         if self.world is None:
             raise RuntimeError("call reset() before expert_actions()")
         key = self._expert_key()
         if self._expert_cache is None or self._expert_cache[0] != key:
-            self._expert_cache = (key, self.expert.compute(self.world).astype(np.float32))
+            ex = self.expert.compute(self.world).astype(np.float32)
+            ex.setflags(write=False)
+            self._expert_cache = (key, ex)
         return self._expert_cache[1]
 
     # -------------------------------------------------------------- rendering

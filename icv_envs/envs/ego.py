@@ -35,6 +35,8 @@ class EgoEnv:
         gym.Env.reset(self, seed=seed, options=options)
         if options and "config" in options:
             self.configure(options["config"])
+        else:
+            self._check_config_edits()
         # the observation and action types of the config as it is now, as
         # highway-env's reset rebuilds them: a config changed by reset's
         # options or by configure() since (before stop 42, configure() then

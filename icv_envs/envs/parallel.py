@@ -69,15 +69,22 @@ class CoreParallelEnv(ParallelEnv):
     def reset(self, seed: int | None = None, options: dict | None = None):
         check_reset_options(options)
         if options and "config" in options:
-            # validate first, then apply: a rejected config leaves the env as it was
-            n = self.core.preview_config(options["config"])
+            # validate first, then apply: a rejected config leaves the env as it was (until stop 45 a config
+            # changing the spaces was applied before it was rejected, and every later reset failed)
+            n, obs_space, act_space = self.core.preview_config(options["config"], spaces=True)
             if n != len(self.possible_agents):
                 raise ValueError(
                     f"options['config'] gives {n} possible agents, this env has {len(self.possible_agents)}: a "
                     f"PettingZoo env's possible_agents are fixed at construction (on the open-road envs they follow "
                     f"duration, vgr/throughput unless max_vehicles is set); create a new env, or set max_vehicles"
                 )
-        obs, infos = self.core.ma_reset(seed=seed, options=options)
+            if obs_space != self._obs_space or act_space != self._act_space:
+                raise ValueError(f"options['config'] changes the spaces (observation {self._obs_space} -> {obs_space}, "
+                                 f"action {self._act_space} -> {act_space}); a PettingZoo env's spaces are fixed at "
+                                 f"construction: create a new env")
+        # (the core gets the config only: the options were checked here, once)
+        obs, infos = self.core.ma_reset(seed=seed, options=None if not options or "config" not in options
+                                        else {"config": options["config"]})
         if list(self.core.possible_agents) != self.possible_agents:
             raise ValueError("options['config'] (or core.configure()) may not change the number of possible agents of a "
                              "PettingZoo env")
@@ -91,6 +98,8 @@ class CoreParallelEnv(ParallelEnv):
     def step(self, actions: dict):
         if self.core.world is None:
             raise RuntimeError("call reset() before step()")
+        if self.episode_over and not self.agents:  # (the core's vehicles are still there: it named them as live)
+            raise RuntimeError("the episode is over (its time is up and every agent was reported done): call reset()")
         obs, rew, term, trunc, infos = self.core.ma_step(actions)
         self._cycles += 1
         if self._cycles_up:
@@ -107,6 +116,8 @@ class CoreParallelEnv(ParallelEnv):
         :meth:`step` does."""
         if self.core.world is None:
             raise RuntimeError("call reset() before step()")
+        if self.episode_over and not self.agents:
+            raise RuntimeError("the episode is over (its time is up and every agent was reported done): call reset()")
         return self._rows_done(self.core.ma_step_rows(actions))
 
     def _step_controls(self, controls):
@@ -155,8 +166,9 @@ class CoreParallelEnv(ParallelEnv):
         self.core.close()
 
     def expert_actions(self) -> dict:
-        """The expert's (the env method's controller's) action for every live agent."""
-        ex = self.core.expert_actions()
+        """The expert's (the env method's controller's) action for every live
+        agent: rows of a copy, the caller's to change (the env keeps its own)."""
+        ex = self.core.expert_actions().copy()
         return dict(zip(self.core._names(self.core.world.traffic.vid.tolist()), ex))
 
     def metrics(self, **kwargs) -> dict:
@@ -168,13 +180,21 @@ class OpenRoadAECWrapper(parallel_to_aec_wrapper):
     agent has left but the episode's time is not up (``agents`` momentarily
     empty, vehicles still to arrive), the AEC env keeps stepping the parallel
     env with no actions until an agent appears or the episode ends, instead
-    of ending the episode (``agent_iter()`` stops only when it is over)."""
+    of ending the episode (``agent_iter()`` stops only when it is over); an
+    agent that arrives in the last step, already truncated, takes its dead
+    step without an action it never had."""
 
     def reset(self, seed=None, options=None):
         super().reset(seed=seed, options=options)
         self._skip_empty()
 
     def step(self, action):
+        a = self.agent_selection
+        if (self.terminations.get(a) or self.truncations.get(a)) and a not in self._actions:
+            # an agent that arrived in the episode's last step, already
+            # truncated: it never acted, and PettingZoo's conversion deletes
+            # the action it stored for it (a KeyError until stop 45)
+            self._actions[a] = None
         super().step(action)
         self._skip_empty()
 
