@@ -27,32 +27,27 @@ def _positive_float(name, allow_zero: bool = False):
     return parse
 
 
-def _positive_int(name):
+def _min_int(name, lo: int):
+    """A parser of an integer >= ``lo`` for option ``name``."""
     def parse(text):
         try:
             v = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 1, got {text!r}") from None
-        if v < 1:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 1, got {text!r}")
+            v = None
+        if v is None or v < lo:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer >= {lo}, got {text!r}")
         return v
 
     return parse
+
+
+def _positive_int(name):
+    return _min_int(name, 1)
 
 
 def _nonneg_int(name):
-    """A parser of an integer >= 0 for option ``name`` (a seed: gymnasium
-    refuses a negative one, deep inside a run, with its own error type)."""
-    def parse(text):
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 0, got {text!r}") from None
-        if v < 0:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer >= 0, got {text!r}")
-        return v
-
-    return parse
+    """An integer >= 0 (a seed: gymnasium refuses a negative one, deep inside a run, with its own error type)."""
+    return _min_int(name, 0)
 
 
 def _floats(name):

@@ -373,12 +373,16 @@ def test_cli_bench_options_of_another_target_are_errors(argv, match, capsys):
     """Until stop 43 ``bench`` accepted every target's options and ignored
     those of the others (``bench highway-formation --throughput 3000`` ran
     the highway bench as if it had not been given)."""
-    try:
-        code = main(argv)
-    except SystemExit as exc:  # (argparse's own check of a value)
-        code = exc.code
-    assert code == 2
+    assert _cli_code(argv) == 2
     assert pytest.importorskip("re").search(match, capsys.readouterr().err)
+
+
+def _cli_code(argv) -> int:
+    """The command line's exit code (argparse's own check of a value exits)."""
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return exc.code
 
 
 def test_parallel_reset_builds_no_ego_observation_and_keeps_a_replaced_reset(monkeypatch):
@@ -458,11 +462,7 @@ def test_reset_options_other_than_config_are_named(make):
 def test_cli_misread_options_are_errors(argv, match, capsys, tmp_path, monkeypatch):
     """Options that were misread, ignored or crashed deep inside (stop 45's review of the command line)."""
     monkeypatch.chdir(tmp_path)  # (nothing may be written; if it were, not into the checkout)
-    try:
-        code = main(argv)
-    except SystemExit as exc:  # (argparse's own check of a value)
-        code = exc.code
-    assert code == 2
+    assert _cli_code(argv) == 2
     assert pytest.importorskip("re").search(match, capsys.readouterr().err)
 
 

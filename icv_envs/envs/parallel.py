@@ -98,7 +98,7 @@ class CoreParallelEnv(ParallelEnv):
     def step(self, actions: dict):
         if self.core.world is None:
             raise RuntimeError("call reset() before step()")
-        if self.episode_over and not self.agents:  # (the core's vehicles are still there: it named them as live)
+        if not self.agents and self.episode_over:  # (the core still holds the vehicles: it named them live)
             raise RuntimeError("the episode is over (its time is up and every agent was reported done): call reset()")
         obs, rew, term, trunc, infos = self.core.ma_step(actions)
         self._cycles += 1
@@ -116,7 +116,7 @@ class CoreParallelEnv(ParallelEnv):
         :meth:`step` does."""
         if self.core.world is None:
             raise RuntimeError("call reset() before step()")
-        if self.episode_over and not self.agents:
+        if not self.agents and self.episode_over:
             raise RuntimeError("the episode is over (its time is up and every agent was reported done): call reset()")
         return self._rows_done(self.core.ma_step_rows(actions))
 
