@@ -13,6 +13,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, parallel_seed_test, seed_test
 
 from icv_envs import highway_formation_v0, highway_ramps_v0, intersection_v0
@@ -320,3 +322,46 @@ def test_intersection_leader_features_are_opt_in_and_match_the_corridor_leader()
     parallel_api_test(intersection_v0.parallel_env(**cfg, observation={"features": feats}), num_cycles=10)
     with pytest.raises(ValueError, match="lead_gap"):
         highway_formation_v0.parallel_env(observation={"features": ["x", "lead_gap"]})
+
+
+# ---------------------------------------------------- the meta-action layer's fast path (stop 45)
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(1, 12), seed=st.integers(0, 2**16))
+def test_meta_control_laws_equal_the_checked_public_functions(n, seed):
+    """The meta-action layer calls the steering and feedback laws without
+    their input checks (the simulator's own finite float64 arrays): the same
+    numbers as the public, checked functions, bit for bit."""
+    from types import SimpleNamespace
+
+    from icv_envs.envs.meta_control import _A_REF, _KP, _KV, _steering
+    from icv_envs.formation.bezier import pure_pursuit_steering
+    from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback, longitudinal_feedback
+
+    rng = np.random.default_rng(seed)
+    x, y, h = rng.uniform(-500, 500, n), rng.uniform(-10, 10, n), rng.uniform(-3.5, 3.5, n)
+    tx, ty = x + rng.uniform(0, 30, n), rng.uniform(-10, 10, n)
+    p = SimpleNamespace(wheelbase=2.8, steer_max=float(np.deg2rad(30.0)), a_min=-6.0, a_max=3.0)
+    assert np.array_equal(_steering(x, y, h, tx, ty, p), pure_pursuit_steering(x, y, h, tx, ty, p.wheelbase,
+                                                                               p.steer_max))
+    v, vt = rng.uniform(0, 35, n), rng.choice([0.0, 5.0, 20.0, 30.0], n)
+    z = np.zeros_like(v)
+    assert np.array_equal(_longitudinal_feedback(z, z, v, vt, _KP, _KV, p.a_min, p.a_max, _A_REF),
+                          longitudinal_feedback(z, z, v, vt, DEFAULT_KP, DEFAULT_KV, p.a_min, p.a_max))
+
+
+def test_discrete_check_many_is_the_per_agent_check():
+    """``DiscreteMetaAction.check_many``: integer scalars in range as one
+    array, the indices ``check`` gives; anything else (floats, 0-d arrays,
+    bools, out of range) through ``check``, whose error names the agent."""
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+
+    env = parallel_env(vehicles_count=3, action={"type": "DiscreteMetaAction"})
+    env.reset(seed=0)
+    at = env.core._act_type
+    names = ["icv_0", "icv_1", "icv_2"]
+    for values in ([0, 4, 2], [np.int64(1), np.int32(3), np.uint8(0)], [1.0, np.array(2), 3]):
+        assert list(np.asarray(at.check_many(values, names))) == [at.check(v, a) for a, v in zip(names, values)]
+    for bad, who in (([0, 5, 1], "icv_1"), ([0, 1, -1], "icv_2"), ([True, 1, 1], "icv_0"),
+                     ([0, np.uint64(2**63), 1], "icv_1")):
+        with pytest.raises(ValueError, match=f"action of {who} = .*allowed: an integer in \\[0, 4\\]"):
+            at.check_many(bad, names)

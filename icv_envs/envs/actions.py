@@ -156,6 +156,10 @@ class ActionType:
         """The validated action of one agent (raises ``ValueError`` naming ``who``)."""
         raise NotImplementedError
 
+    def check_many(self, values: list, names: list):
+        """The validated actions of agents ``names`` (:meth:`check` of each)."""
+        return [self.check(v, a) for a, v in zip(names, values)]
+
     def controls(self, rows: np.ndarray, actions: list) -> np.ndarray:
         """Normalised ``[u_a, u_s]`` (len(rows), 2) for the vehicles at traffic
         ``rows`` given their checked ``actions``."""
@@ -262,6 +266,21 @@ class DiscreteMetaAction(ActionType):
                              f"({', '.join(f'{i} {a}' for i, a in self.actions.items())})")
         return int(arr.reshape(-1)[0])
 
+    def check_many(self, values: list, names: list):
+        """:meth:`check` of every agent at once when every value is an integer
+        scalar (a learner's or the batch's numpy integers) in range: one
+        array, the same indices (from stop 45: the per-agent check was a tenth
+        of a discrete step); anything else goes through :meth:`check`, whose
+        error names the agent."""
+        if set(map(type, values)) <= _INT_SCALARS:
+            try:
+                arr = np.fromiter(values, dtype=np.int64, count=len(values))
+            except OverflowError:
+                arr = None
+            if arr is not None and (not len(arr) or (int(arr.min()) >= 0 and int(arr.max()) < len(self.actions))):
+                return arr
+        return super().check_many(values, names)
+
     def controls(self, rows, actions) -> np.ndarray:
         if not len(rows):
             return np.zeros((0, 2))
@@ -277,6 +296,9 @@ class DiscreteMetaAction(ActionType):
             m[[k for k, a in self.actions.items() if a == "IDLE"][0]] = 1
         return m
 
+
+#: the integer scalar types :meth:`DiscreteMetaAction.check_many` takes at once (bool is not among them)
+_INT_SCALARS = frozenset({int, np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64})
 
 ACTION_TYPES = {c.name: c for c in (ContinuousAction, DiscreteMetaAction, FormationResidual)}
 

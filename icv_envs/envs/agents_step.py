@@ -92,7 +92,7 @@ class AgentsStep:
             if isinstance(at, ContinuousAction):
                 vals = self._check_actions(names, values)
             else:
-                vals = [at.check(v, a) for a, v in zip(names, values)]
+                vals = at.check_many(values, names)
             acts[given] = at.controls(given, vals)
         return self._ma_advance(acts)
 

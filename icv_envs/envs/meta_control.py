@@ -37,10 +37,33 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.formation.bezier import lane_change_lateral, pure_pursuit_steering
-from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, longitudinal_feedback
+from icv_envs.formation.bezier import _pure_pursuit_steering, lane_change_lateral
+from icv_envs.formation.control import DEFAULT_KP, DEFAULT_KV, _longitudinal_feedback
 
 __all__ = ["MetaController"]
+
+# the feedback law's gains and feed-forward as longitudinal_feedback converts them (0-d float64 arrays)
+_KP, _KV, _A_REF = (np.asarray(g, dtype=np.float64) for g in (DEFAULT_KP, DEFAULT_KV, 0.0))
+
+
+def _steering(rx, ry, heading, tx, ty, p) -> np.ndarray:
+    """:func:`~icv_envs.formation.bezier.pure_pursuit_steering` of the
+    simulator's own arrays (one finite float64 per vehicle, as the experts
+    pass theirs), without its input checks: the same arithmetic, the same
+    numbers (from stop 45: the checks were a fifth of this layer's time)."""
+    f8 = np.float64
+    return _pure_pursuit_steering(np.asarray(rx, dtype=f8), np.asarray(ry, dtype=f8), np.asarray(heading, dtype=f8),
+                                  np.asarray(tx, dtype=f8), np.asarray(ty, dtype=f8), float(p.wheelbase),
+                                  float(p.steer_max))
+
+
+def _members(a: np.ndarray, sorted_b: np.ndarray) -> np.ndarray:
+    """``np.isin(a, sorted_b)`` for a sorted array of distinct ids ``sorted_b``
+    (a binary search instead of isin's sort of both)."""
+    if not len(sorted_b):
+        return np.zeros(len(a), dtype=bool)
+    pos = np.minimum(np.searchsorted(sorted_b, a), len(sorted_b) - 1)
+    return sorted_b[pos] == a
 
 
 class MetaController:
@@ -68,11 +91,12 @@ class MetaController:
         if self._world is not w:
             self.reset()
             self._world = w
-        alive = np.isin(self.vid, self.env._vehicles().vid)
+        # (the ids kept and the world's are sorted and distinct: membership by binary search, from stop 45)
+        alive = _members(self.vid, self.env._vehicles().vid)
         if not alive.all():
             for k in ("vid", "lane", "sidx", "active", "x0", "y0", "y1", "length"):
                 setattr(self, k, getattr(self, k)[alive])
-        new = ~np.isin(vids, self.vid)
+        new = ~_members(vids, self.vid)
         if new.any():
             ts = self.target_speeds
             sidx = np.abs(speed[new][:, None] - ts[None, :]).argmin(axis=1)
@@ -99,8 +123,10 @@ class MetaController:
     def _speed(self, k, dspeed, v, p) -> np.ndarray:
         self.sidx[k] = np.clip(self.sidx[k] + dspeed, 0, len(self.target_speeds) - 1)
         vt = self.target_speeds[self.sidx[k]]
-        return longitudinal_feedback(np.zeros_like(v), np.zeros_like(v), v, vt, DEFAULT_KP, DEFAULT_KV,
-                                     p.a_min, p.a_max)
+        # (longitudinal_feedback's arithmetic on its converted arguments, without its checks: from stop 45)
+        return _longitudinal_feedback(np.zeros_like(v), np.zeros_like(v), np.asarray(v, dtype=np.float64),
+                                      np.asarray(vt, dtype=np.float64), _KP, _KV, float(p.a_min), float(p.a_max),
+                                      _A_REF)
 
     # --------------------------------------------------------------- highway
     def _highway(self, rows, dlane, dspeed):
@@ -170,7 +196,7 @@ class MetaController:
             xa = self.x0[k[act]] + road.wrap(x[act] + ld[act] - self.x0[k[act]])
             py[act], _ = lane_change_lateral(xa, self.x0[k[act]], self.y0[k[act]], self.y1[k[act]],
                                              self.length[k[act]])
-        phi = pure_pursuit_steering(x, y, tr.heading[rows], x + ld, py, p.wheelbase, p.steer_max)
+        phi = _steering(x, y, tr.heading[rows], x + ld, py, p)
         return self._speed(k, dspeed, v, p), phi, p
 
     # ---------------------------------------------------------- intersection
@@ -244,5 +270,5 @@ class MetaController:
             up = u[j] + ld[j]
             px[j] = o[:, 0] + up * d[:, 0] + latp * rr[:, 0]
             py[j] = o[:, 1] + up * d[:, 1] + latp * rr[:, 1]
-        phi = pure_pursuit_steering(f.x[rows], f.y[rows], f.heading[rows], px, py, p.wheelbase, p.steer_max)
+        phi = _steering(f.x[rows], f.y[rows], f.heading[rows], px, py, p)
         return self._speed(k, dspeed, v, p), phi, p
