@@ -265,8 +265,8 @@ class BatchedWorlds:
     (``info["expert_actions"]``, ``(B, K, 2)``, zeros in empty slots).
     Continuous actions (``ContinuousAction``, ``FormationResidual``) are
     ``(B, K, 2)``; ``DiscreteMetaAction``'s are ``(B, K)`` integers
-    (``action_space`` a ``MultiDiscrete``), stepped through each world's
-    PettingZoo dicts. Without ``expert`` the worlds never compute the expert: unless ``config``
+    (``action_space`` a ``MultiDiscrete``); both step each world through its
+    array path (``ParallelEnv.step_rows``), not its dicts. Without ``expert`` the worlds never compute the expert: unless ``config``
     says otherwise, ``expert_driven_check`` is False, so every vehicle is
     policy-driven (learned actions are never equal to the expert's anyway;
     the comparison cost a quarter of a 20-agent step)."""
@@ -302,8 +302,7 @@ class BatchedWorlds:
         self._lut_dense = bool((self._slot_of_vid >= 0).all())  # (possible agents icv_0 .. icv_<K-1>: always)
         # slot k holds vehicle k (possible agents icv_0 .. icv_<K-1> in order: always): ids are their slots
         self._lut_identity = self._lut_dense and bool(np.array_equal(self._slot_of_vid, np.arange(K)))
-        # continuous actions take the array path (ParallelEnv.step_rows: no per-agent dicts)
-        self._rows = isinstance(self.envs[0].core._act_type, ContinuousAction)
+
         self.single_observation_space = self.envs[0].observation_space(self.possible_agents[0])
         self.single_action_space = self.envs[0].action_space(self.possible_agents[0])
         obs_shape = self.single_observation_space.shape
@@ -416,24 +415,23 @@ class BatchedWorlds:
         # action type is plain continuous steps from its rows (the values its
         # own check and clip would give; from stop 43); the type is asked per
         # world and step (a reset may bring another one with the same space)
-        ctl = uclip(acts, -1.0, 1.0) if finite and self._rows else None
+        ctl = uclip(acts, -1.0, 1.0) if finite and not self._discrete else None
         self.rewards[:] = 0.0
         self.terminated[:] = False
         self.truncated[:] = False
         reset = np.zeros(self.num_worlds, dtype=bool)
         for b, env in enumerate(self.envs):
+            # every world through its array path (the same agents and values as the dicts; discrete
+            # actions too from stop 45, which went through the per-agent dicts)
             if ctl is not None and _plain_continuous(env.core._act_type):
                 out = env._step_controls(ctl[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
-            elif self._rows:  # arrays through (the same agents and values as the dicts)
-                out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
-            if self._rows:
-                n = len(out.vid)
-                # (compiled: envs/_kernels.scatter_world_rows, the slot assignments in one call)
-                scatter_world_rows(self._obs_flat, self.mask, self.rewards, self.terminated, self.truncated, b,
-                                   self._slots_of_vid(out.vid), out.obs.reshape(n, self._obs_flat.shape[2]),
-                                   out.rewards, out.terminated, out.truncated)
             else:
-                self._step_dicts(b, env, acts)
+                out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
+            n = len(out.vid)
+            # (compiled: envs/_kernels.scatter_world_rows, the slot assignments in one call)
+            scatter_world_rows(self._obs_flat, self.mask, self.rewards, self.terminated, self.truncated, b,
+                               self._slots_of_vid(out.vid), out.obs.reshape(n, self._obs_flat.shape[2]),
+                               out.rewards, out.terminated, out.truncated)
             if episode_finished(env):
                 self.final_obs[b] = self.obs[b]
                 self.truncated[b] |= self.mask[b]
@@ -466,26 +464,6 @@ class BatchedWorlds:
             raise ValueError(f"action of world {b} slot {k} ({self.possible_agents[k]}) = {acts[b, k]!r} is invalid; "
                              f"allowed: an integer in [{lo}, {hi}]")
         return np.where(ok, acts, lo)  # (the bad values are in empty slots only)
-
-    def _step_dicts(self, b: int, env, acts: np.ndarray) -> None:
-        """World ``b``'s step through the PettingZoo dicts (action types other than continuous)."""
-        live = env.agents
-        if live:
-            k = self._slots(live)
-            obs, rew, term, trunc, _ = env.step(dict(zip(live, acts[b, k])))
-        else:
-            obs, rew, term, trunc, _ = env.step({})
-        self.obs[b] = 0.0
-        self.mask[b] = False
-        if obs:
-            names = list(obs)
-            k = self._slots(names)
-            self.obs[b, k] = np.stack(list(obs.values()))
-            self.rewards[b, k] = np.fromiter(rew.values(), dtype=np.float64, count=len(names))
-            self.terminated[b, k] = np.fromiter(term.values(), dtype=bool, count=len(names))
-            self.truncated[b, k] = np.fromiter(trunc.values(), dtype=bool, count=len(names))
-        if env.agents:
-            self.mask[b, self._slots(env.agents)] = True
 
     def close(self) -> None:
         for env in self.envs:

@@ -181,10 +181,17 @@ def _dict_step_as_rows(env, acts):
             np.array([term[a] for a in names], dtype=bool), np.array([trunc[a] for a in names], dtype=bool))
 
 
+_META = {"action": {"type": "DiscreteMetaAction"}}
+
+
 @pytest.mark.parametrize("module, config, steps", [
     ("highway_formation_v0", {"vehicles_count": 12, "duration": 6.0}, 40),
     ("highway_ramps_v0", {"duration": 60.0, "max_cycles": 275}, 300),
     ("intersection_v0", {"duration": 56.0, "throughput": 2500.0}, 300),
+    # discrete actions through step_rows (from stop 45): one integer per agent
+    ("highway_formation_v0", {"vehicles_count": 12, "duration": 6.0, **_META}, 40),
+    ("highway_ramps_v0", {"duration": 60.0, "max_cycles": 275, **_META}, 300),
+    ("intersection_v0", {"duration": 56.0, "throughput": 2500.0, **_META}, 300),
 ])
 def test_step_rows_equals_the_dict_step(module, config, steps):
     """``ParallelEnv.step_rows`` (the batch's array path) reports the same
@@ -205,7 +212,10 @@ def test_step_rows_equals_the_dict_step(module, config, steps):
         if a.episode_over and not a.agents:
             break
         n = a.core._vehicles().n
-        acts = a.core.expert_actions().astype(np.float64) if t % 3 else rng.uniform(-1, 1, (n, 2))
+        if "action" in config:  # (meta actions: mostly IDLE and FASTER, a random one every third step)
+            acts = rng.integers(0, 5, n) if t % 3 == 0 else np.full(n, 1 + 2 * (t % 2), dtype=np.int64)
+        else:
+            acts = a.core.expert_actions().astype(np.float64) if t % 3 else rng.uniform(-1, 1, (n, 2))
         want = _dict_step_as_rows(a, acts)
         got = b.step_rows(acts)
         np.testing.assert_array_equal(got.vid, want[0])
@@ -235,8 +245,12 @@ def test_step_rows_bad_input():
         env.step_rows(bad)
     meta = parallel_env(vehicles_count=4, action={"type": "DiscreteMetaAction"})
     meta.reset(seed=0)
-    with pytest.raises(ValueError, match="continuous actions.*DiscreteMetaAction"):
+    with pytest.raises(ValueError, match=r"shape \(4, 2\); allowed: \(4,\), one action of 'DiscreteMetaAction'"):
         meta.step_rows(np.zeros((4, 2)))
+    with pytest.raises(ValueError, match=r"action of icv_2 = 7 is invalid; allowed: an integer in \[0, 4\]"):
+        meta.step_rows(np.array([1, 1, 7, 1]))
+    with pytest.raises(ValueError, match=r"action of icv_0 = 0.5 is invalid"):
+        meta.step_rows(np.array([0.5, 1, 1, 1]))
 
 
 def test_slot_lookup_names_only_the_vehicles_without_a_slot():

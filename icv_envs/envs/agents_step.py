@@ -385,18 +385,28 @@ class AgentsStep:
         return out
 
     def ma_step_rows(self, actions) -> StepRows:
-        """:meth:`ma_step` with arrays in and out, for continuous action types
-        (the batch of :class:`icv_envs.vector.BatchedWorlds`): ``actions`` is
-        ``(n, 2)``, row ``i`` the action of the vehicle in traffic row ``i``
-        (vehicle ids ascending); returns the same agents and values as the
-        dicts of :meth:`ma_step` (no infos)."""
+        """:meth:`ma_step` with arrays in and out (the batch of
+        :class:`icv_envs.vector.BatchedWorlds`): ``actions`` is ``(n, 2)``
+        for the continuous action types, ``(n,)`` integers for
+        ``DiscreteMetaAction`` (from stop 45), row ``i`` the action of the
+        vehicle in traffic row ``i`` (vehicle ids ascending); returns the same
+        agents and values as the dicts of :meth:`ma_step` (no infos)."""
         if self.world is None:
             raise RuntimeError("call reset() before step()")
         at = self._act_type
-        if not isinstance(at, ContinuousAction):
-            raise ValueError(f"ma_step_rows takes continuous actions; this env's action type is "
-                             f"{self.config['action'].get('type')!r} (use ma_step with a dict)")
         n = self._vehicles().n
+        if not isinstance(at, ContinuousAction):
+            # one integer per agent, checked as the dict step checks them
+            # (ActionType.check_many: the error names the agent), then the
+            # controls the dict step computes from them
+            arr = np.asarray(actions)
+            if arr.shape != (n,):
+                raise ValueError(f"actions have shape {arr.shape}; allowed: ({n},), one action of "
+                                 f"{self.config['action'].get('type')!r} per live agent")
+            if not n:
+                return self._ma_advance(np.zeros((0, 2)), arrays=True)
+            vals = at.check_many(arr.tolist(), self._names(self._vehicles().vid.tolist()))
+            return self._ma_advance(np.asarray(at.controls(np.arange(n), vals), dtype=np.float64), arrays=True)
         arr = np.asarray(actions, dtype=np.float64)
         if arr.shape != (n, 2):
             raise ValueError(f"actions have shape {arr.shape}; allowed: ({n}, 2), one row per live agent")

@@ -108,8 +108,9 @@ class CoreParallelEnv(ParallelEnv):
         return obs, rew, term, trunc, infos
 
     def step_rows(self, actions):
-        """:meth:`step` with arrays in and out (continuous action types):
-        ``actions (n, 2)``, one row per live vehicle in ascending id order
+        """:meth:`step` with arrays in and out: ``actions (n, 2)`` for the
+        continuous action types, ``(n,)`` integers for ``DiscreteMetaAction``,
+        one row per live vehicle in ascending id order
         (``core.world``'s rows); returns the core's
         :class:`~icv_envs.envs.agents_step.StepRows` (the agents and values of
         :meth:`step`'s dicts, no infos) and updates ``agents`` as
