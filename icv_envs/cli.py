@@ -217,7 +217,7 @@ _BENCH_ONLY = {"--sizes": ("sizes", ("highway-formation",)), "--stock-seconds": 
 
 
 def _reject_foreign_options(args, command: str, chosen: str, table: dict) -> None:
-    """An option of ``table`` (:data:`_RUN_ONLY`, :data:`_BENCH_ONLY`) given
+    """An option of ``table`` (:data:`_RUN_ONLY`, :data:`_COMPARE_ONLY`, :data:`_BENCH_ONLY`) given
     for a ``command`` target it does not belong to is an error naming the
     option and the targets it belongs to (an option not given is None, a
     flag not given False; a given 0 counts)."""

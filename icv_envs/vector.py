@@ -47,6 +47,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from icv_envs._args import check_config, check_flag, check_int
 from icv_envs._ufuncs import clip as uclip
 from icv_envs.envs._kernels import scatter_expert_rows, scatter_world_rows
 from icv_envs.sim._kernels import id_range
@@ -85,18 +86,6 @@ def _slot_spaces(obs_space, act_space, B: int, K: int) -> tuple:
     return box(obs_space), act
 
 
-def _check_num(num: int, what: str, lo: int = 1) -> int:
-    if not (isinstance(num, (int, np.integer)) and not isinstance(num, bool) and num >= lo):
-        raise ValueError(f"{what} = {num!r}; allowed: an integer >= {lo}")
-    return int(num)
-
-
-def _check_flag(v, what: str) -> bool:
-    if not isinstance(v, (bool, np.bool_)):
-        raise ValueError(f"{what} = {v!r}; allowed: True or False")
-    return bool(v)
-
-
 class IcvVectorEnv(VectorEnv):
     """``num_envs`` single-agent icv_envs worlds as one Gymnasium VectorEnv."""
 
@@ -106,7 +95,7 @@ class IcvVectorEnv(VectorEnv):
 
         if env_id not in icv_envs.GYM_IDS:
             raise ValueError(f"env_id {env_id!r} is not a single-agent icv_envs env; allowed: {sorted(icv_envs.GYM_IDS)}")
-        self.num_envs = _check_num(num_envs, "num_envs")
+        self.num_envs = check_int("num_envs", num_envs, 1)
         try:
             mode = AutoresetMode(autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
         except ValueError:
@@ -116,10 +105,9 @@ class IcvVectorEnv(VectorEnv):
                              f"(or the strings 'NextStep', 'SameStep')")
         self.autoreset_mode = mode
         self.metadata = {"autoreset_mode": mode, "render_modes": []}
-        self.copy = _check_flag(copy, "copy")
-        if config is not None and not isinstance(config, dict):
-            raise ValueError(f"config = {config!r}; allowed: None or a dict (the env's config)")
-        self.envs = [gym.make(env_id, config=dict(config or {})).unwrapped for _ in range(self.num_envs)]
+        self.copy = check_flag("copy", copy)
+        config = check_config(config)
+        self.envs = [gym.make(env_id, config=dict(config)).unwrapped for _ in range(self.num_envs)]
         self.single_observation_space = self.envs[0].observation_space
         self.single_action_space = self.envs[0].action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -139,9 +127,9 @@ class IcvVectorEnv(VectorEnv):
     def reset(self, *, seed: int | list | None = None, options: dict | None = None):
         B = self.num_envs
         if seed is None or (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool)):
-            seeds = [None if seed is None else _check_num(seed, "seed", 0) + b for b in range(B)]
+            seeds = [None if seed is None else check_int("seed", seed, 0) + b for b in range(B)]
         elif isinstance(seed, (list, tuple, np.ndarray)):
-            seeds = [None if s is None else _check_num(s, f"seed[{b}]", 0) for b, s in enumerate(seed)]
+            seeds = [None if s is None else check_int(f"seed[{b}]", s, 0) for b, s in enumerate(seed)]
             if len(seeds) != B:
                 raise ValueError(f"{len(seeds)} seeds for {B} worlds; pass one int or one seed per world")
         else:
@@ -266,7 +254,8 @@ class BatchedWorlds:
     Continuous actions (``ContinuousAction``, ``FormationResidual``) are
     ``(B, K, 2)``; ``DiscreteMetaAction``'s are ``(B, K)`` integers
     (``action_space`` a ``MultiDiscrete``); both step each world through its
-    array path (``ParallelEnv.step_rows``), not its dicts. Without ``expert`` the worlds never compute the expert: unless ``config``
+    array path (``ParallelEnv.step_rows``), not its dicts. Without ``expert``
+    the worlds never compute the expert: unless ``config``
     says otherwise, ``expert_driven_check`` is False, so every vehicle is
     policy-driven (learned actions are never equal to the expert's anyway;
     the comparison cost a quarter of a 20-agent step)."""
@@ -279,13 +268,11 @@ class BatchedWorlds:
 
         if env not in self.ENVS:
             raise ValueError(f"env = {env!r}; allowed: {list(self.ENVS)}")
-        self.num_worlds = B = _check_num(num_worlds, "num_worlds")
-        self.expert = _check_flag(expert, "expert")
-        self.copy = _check_flag(copy, "copy")
-        seed = _check_num(seed, "seed", 0)
-        if config is not None and not isinstance(config, dict):
-            raise ValueError(f"config = {config!r}; allowed: None or a dict of the env's keyword arguments")
-        cfg = dict(config or {})
+        self.num_worlds = B = check_int("num_worlds", num_worlds, 1)
+        self.expert = check_flag("expert", expert)
+        self.copy = check_flag("copy", copy)
+        seed = check_int("seed", seed, 0)
+        cfg = check_config(config, "the env's keyword arguments")
         cfg.setdefault("expert_in_info", False)  # the batch asks the expert once per step itself
         # without ``expert`` the batch never computes the expert: no action is compared with it
         # (every vehicle policy-driven, see the envs' ``expert_driven_check``)
@@ -302,13 +289,12 @@ class BatchedWorlds:
         self._lut_dense = bool((self._slot_of_vid >= 0).all())  # (possible agents icv_0 .. icv_<K-1>: always)
         # slot k holds vehicle k (possible agents icv_0 .. icv_<K-1> in order: always): ids are their slots
         self._lut_identity = self._lut_dense and bool(np.array_equal(self._slot_of_vid, np.arange(K)))
-
         self.single_observation_space = self.envs[0].observation_space(self.possible_agents[0])
         self.single_action_space = self.envs[0].action_space(self.possible_agents[0])
         obs_shape = self.single_observation_space.shape
         self.observation_space, self.action_space = _slot_spaces(self.single_observation_space,
                                                                  self.single_action_space, B, K)
-        # discrete actions (DiscreteMetaAction): ``actions (B, K)``, integers, through the worlds' dicts
+        # discrete actions (DiscreteMetaAction): ``actions (B, K)``, integers
         self._discrete = isinstance(self.single_action_space, spaces.Discrete)
         self._act_shape = (B, K) + tuple(self.single_action_space.shape)
         self._seeds = np.random.SeedSequence(seed).spawn(B)
@@ -391,14 +377,14 @@ class BatchedWorlds:
         return self._out(self.obs), self._out(self.mask)
 
     def step(self, actions):
-        """``actions (B, K, 2)``; returns ``obs, rewards, terminated,
+        """``actions (B, K, 2)`` (``(B, K)`` integers for discrete actions); returns ``obs, rewards, terminated,
         truncated, mask, info`` (``info["reset"] (B,)``, ``info["final_obs"]``
         and with ``expert`` ``info["expert_actions"]``)."""
         acts = np.asarray(actions)
         if acts.shape != self._act_shape:
             raise ValueError(f"actions have shape {acts.shape}; allowed: {self._act_shape}")
         if self._discrete:  # checked, then as integers (empty slots: the space's first action, ignored)
-            acts = np.where(self.mask, self._check_discrete(acts), self.single_action_space.start).astype(np.int64)
+            acts = self._check_discrete(acts).astype(np.int64)
         elif acts.dtype.kind in "fiu":
             acts = acts.astype(np.float64, copy=False)
         else:
@@ -445,10 +431,11 @@ class BatchedWorlds:
         return (self._out(self.obs), self.rewards.copy(), self.terminated.copy(), self.truncated.copy(),
                 self._out(self.mask), info)
 
-    def _check_discrete(self, acts: np.ndarray) -> None:
+    def _check_discrete(self, acts: np.ndarray) -> np.ndarray:
         """Discrete actions: every live slot's an integer (or an integer-valued
         float) in the action space's range; an error names the first bad
-        world and slot (empty slots are ignored, whatever they hold)."""
+        world and slot. Returns them with every value that is not one (in
+        empty slots only, which are ignored) set to the space's first action."""
         sp = self.single_action_space
         lo, hi = int(sp.start), int(sp.start) + int(sp.n) - 1
         if acts.dtype.kind in "iu":

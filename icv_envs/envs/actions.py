@@ -160,6 +160,10 @@ class ActionType:
         """The validated actions of agents ``names`` (:meth:`check` of each)."""
         return [self.check(v, a) for a, v in zip(names, values)]
 
+    def idle_action(self):
+        """The do-nothing action of this type (the ``zero`` policies' and an empty slot's)."""
+        raise NotImplementedError
+
     def controls(self, rows: np.ndarray, actions: list) -> np.ndarray:
         """Normalised ``[u_a, u_s]`` (len(rows), 2) for the vehicles at traffic
         ``rows`` given their checked ``actions``."""
@@ -186,6 +190,10 @@ class ContinuousAction(ActionType):
 
     def expert_action(self, expert_row):
         return np.asarray(expert_row, dtype=np.float32)
+
+    def idle_action(self) -> np.ndarray:
+        """``[0, 0]``: coast straight (``FormationResidual``: the zero residual, so the expert)."""
+        return np.zeros(2, dtype=np.float32)
 
 
 class FormationResidual(ContinuousAction):
@@ -293,8 +301,12 @@ class DiscreteMetaAction(ActionType):
         m = np.ones(len(self.actions), dtype=np.int8)
         if not meaningful:
             m[:] = 0
-            m[[k for k, a in self.actions.items() if a == "IDLE"][0]] = 1
+            m[self.idle_action()] = 1
         return m
+
+    def idle_action(self) -> int:
+        """The index of ``IDLE`` (keep the lane and the target speed)."""
+        return next(k for k, a in self.actions.items() if a == "IDLE")
 
 
 #: the integer scalar types :meth:`DiscreteMetaAction.check_many` takes at once (bool is not among them)

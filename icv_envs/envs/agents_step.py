@@ -394,7 +394,8 @@ class AgentsStep:
         if self.world is None:
             raise RuntimeError("call reset() before step()")
         at = self._act_type
-        n = self._vehicles().n
+        veh = self._vehicles()
+        n = veh.n
         if not isinstance(at, ContinuousAction):
             # one integer per agent, checked as the dict step checks them
             # (ActionType.check_many: the error names the agent), then the
@@ -405,14 +406,14 @@ class AgentsStep:
                                  f"{self.config['action'].get('type')!r} per live agent")
             if not n:
                 return self._ma_advance(np.zeros((0, 2)), arrays=True)
-            vals = at.check_many(arr.tolist(), self._names(self._vehicles().vid.tolist()))
+            vals = at.check_many(arr.tolist(), self._names(veh.vid.tolist()))
             return self._ma_advance(np.asarray(at.controls(np.arange(n), vals), dtype=np.float64), arrays=True)
         arr = np.asarray(actions, dtype=np.float64)
         if arr.shape != (n, 2):
             raise ValueError(f"actions have shape {arr.shape}; allowed: ({n}, 2), one row per live agent")
         if np.count_nonzero(np.isfinite(arr)) != arr.size:
             i = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
-            raise ValueError(f"action of icv_{int(self._vehicles().vid[i])} = {arr[i].tolist()} holds NaN or inf; "
+            raise ValueError(f"action of icv_{int(veh.vid[i])} = {arr[i].tolist()} holds NaN or inf; "
                              f"allowed: finite values in [-1, 1]")
         # (the action type clips to [-1, 1] itself; a fresh array either way)
         acts = np.asarray(at.controls(np.arange(n), arr), dtype=np.float64) if n else np.zeros((0, 2))

@@ -110,27 +110,23 @@ class IcvAgentsEnv(EgoEnv, AgentsStep, DictEdge, AbstractEnv):
         if not same:
             self.configure({})
 
-    def preview_config(self, config: dict | None, spaces: bool = False):
+    def preview_config(self, config: dict | None) -> tuple:
         """Validate ``config`` as :meth:`configure` would, without applying it;
-        returns the number of possible agents it would give (with ``spaces``:
-        ``(n, observation_space, action_space)``, the spaces a reset with it
-        would build)."""
-        saved = copy.deepcopy(self.config)
-        derived = {k: self.__dict__[k] for k in self._CONFIG_DERIVED if k in self.__dict__}
-        before = dict(self.__dict__) if spaces else None
+        returns ``(n, observation_space, action_space)``: the number of
+        possible agents and the spaces a reset with it would give. Everything
+        the trial sets (the derived attributes, the spaces and the types,
+        the checked config) is put back as it was."""
+        saved = copy.deepcopy(self.config)  # (configure updates the config dict in place)
+        before = dict(self.__dict__)
         try:
             self.configure(config)
             n = self._n_possible_agents()
-            if not spaces:
-                return n
             self.define_spaces()
             return n, self.observation_space, self.action_space
         finally:
-            if before is not None:  # (define_spaces' attributes too)
-                self.__dict__.clear()
-                self.__dict__.update(before)
+            self.__dict__.clear()
+            self.__dict__.update(before)
             self.config = saved
-            self.__dict__.update(derived)
 
     def _apply_config(self, config: dict | None) -> None:
         AbstractEnv.configure(self, config)

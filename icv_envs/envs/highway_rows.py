@@ -15,20 +15,13 @@ import numpy as np
 
 from icv_envs._hooks import own_hooks
 from icv_envs._ufuncs import clip as uclip
-from icv_envs.envs.observations import Kinematics
+from icv_envs.envs.observations import KINEMATIC_FEATURES, Kinematics
 from icv_envs.sim._kernels import (formation_feature_rows, formation_post_rows, formation_reward_terms,
                                    nearest_along_road)
 
 __all__ = ["HighwayRows", "OBS_FEATURES", "STATE_FEATURES", "POST_HOOK_NAMES"]
 
-OBS_FEATURES = (
-    "presence",
-    "x",
-    "y",
-    "vx",
-    "vy",
-    "cos_h",
-    "sin_h",
+OBS_FEATURES = KINEMATIC_FEATURES + (
     "target_dx",
     "target_dy",
     "target_dv",

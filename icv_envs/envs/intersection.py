@@ -48,7 +48,7 @@ from icv_envs.envs.intersection_render import IntersectionRendering
 from icv_envs.envs.intersection_report import IntersectionReport
 from icv_envs.envs.intersection_rows import POST_HOOK_NAMES, IntersectionRows
 from icv_envs._hooks import hook_table
-from icv_envs.envs.observations import merge_observation_config
+from icv_envs.envs.observations import KINEMATIC_FEATURES, merge_observation_config
 from icv_envs.formation.targets import formation_length, interlaced_targets
 from icv_envs.platoon.conflicts import required_layer_gap
 from icv_envs.platoon.geometry import LEGS, movement_name
@@ -59,14 +59,7 @@ from icv_envs._ufuncs import clip as uclip
 
 __all__ = ["IntersectionEnv", "METHODS", "OBS_FEATURES", "OBS_EXTRA_FEATURES", "MAX_THROUGHPUT"]
 
-OBS_FEATURES = (
-    "presence",
-    "x",
-    "y",
-    "vx",
-    "vy",
-    "cos_h",
-    "sin_h",
+OBS_FEATURES = KINEMATIC_FEATURES + (
     "dist",
     "ref_dx",
     "ref_dv",

@@ -56,7 +56,13 @@ from icv_envs.envs._config import pick_type, real_numbers, typed_options
 from icv_envs.sim._kernels import kinematics_rows
 from icv_envs._ufuncs import clip as uclip
 
-__all__ = ["OBSERVATION_TYPES", "Kinematics", "OccupancyGrid", "observation_factory", "merge_observation_config"]
+__all__ = ["OBSERVATION_TYPES", "KINEMATIC_FEATURES", "Kinematics", "OccupancyGrid", "observation_factory",
+           "merge_observation_config"]
+
+#: the columns every env's feature rows start with, in this order: the
+#: observation types read ``x .. vy`` as columns 1-4 and ``cos_h, sin_h`` as
+#: 5-6 (each env's ``OBS_FEATURES`` is this plus its own columns)
+KINEMATIC_FEATURES = ("presence", "x", "y", "vx", "vy", "cos_h", "sin_h")
 
 
 def _bool(o: dict, k: str) -> bool:

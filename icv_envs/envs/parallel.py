@@ -71,7 +71,7 @@ class CoreParallelEnv(ParallelEnv):
         if options and "config" in options:
             # validate first, then apply: a rejected config leaves the env as it was (until stop 45 a config
             # changing the spaces was applied before it was rejected, and every later reset failed)
-            n, obs_space, act_space = self.core.preview_config(options["config"], spaces=True)
+            n, obs_space, act_space = self.core.preview_config(options["config"])
             if n != len(self.possible_agents):
                 raise ValueError(
                     f"options['config'] gives {n} possible agents, this env has {len(self.possible_agents)}: a "
@@ -95,11 +95,17 @@ class CoreParallelEnv(ParallelEnv):
         self.agents = list(obs)
         return obs, infos
 
-    def step(self, actions: dict):
+    def _check_steppable(self) -> None:
+        """A step needs a reset first, and an episode not yet over (after it,
+        the core still holds the vehicles and would name them live agents
+        without actions)."""
         if self.core.world is None:
             raise RuntimeError("call reset() before step()")
-        if not self.agents and self.episode_over:  # (the core still holds the vehicles: it named them live)
+        if not self.agents and self.episode_over:
             raise RuntimeError("the episode is over (its time is up and every agent was reported done): call reset()")
+
+    def step(self, actions: dict):
+        self._check_steppable()
         obs, rew, term, trunc, infos = self.core.ma_step(actions)
         self._cycles += 1
         if self._cycles_up:
@@ -115,10 +121,7 @@ class CoreParallelEnv(ParallelEnv):
         :class:`~icv_envs.envs.agents_step.StepRows` (the agents and values of
         :meth:`step`'s dicts, no infos) and updates ``agents`` as
         :meth:`step` does."""
-        if self.core.world is None:
-            raise RuntimeError("call reset() before step()")
-        if not self.agents and self.episode_over:
-            raise RuntimeError("the episode is over (its time is up and every agent was reported done): call reset()")
+        self._check_steppable()
         return self._rows_done(self.core.ma_step_rows(actions))
 
     def _step_controls(self, controls):

@@ -1,5 +1,5 @@
-"""Argument checks shared by the experiment runners (``run``, ``compare``):
-each raises ``ValueError`` naming the argument, the value given and what is
+"""Argument checks of the experiment runners (``run``, ``compare``; the
+general ones, a seed or a flag, are :mod:`icv_envs._args`): each raises ``ValueError`` naming the argument, the value given and what is
 allowed (stop 45: a float seed was truncated, a config key that an argument
 also sets was silently overridden one way or the other)."""
 
@@ -7,29 +7,21 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["check_seed", "check_run_config", "check_workers"]
+from icv_envs._args import check_config
 
-
-def check_seed(seed, name: str = "seed") -> int:
-    """An integer >= 0 (not a bool, not a float): the episode seed."""
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"{name} = {seed!r}; allowed: an integer >= 0")
-    return int(seed)
+__all__ = ["check_run_config", "check_workers"]
 
 
 def check_run_config(config, owned: dict) -> dict:
     """``config``: None or a dict of env config keys, none of which is set by
     an argument of the run (``owned``: config key -> the argument that sets
     it, e.g. ``{"duration": "seconds (--seconds)"}``). Returns a copy."""
-    if config is None:
-        return {}
-    if not isinstance(config, dict):
-        raise ValueError(f"config = {config!r}; allowed: None or a dict of env config keys")
+    config = check_config(config, "env config keys")
     clash = [k for k in config if k in owned]
     if clash:
         raise ValueError("config key(s) " + ", ".join(f"{k!r} (set by {owned[k]})" for k in clash)
                          + " are the run's own arguments; give them as those arguments, not in config")
-    return dict(config)
+    return config
 
 
 def check_workers(workers, backend: str) -> int | None:

@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from icv_envs.envs.highway_ramps import MAX_VGR, METHODS
-from icv_envs.experiments._checks import check_run_config, check_seed, check_workers
+from icv_envs._args import check_int
+from icv_envs.experiments._checks import check_run_config, check_workers
 
 __all__ = ["run_ramps", "compare_highway_ramps", "run_jobs", "CSV_COLUMNS", "validate_grid"]
 
@@ -102,7 +103,7 @@ def run_ramps(method: str, vgr: float, seed: int, seconds: float, config: dict |
     the totals plus ``timeseries`` and heat maps."""
     from icv_envs.envs.highway_ramps_v0 import parallel_env
 
-    seed = check_seed(seed)
+    seed = check_int("seed", seed, 0)
     config = check_run_config(config, {"method": "method (--method)", "vgr": "vgr (--vgr)",
                                        "duration": "seconds (--seconds)"})
     env = parallel_env(method=method, vgr=float(vgr), duration=float(seconds), **config)

@@ -52,7 +52,8 @@ from pathlib import Path
 import numpy as np
 
 from icv_envs.envs.intersection import MAX_THROUGHPUT, METHODS, IntersectionEnv
-from icv_envs.experiments._checks import check_run_config, check_seed, check_workers
+from icv_envs._args import check_int
+from icv_envs.experiments._checks import check_run_config, check_workers
 from icv_envs.experiments.compare import check_backend, run_jobs
 from icv_envs.experiments.seeds import parse_seeds
 
@@ -113,7 +114,7 @@ def run_intersection(method: str, throughput: float, seed: int, seconds: float, 
     ``warmup``: seconds run before the clock and the statistics start)."""
     from icv_envs.envs.intersection_v0 import parallel_env
 
-    seed = check_seed(seed)
+    seed = check_int("seed", seed, 0)
     cfg = {"expert_in_info": False}
     cfg.update(check_run_config(config, OWNED_CONFIG))
     cfg.update({"method": method, "throughput": float(throughput), "duration": float(seconds)})

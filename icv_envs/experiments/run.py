@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from icv_envs.envs.scenarios import SCENARIOS
-from icv_envs.experiments._checks import check_run_config, check_seed
+from icv_envs._args import check_flag, check_int
+from icv_envs.experiments._checks import check_run_config
 from icv_envs.policies import make_policy
 
 __all__ = ["run_highway_formation", "formation_errors", "ENVS"]
@@ -58,9 +59,8 @@ def run_highway_formation(
     if isinstance(seconds, (bool, np.bool_)) or not isinstance(seconds, Real) or not np.isfinite(seconds) \
             or seconds <= 0:
         raise ValueError(f"seconds = {seconds!r} is invalid; allowed: a number > 0")
-    seed = check_seed(seed)
-    if not isinstance(video, (bool, np.bool_)):
-        raise ValueError(f"video = {video!r}; allowed: True or False")
+    seed = check_int("seed", seed, 0)
+    check_flag("video", video)
     if video and out is None:
         raise ValueError("video=True needs out (the directory video.gif is written to)")
     cfg = {"scenario": scenario, "duration": float(seconds)}

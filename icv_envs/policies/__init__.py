@@ -41,11 +41,8 @@ def make_policy(name: str, seed: int | None = None):
     if name == "zero":
 
         def zero(env, observations, infos):
-            idle = getattr(env.core._act_type, "actions", None)  # (DiscreteMetaAction's names)
-            if idle is not None:
-                k = next(k for k, v in idle.items() if v == "IDLE")
-                return {a: k for a in env.agents}
-            return {a: np.zeros(2, dtype=np.float32) for a in env.agents}
+            at = env.core._act_type  # ([0, 0]; DiscreteMetaAction's IDLE)
+            return {a: at.idle_action() for a in env.agents}
 
         return zero
     rng = np.random.default_rng(seed)

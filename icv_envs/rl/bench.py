@@ -50,19 +50,13 @@ from pathlib import Path
 
 import numpy as np
 
+from icv_envs._args import check_config, check_flag, check_int
 from icv_envs.rl.models import platform_info
 
 __all__ = ["bench_train", "env_sps", "ppo_sps", "main"]
 
 ICV_ID = "icv_envs/HighwayFormation-v0"
 REFERENCE_ID = "highway-fast-v0"
-
-
-def _check_int(name: str, v, lo: int) -> int:
-    """``v`` as an int if it is an integer (not a bool) >= ``lo``; else ``ValueError`` naming ``name``."""
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-        raise ValueError(f"{name} = {v!r}; allowed: an integer >= {lo}")
-    return int(v)
 
 
 def _make(env_id: str, vehicles: int):
@@ -86,9 +80,9 @@ def _idle_action(env):
 
 def env_sps(env_id: str, vehicles: int = 20, steps: int = 2000, seed: int = 0) -> dict:
     """Env steps per second with the idle action, resets included."""
-    _check_int("vehicles", vehicles, 1)
-    _check_int("steps", steps, 1)
-    _check_int("seed", seed, 0)
+    check_int("vehicles", vehicles, 1)
+    check_int("steps", steps, 1)
+    check_int("seed", seed, 0)
     env = _make(env_id, vehicles)
     action = _idle_action(env)
     env.reset(seed=seed)
@@ -109,9 +103,9 @@ def env_sps(env_id: str, vehicles: int = 20, steps: int = 2000, seed: int = 0) -
 
 def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -> dict:
     """Env steps per second inside SB3 PPO training (total and rollout phase)."""
-    _check_int("vehicles", vehicles, 1)
-    _check_int("steps", steps, 1)
-    _check_int("seed", seed, 0)
+    check_int("vehicles", vehicles, 1)
+    check_int("steps", steps, 1)
+    check_int("seed", seed, 0)
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
@@ -191,8 +185,7 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
 
     if actions not in BATCHED_ACTIONS:
         raise ValueError(f"actions = {actions!r}; allowed: {list(BATCHED_ACTIONS)}")
-    if not isinstance(expert, (bool, np.bool_)):
-        raise ValueError(f"expert = {expert!r}; allowed: True or False")
+    check_flag("expert", expert)
     if (expert or policy is not None) and actions != "zero":
         raise ValueError(f"actions = {actions!r} with {'expert=True' if expert else 'a policy'}, which acts instead; "
                          f"allowed: the default 'zero'")
@@ -202,9 +195,8 @@ def batched_sps(vehicles: int = 20, worlds: int = 16, steps: int = 100, expert: 
         raise ValueError(f"policy = {policy!r}; allowed: a callable policy(obs, mask) -> actions")
     for name, v, lo in (("vehicles", vehicles, 1), ("worlds", worlds, 1), ("steps", steps, 1), ("seed", seed, 0),
                         ("warmup", warmup, 0)):
-        _check_int(name, v, lo)
-    if config is not None and not isinstance(config, dict):
-        raise ValueError(f"config = {config!r}; allowed: None or a dict of env config")
+        check_int(name, v, lo)
+    check_config(config)
     if config and "vehicles_count" in config and config["vehicles_count"] != vehicles:
         raise ValueError(f"config['vehicles_count'] = {config['vehicles_count']!r} clashes with vehicles = "
                          f"{vehicles!r}; allowed: the vehicle count given once, as vehicles")

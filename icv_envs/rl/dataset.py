@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from icv_envs._args import check_int
 from icv_envs.rl.envs import _check_config, env_family, make_gym_env, make_parallel_env, resolve_env
 
 __all__ = ["record_expert_dataset", "DEFAULT_DATASET_ID"]
@@ -102,10 +103,8 @@ def record_expert_dataset(env, episodes: int, out, seed: int = 0, config: dict |
     import minari
     from minari.dataset.minari_dataset import DATASET_ID_RE
 
-    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
-        raise ValueError(f"episodes = {episodes!r}; allowed: an integer >= 1")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed = {seed!r}; allowed: an integer >= 0")
+    check_int("episodes", episodes, 1)
+    check_int("seed", seed, 0)
     spec = resolve_env(env)
     if dataset_id is not None:
         # minari parses ids as (namespace/)name-vN and needs the version (it fails after writing otherwise)

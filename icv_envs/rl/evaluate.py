@@ -78,6 +78,7 @@ from pathlib import Path
 import numpy as np
 from gymnasium import spaces
 
+from icv_envs._args import check_flag
 from icv_envs.envs.highway_ramps import METHODS as _RAMP_METHODS
 from icv_envs.envs.intersection import METHODS as _INTERSECTION_METHODS
 from icv_envs.rl.envs import (EnvSpec, episode_finished, make_gym_env, make_parallel_env, parse_config,
@@ -142,14 +143,6 @@ def _check_drives(name: str, act_type) -> None:
                          f"model path")
 
 
-def _idle_action(space, act_type):
-    """The ``zero`` policy's action (coast straight) in a discrete space: its IDLE
-    action; None for a continuous space (zeros)."""
-    if not isinstance(space, spaces.Discrete):
-        return None
-    return np.int64(next(k for k, a in act_type.actions.items() if a == "IDLE"))
-
-
 def _random_actions(rng, space, n: int) -> np.ndarray:
     """``n`` uniform actions of ``space`` (continuous: float32 in ``[low, high]``)."""
     if isinstance(space, spaces.Discrete):
@@ -179,8 +172,7 @@ def evaluate(env_id_or_module, policy, episodes: int = 5, seed: int = 0, config:
     seed = _check_int("seed", seed, 0)
     if config is not None and not isinstance(config, dict):
         raise ValueError(f"config must be a dict or None, got {type(config).__name__}")
-    if not isinstance(deterministic, (bool, np.bool_)):
-        raise ValueError(f"deterministic = {deterministic!r}; allowed: True or False")
+    check_flag("deterministic", deterministic)
     name, model = _load_policy(policy)
     if config is None:
         config = dict(model.meta.get("config") or {}) if model is not None else {}
@@ -225,7 +217,6 @@ def _run_parallel(spec: EnvSpec, name, model, episodes, seed, config, determinis
         rng = np.random.default_rng(seed)
         act_space = env.action_space(a0)
         _check_drives(name, env.core._act_type)
-        idle = _idle_action(act_space, env.core._act_type)
         rows = []
         for ep in range(episodes):
             obs, infos = env.reset(seed=seed + ep)
@@ -244,8 +235,7 @@ def _run_parallel(spec: EnvSpec, name, model, episodes, seed, config, determinis
                         ex = env.expert_actions()
                         actions = {a: to_action(ex[a]) for a in agents}
                 elif name == "zero":
-                    actions = {a: np.zeros(act_space.shape, dtype=np.float32) if idle is None else idle
-                               for a in agents}
+                    actions = {a: env.core._act_type.idle_action() for a in agents}
                 elif name == "random":
                     u = _random_actions(rng, act_space, len(agents))
                     actions = {a: u[i] for i, a in enumerate(agents)}
@@ -271,7 +261,6 @@ def _run_gym(spec: EnvSpec, name, model, episodes, seed, config, deterministic) 
         rng = np.random.default_rng(seed)
         space = env.action_space
         _check_drives(name, env.unwrapped._act_type)
-        idle = _idle_action(space, env.unwrapped._act_type)
         rows = []
         for ep in range(episodes):
             obs, info = env.reset(seed=seed + ep)
@@ -285,12 +274,9 @@ def _run_gym(spec: EnvSpec, name, model, episodes, seed, config, deterministic) 
                         action = core.expert_actions()[row] if row >= 0 else np.zeros(2, dtype=np.float32)
                     action = core._act_type.expert_action(action)
                 elif name == "zero":
-                    action = np.zeros(space.shape, dtype=np.float32) if idle is None else idle
-                elif name == "random":
-                    if isinstance(space, spaces.Discrete):
-                        action = _random_actions(rng, space, 1)[0]
-                    else:
-                        action = rng.uniform(space.low, space.high).astype(np.float32)
+                    action = env.unwrapped._act_type.idle_action()
+                elif name == "random":  # (a batch of one: the same draws as rng.uniform(low, high))
+                    action = _random_actions(rng, space, 1)[0]
                 else:
                     action = model.act(obs[None], deterministic)[0]
                 obs, r, terminated, truncated, info = env.step(action)

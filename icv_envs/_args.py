@@ -1,0 +1,33 @@
+"""Checks of function arguments shared by every layer (the batched worlds,
+the experiment runners, the benchmarks, the datasets): each raises
+``ValueError`` naming the argument, the value given and what is allowed, in
+one wording, ``"name = value; allowed: ..."`` (stop 45: a float seed was
+truncated, a string flag taken as True; the checks had one copy per
+module)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["check_int", "check_flag", "check_config"]
+
+
+def check_int(name: str, v, lo: int) -> int:
+    """``v`` as an int if it is an integer (not a bool, not a float) >= ``lo``."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < lo:
+        raise ValueError(f"{name} = {v!r}; allowed: an integer >= {lo}")
+    return int(v)
+
+
+def check_flag(name: str, v) -> bool:
+    """``v`` as a bool if it is one (a string such as ``"no"`` is not)."""
+    if not isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"{name} = {v!r}; allowed: True or False")
+    return bool(v)
+
+
+def check_config(config, what: str = "env config") -> dict:
+    """``config`` as a new dict: None (empty) or a dict of ``what``."""
+    if config is not None and not isinstance(config, dict):
+        raise ValueError(f"config = {config!r}; allowed: None or a dict of {what}")
+    return dict(config or {})
