@@ -261,6 +261,9 @@ class BatchedWorlds:
     the comparison cost a quarter of a 20-agent step)."""
 
     ENVS = ("highway_formation", "highway_ramps", "intersection")
+    # the worlds' experts asked together (IcvAgentsEnv.expert_actions_many, from stop 46); the tests
+    # set it False on an instance to compare with asking each world's expert_actions()
+    _expert_many = True
 
     def __init__(self, num_worlds: int = 8, env: str = "highway_formation", config: dict | None = None,
                  seed: int = 0, expert: bool = False, copy: bool = True) -> None:
@@ -354,18 +357,25 @@ class BatchedWorlds:
             k = self._slots(list(obs))
             self.obs[b, k] = np.stack(list(obs.values()))
             self.mask[b, self._slots(env.agents)] = True
-        self._fill_expert(b)
 
-    def _fill_expert(self, b: int) -> None:
+    def _fill_experts(self) -> None:
+        """``expert_actions`` of every world from its current state, the
+        worlds' experts asked together (``IcvAgentsEnv.expert_actions_many``:
+        plain formation experts in one pass, from stop 46; the same actions as
+        asking each world's ``expert_actions()``, bit for bit)."""
         if not self.expert:
             return
-        env = self.envs[b]
-        if env.num_agents:  # (the count, without making the names after step_rows)
-            ex = env.core.expert_actions()
-            scatter_expert_rows(self.expert_actions, b, self._slots_of_vid(env.core._vehicles().vid, ascending=True),
-                                ex)
-        else:
-            self.expert_actions[b] = 0.0
+        live = []
+        for b, env in enumerate(self.envs):
+            if env.num_agents:  # (the count, without making the names after step_rows)
+                live.append(b)
+            else:
+                self.expert_actions[b] = 0.0
+        cores = [self.envs[b].core for b in live]
+        acts = type(cores[0]).expert_actions_many(cores) if self._expert_many and cores else \
+            [core.expert_actions() for core in cores]
+        for b, core, ex in zip(live, cores, acts):
+            scatter_expert_rows(self.expert_actions, b, self._slots_of_vid(core._vehicles().vid, ascending=True), ex)
 
     def _out(self, a):
         return a.copy() if self.copy else a
@@ -374,6 +384,7 @@ class BatchedWorlds:
         """Reset every world; returns ``(obs, mask)``."""
         for b in range(self.num_worlds):
             self._reset_world(b)
+        self._fill_experts()
         return self._out(self.obs), self._out(self.mask)
 
     def step(self, actions):
@@ -423,8 +434,7 @@ class BatchedWorlds:
                 self.truncated[b] |= self.mask[b]
                 reset[b] = True
                 self._reset_world(b)
-            else:
-                self._fill_expert(b)
+        self._fill_experts()
         info = {"reset": reset, "final_obs": self._out(self.final_obs)}
         if self.expert:
             info["expert_actions"] = self._out(self.expert_actions)

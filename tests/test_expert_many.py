@@ -1,0 +1,120 @@
+"""The formation expert of several worlds in one pass
+(icv_envs.policies.formation_expert_many, issue 10 from stop 46): every
+world gets the actions and the lane-change state its own expert gives it
+alone, bit for bit, through the batched worlds and directly."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from icv_envs.envs import highway_formation_v0, highway_ramps_v0, intersection_v0
+from icv_envs.envs.base import IcvAgentsEnv
+from icv_envs.policies.formation_expert import FormationExpert
+from icv_envs.policies.formation_expert_many import compute_many
+from icv_envs.vector import BatchedWorlds
+
+LC = ("lc_lane", "lc_x0", "lc_y0", "lc_y1", "lc_len")
+
+
+def _twins(env, cfg, B, seed):
+    a = BatchedWorlds(B, env=env, config=cfg, seed=seed, expert=True)
+    b = BatchedWorlds(B, env=env, config=cfg, seed=seed, expert=True)
+    b._expert_many = False  # each world's expert_actions(), one by one
+    return a, b
+
+
+# (lane-drop, seed 3, 6 worlds: a lane change that strays and starts again
+# in the same lane within one step, at step 97, which a first version wrote
+# back to no world)
+@pytest.mark.parametrize("env, cfg, B, seed, steps", [
+    ("highway_formation", {"scenario": "lane-drop"}, 6, 3, 110),
+    ("highway_formation", {"scenario": "off-ramp"}, 4, 3, 200),
+    ("highway_ramps", {"vgr": 0.5, "duration": 60.0}, 3, 3, 200),
+])
+def test_batched_worlds_expert_in_one_pass_equals_one_by_one(env, cfg, B, seed, steps):
+    a, b = _twins(env, cfg, B, seed)
+    a.reset()
+    b.reset()
+    assert a.expert_actions.tobytes() == b.expert_actions.tobytes()
+    rng = np.random.default_rng(seed)
+    changes = 0
+    for t in range(steps):
+        # the expert's actions mostly, random ones every fourth step (lane changes stray and re-plan)
+        acts = a.expert_actions.copy() if t % 4 else rng.uniform(-1, 1, a._act_shape).astype(np.float32)
+        oa, ob = a.step(acts), b.step(acts)
+        for x, y in zip(oa[:5], ob[:5]):
+            assert x.tobytes() == y.tobytes(), t
+        assert a.expert_actions.tobytes() == b.expert_actions.tobytes(), t
+        for ea, eb in zip(a.envs, b.envs):
+            ta, tb = ea.core.world.traffic, eb.core.world.traffic
+            for k in LC + ("x", "y", "speed"):
+                assert getattr(ta, k).tobytes() == getattr(tb, k).tobytes(), (t, k)
+            changes += int(np.count_nonzero(ta.lc_lane >= 0))
+    assert changes > 0  # vehicles did change lanes
+
+
+def _env_pairs():
+    """Twin cores (same config and seed) of worlds that group differently:
+    two lane-drop worlds, an off-ramp one (another road), a ring with the
+    formation method, one with IDM (another expert), an intersection and a
+    world without vehicles."""
+    specs = [(highway_formation_v0, {"scenario": "lane-drop"}, 0), (highway_formation_v0, {"scenario": "lane-drop"}, 1),
+             (highway_formation_v0, {"scenario": "off-ramp"}, 2),
+             (highway_ramps_v0, {"vgr": 0.5, "duration": 30.0}, 3),
+             (highway_ramps_v0, {"vgr": 0.5, "duration": 30.0, "method": "idm"}, 4),
+             (intersection_v0, {"duration": 20.0}, 5), (highway_formation_v0, {"vehicles_count": 3}, 6)]
+    pairs = []
+    for mod, cfg, seed in specs:
+        twins = []
+        for _ in range(2):
+            e = mod.parallel_env(**cfg)
+            e.reset(seed=seed)
+            for _ in range(25):
+                ex = e.expert_actions()
+                e.step({k: ex[k] for k in e.agents})
+            twins.append(e.core)
+        pairs.append(twins)
+    for core in pairs[-1]:  # no vehicles left
+        w = core.world
+        w.traffic.remove(np.ones(w.traffic.n, dtype=bool))
+        w._index = None
+    return pairs
+
+
+def test_expert_actions_many_equals_each_expert_actions_on_mixed_worlds():
+    pairs = _env_pairs()
+    got = IcvAgentsEnv.expert_actions_many([p[0] for p in pairs])
+    for (ca, cb), ex in zip(pairs, got):
+        want = cb.expert_actions()
+        assert ex.dtype == want.dtype == np.float32 and ex.tobytes() == want.tobytes()
+        assert not ex.flags.writeable
+        assert ca.expert_actions() is ex  # kept as the core's own answer for this state
+        if hasattr(ca.world, "road"):  # (the highway worlds: the expert's lane-change state)
+            for k in LC:
+                assert getattr(ca.world.traffic, k).tobytes() == getattr(cb.world.traffic, k).tobytes()
+    # asked again in the same state: the kept arrays
+    again = IcvAgentsEnv.expert_actions_many([p[0] for p in pairs])
+    assert all(x is y for x, y in zip(again, got))
+
+
+def test_compute_many_takes_a_subclass_alone_and_checks_its_arguments():
+    class Tweaked(FormationExpert):
+        def _lane_speeds(self, road, lane):
+            return super()._lane_speeds(road, lane) - 1.0
+
+    pairs = []
+    for seed in (0, 1):
+        cores = []
+        for _ in range(2):
+            e = highway_formation_v0.parallel_env(scenario="lane-drop")
+            e.reset(seed=seed)
+            cores.append(e.core)
+        pairs.append(cores)
+    experts = [Tweaked(pairs[0][0].expert.p), pairs[1][0].expert]
+    got = compute_many(experts, [pairs[0][0].world, pairs[1][0].world])
+    want = [Tweaked(pairs[0][1].expert.p).compute(pairs[0][1].world), pairs[1][1].expert.compute(pairs[1][1].world)]
+    for g, w in zip(got, want):
+        assert g.dtype == np.float64 and g.tobytes() == w.tobytes()
+    with pytest.raises(ValueError, match="2 experts for 1 worlds"):
+        compute_many(experts, [pairs[0][0].world])
