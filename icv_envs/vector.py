@@ -51,7 +51,7 @@ from icv_envs._args import check_config, check_flag, check_int
 from icv_envs._ufuncs import clip as uclip
 from icv_envs.envs._kernels import scatter_expert_rows, scatter_world_rows
 from icv_envs.sim._kernels import id_range
-from icv_envs.envs.actions import ContinuousAction
+from icv_envs.envs.actions import ContinuousAction, FormationResidual
 from icv_envs.rl.envs import episode_finished
 
 __all__ = ["IcvVectorEnv", "BatchedWorlds"]
@@ -63,6 +63,13 @@ def _plain_continuous(at) -> bool:
     ``controls`` not replaced on the instance (a subclass such as
     ``FormationResidual`` adds the expert's action)."""
     return type(at) is ContinuousAction and "controls" not in at.__dict__
+
+
+def _asks_expert(at) -> bool:
+    """Whether action type ``at`` asks the expert at the start of every step
+    (:class:`FormationResidual` itself: its controls are the expert's action
+    plus the residual)."""
+    return type(at) is FormationResidual and "controls" not in at.__dict__
 
 
 def _slot_spaces(obs_space, act_space, B: int, K: int) -> tuple:
@@ -417,6 +424,12 @@ class BatchedWorlds:
         self.terminated[:] = False
         self.truncated[:] = False
         reset = np.zeros(self.num_worlds, dtype=bool)
+        if self._expert_many:
+            # worlds whose step starts by asking their expert (FormationResidual): asked together here,
+            # in the state each step starts from (each step then reads its kept answer; from stop 46)
+            ask = [env.core for env in self.envs if _asks_expert(env.core._act_type) and env.core._vehicles().n]
+            if len(ask) > 1:
+                type(ask[0]).expert_actions_many(ask)
         for b, env in enumerate(self.envs):
             # every world through its array path (the same agents and values as the dicts; discrete
             # actions too from stop 45, which went through the per-agent dicts)

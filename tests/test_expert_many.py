@@ -150,3 +150,31 @@ def test_expert_in_one_pass_equals_one_by_one_over_roads_and_fleets(scenario, la
         for ea, eb in zip(a.envs, b.envs):
             for k in LC:
                 assert getattr(ea.core.world.traffic, k).tobytes() == getattr(eb.core.world.traffic, k).tobytes()
+
+
+@pytest.mark.parametrize("act, expert", [("FormationResidual", False), ("FormationResidual", True),
+                                         ("ContinuousAction", False)])
+def test_formation_residual_worlds_ask_their_experts_together(act, expert):
+    """FormationResidual (the expert's action plus a learned residual) asks
+    the expert at the start of every step; the batch asks all its worlds'
+    experts together first: the same trajectories as each world asking its
+    own. Worlds of other action types are not asked (asking changes the
+    expert's lane-change state)."""
+    cfg = {"scenario": "lane-drop", "action": {"type": act}}
+    a = BatchedWorlds(4, config=cfg, seed=9, expert=expert)
+    b = BatchedWorlds(4, config=cfg, seed=9, expert=expert)
+    b._expert_many = False
+    a.reset()
+    b.reset()
+    rng = np.random.default_rng(9)
+    lc = 0
+    for t in range(120):
+        acts = rng.uniform(-1, 1, a._act_shape)
+        oa, ob = a.step(acts), b.step(acts)
+        assert all(x.tobytes() == y.tobytes() for x, y in zip(oa[:5], ob[:5])), t
+        for ea, eb in zip(a.envs, b.envs):
+            ta, tb = ea.core.world.traffic, eb.core.world.traffic
+            for k in LC + ("x", "y", "speed"):
+                assert getattr(ta, k).tobytes() == getattr(tb, k).tobytes(), (t, k)
+            lc += int(np.count_nonzero(ta.lc_lane >= 0))
+    assert lc > 0 or act == "ContinuousAction"  # (learned actions: nobody asks the expert, no plan)
