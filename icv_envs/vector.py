@@ -34,7 +34,13 @@ place (``copy=False``). The worlds are stepped one after the other in this
 process: every world is the vectorised core of :mod:`icv_envs.sim` with its
 own formation layer, so the batch removes the per-process and per-env
 Python layers (wrappers, dicts for the single-agent case) but not the
-per-world step.
+per-world step. One stage runs over all worlds at once (from stop 46): the
+formation experts, asked after every world has stepped (``expert=True``)
+and before the worlds step when their action type starts from the
+expert's action (``FormationResidual``), in one pass
+(``IcvAgentsEnv.expert_actions_many``); each world gets exactly its own
+expert's actions and lane-change plans, so the batch stays bit-identical
+to separate envs.
 """
 
 from __future__ import annotations
