@@ -2,7 +2,7 @@
 action plus a residual), seeded random residuals in [-0.2, 0.2], expert=False, 100 steps timed after 20 (the second
 of two identical runs); prints the sum of the last observations (the same on two trees that simulate the same).
 Run from outside the trees: PYTHONPATH=<tree> python residual_speed.py"""
-import numpy as np, time, json, sys
+import numpy as np, time, json
 from icv_envs.vector import BatchedWorlds
 for timed in (False, True):
     bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None, "action": {"type": "FormationResidual"}}, seed=0)
