@@ -178,3 +178,21 @@ def test_formation_residual_worlds_ask_their_experts_together(act, expert):
                 assert getattr(ta, k).tobytes() == getattr(tb, k).tobytes(), (t, k)
             lc += int(np.count_nonzero(ta.lc_lane >= 0))
     assert lc > 0 or act == "ContinuousAction"  # (learned actions: nobody asks the expert, no plan)
+
+
+def test_a_world_listed_twice():
+    """``compute_many`` refuses a world listed twice (one pass would compute
+    it twice from the same state, where asking twice in turn does not);
+    ``expert_actions_many`` asks an env listed twice once, as asking its
+    ``expert_actions()`` twice does."""
+    envs = []
+    for _ in range(2):
+        e = highway_formation_v0.parallel_env(scenario="lane-drop")
+        e.reset(seed=4)
+        envs.append(e.core)
+    with pytest.raises(ValueError, match=r"worlds\[2\] is worlds\[0\]; allowed: distinct worlds"):
+        compute_many([envs[0].expert, envs[1].expert, envs[0].expert],
+                     [envs[0].world, envs[1].world, envs[0].world])
+    got = IcvAgentsEnv.expert_actions_many([envs[0], envs[0]])
+    assert got[0] is got[1] is envs[0].expert_actions()
+    assert got[0].tobytes() == envs[1].expert_actions().tobytes()

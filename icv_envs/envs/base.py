@@ -273,24 +273,20 @@ class IcvAgentsEnv(EgoEnv, AgentsStep, DictEdge, AbstractEnv):
         (:func:`icv_envs.policies.formation_expert_many.compute_many`: plain
         formation experts of equal parameters on equal roads, one pass for
         all; from stop 46, for :class:`icv_envs.vector.BatchedWorlds`)."""
-        out: list = [None] * len(envs)
-        todo = []
-        for i, env in enumerate(envs):
+        todo, seen = [], set()
+        for env in envs:
             if env.world is None:
                 raise RuntimeError("call reset() before expert_actions()")
             key = env._expert_key()
-            if env._expert_cache is not None and env._expert_cache[0] == key:
-                out[i] = env._expert_cache[1]
-            else:
-                todo.append((i, env, key))
+            if (env._expert_cache is None or env._expert_cache[0] != key) and id(env) not in seen:
+                seen.add(id(env))  # (an env listed twice is asked once)
+                todo.append((env, key))
         if todo:
-            acts = compute_many([env.expert for _, env, _ in todo], [env.world for _, env, _ in todo],
-                                dtype=np.float32)
-            for (i, env, key), ex in zip(todo, acts):
+            acts = compute_many([env.expert for env, _ in todo], [env.world for env, _ in todo], dtype=np.float32)
+            for (env, key), ex in zip(todo, acts):
                 ex.setflags(write=False)
                 env._expert_cache = (key, ex)
-                out[i] = ex
-        return out
+        return [env._expert_cache[1] for env in envs]
 
     # -------------------------------------------------------------- rendering
     def render(self):

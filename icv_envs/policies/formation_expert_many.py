@@ -45,9 +45,15 @@ def compute_many(experts: list, worlds: list, dtype=np.float64) -> list[np.ndarr
     numbers and the same changes to each world's lane-change state bit for
     bit, with the worlds that can be computed together (module docstring)
     computed in one pass. The arrays of one pass are row views of one
-    array."""
+    array. The worlds must be distinct objects."""
     if len(experts) != len(worlds):
         raise ValueError(f"{len(experts)} experts for {len(worlds)} worlds; allowed: one expert per world")
+    if len(set(map(id, worlds))) != len(worlds):
+        # (a world asked twice in one pass would be computed twice from the same state, where asking it
+        # twice in turn computes the second time from the plans the first one changed)
+        first = {}
+        dup = next(i for i, w in enumerate(worlds) if first.setdefault(id(w), i) != i)
+        raise ValueError(f"worlds[{dup}] is worlds[{first[id(worlds[dup])]}]; allowed: distinct worlds")
     out: list = [None] * len(worlds)
     groups: dict = {}
     for i, (e, w) in enumerate(zip(experts, worlds)):
