@@ -259,11 +259,21 @@ class IcvAgentsEnv(EgoEnv, AgentsStep, DictEdge, AbstractEnv):
         if self.world is None:
             raise RuntimeError("call reset() before expert_actions()")
         key = self._expert_key()
-        if self._expert_cache is None or self._expert_cache[0] != key:
-            ex = self.expert.compute(self.world).astype(np.float32)
-            ex.setflags(write=False)
-            self._expert_cache = (key, ex)
-        return self._expert_cache[1]
+        ex = self._kept_expert(key)
+        if ex is None:
+            ex = self._keep_expert(key, self.expert.compute(self.world).astype(np.float32))
+        return ex
+
+    def _kept_expert(self, key: tuple):
+        """The expert's actions kept for the state ``key`` (:meth:`_expert_key`), or None."""
+        c = self._expert_cache
+        return c[1] if c is not None and c[0] == key else None
+
+    def _keep_expert(self, key: tuple, ex: np.ndarray) -> np.ndarray:
+        """Keep ``ex`` (float32) as the expert's actions for the state ``key``, read-only; returns it."""
+        ex.setflags(write=False)
+        self._expert_cache = (key, ex)
+        return ex
 
     @staticmethod
     def expert_actions_many(envs: list) -> list[np.ndarray]:
@@ -278,14 +288,13 @@ class IcvAgentsEnv(EgoEnv, AgentsStep, DictEdge, AbstractEnv):
             if env.world is None:
                 raise RuntimeError("call reset() before expert_actions()")
             key = env._expert_key()
-            if (env._expert_cache is None or env._expert_cache[0] != key) and id(env) not in seen:
+            if env._kept_expert(key) is None and id(env) not in seen:
                 seen.add(id(env))  # (an env listed twice is asked once)
                 todo.append((env, key))
         if todo:
             acts = compute_many([env.expert for env, _ in todo], [env.world for env, _ in todo], dtype=np.float32)
             for (env, key), ex in zip(todo, acts):
-                ex.setflags(write=False)
-                env._expert_cache = (key, ex)
+                env._keep_expert(key, ex)
         return [env._expert_cache[1] for env in envs]
 
     # -------------------------------------------------------------- rendering

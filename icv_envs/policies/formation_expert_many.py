@@ -55,15 +55,12 @@ def compute_many(experts: list, worlds: list, dtype=np.float64) -> list[np.ndarr
         dup = next(i for i, w in enumerate(worlds) if first.setdefault(id(w), i) != i)
         raise ValueError(f"worlds[{dup}] is worlds[{first[id(worlds[dup])]}]; allowed: distinct worlds")
     out: list = [None] * len(worlds)
-    groups: dict = {}
+    groups: dict = {}  # (a world that can share no pass is a group of its own, keyed by its place)
     for i, (e, w) in enumerate(zip(experts, worlds)):
         key = _group_key(e, w)
-        if key is None:
-            out[i] = e.compute(w).astype(dtype)
-        else:
-            groups.setdefault(key, []).append(i)
+        groups.setdefault(i if key is None else key, []).append(i)
     for rows in groups.values():
-        if len(rows) == 1:
+        if len(rows) == 1:  # alone: its own expert
             i = rows[0]
             out[i] = experts[i].compute(worlds[i]).astype(dtype)
             continue
