@@ -8,7 +8,7 @@
     icv-envs bench highway-formation [--sizes 50,200,800] [--seconds 10] [--stock-seconds 1]
     icv-envs bench highway-ramps [--seconds 600] [--vgr 0.333] [--vs-sumo [--api dicts|lean|rows]]
     icv-envs compare intersection --methods multi-vp,single-vp,fcfs,fcfs-tight --throughput 500,1000,1500,2000 --seeds 3|5,7,10-12 --seconds 600 --out DIR [--lane-use paper|exclusive] [--warmup 100] [--backend ray]
-    icv-envs bench intersection [--seconds 500] [--warmup 100] [--seeds 3] [--throughput 2200] [--method multi-vp]
+    icv-envs bench intersection [--seconds 500] [--warmup 100] [--seeds 3] [--throughput 2200] [--method multi-vp] [--api dicts|lean|rows]
     icv-envs conflicts --lane-use paper|exclusive [--json]
     icv-envs bench train
     icv-envs leaderboard [--out DIR] [--models DIR] [--tasks T,...] [--episodes N] [--reuse]
@@ -74,7 +74,7 @@ def _progress() -> bool:
     """Show progress bars only on a terminal (they go to stderr)."""
     return sys.stderr.isatty()
 BENCHES = ("highway-formation", "highway-ramps", "train", "intersection")
-API_CHOICES = ("dicts", "lean", "rows")  # bench highway-ramps --vs-sumo --api
+API_CHOICES = ("dicts", "lean", "rows")  # bench highway-ramps --vs-sumo --api, bench intersection --api
 COMPARES = ("highway-ramps", "intersection")
 
 
@@ -157,8 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--vs-sumo", dest="vs_sumo", action="store_true",
                    help="highway-ramps: time the last 100 s beside SUMO on the same ring, alternately (extra 'bench')")
     b.add_argument("--api", type=_choice("api", API_CHOICES), default=None,
-                   help="highway-ramps --vs-sumo: how the agents are stepped: dicts (PettingZoo, full infos; "
-                        "default), lean (PettingZoo, info_keys=[], expert_in_info=False) or rows (step_rows: arrays)")
+                   help="highway-ramps --vs-sumo and intersection: how the agents are stepped: dicts (PettingZoo, "
+                        "full infos; default), lean (PettingZoo, info_keys=[], expert_in_info=False) or rows "
+                        "(step_rows: arrays)")
     b.add_argument("--out", default=None, help="also write the JSON to DIR/bench.json")
 
     from icv_envs.rl.evaluate import add_arguments as _eval_args
@@ -338,8 +339,8 @@ def _dispatch(args) -> int:
         _reject_foreign_options(args, "bench", args.target, _BENCH_ONLY)
         if args.vs_sumo and args.target != "highway-ramps":
             raise ValueError(f"--vs-sumo is an option of 'bench highway-ramps', not of 'bench {args.target}'")
-        if args.api is not None and not args.vs_sumo:
-            raise ValueError(f"--api {args.api} is an option of 'bench highway-ramps --vs-sumo'")
+        if args.api is not None and not (args.vs_sumo or args.target == "intersection"):
+            raise ValueError(f"--api {args.api} is an option of 'bench highway-ramps --vs-sumo' and 'bench intersection'")
         if args.target == "intersection":
             from icv_envs.experiments.intersection_bench import run_cli as bench_intersection_cli
 

@@ -77,6 +77,45 @@ def test_bench_reports_agent_steps_per_second():
     assert (sig["seconds"].default, sig["warmup"].default, sig["seeds"].default) == (500.0, 100.0, 3)
 
 
+def test_bench_apis_drive_the_same_intersection():
+    """``--api dicts``, ``lean`` and ``rows`` (from stop 47) step the same
+    trajectory: the same vehicles in the same states, the same metrics and
+    the same agent-steps counted; they differ only in what the API costs."""
+    import numpy as np
+
+    from icv_envs.envs.intersection_v0 import parallel_env
+
+    states = {}
+    for api, cfg in intersection_bench.APIS.items():
+        env = parallel_env(method="multi-vp", throughput=2200.0, duration=80.0, **cfg)
+        step = intersection_bench._stepper(env, api)
+        step.infos = env.reset(seed=3)[1]
+        counted = 0
+        while env.core.world.time < 40.0 - 1e-9:
+            counted += env.num_agents
+            step()
+        f = env.core.world.fleet
+        states[api] = (f.vid.copy(), np.stack([f.x, f.y, f.speed, f.heading]), env.metrics(), counted)
+    ref = states["dicts"]
+    assert len(ref[0]) > 10 and ref[3] > 0
+    for api, s in states.items():
+        assert np.array_equal(s[0], ref[0]) and np.array_equal(s[1], ref[1]), api
+        assert s[2] == ref[2] and s[3] == ref[3], api
+
+
+def test_bench_api_choices(capsys):
+    from icv_envs.cli import main
+
+    with pytest.raises(ValueError, match=r"api = 'arrays'; allowed: \['dicts', 'lean', 'rows'\]"):
+        intersection_bench.bench_intersection(seconds=1.0, api="arrays")
+    res = intersection_bench.run_cli(argparse.Namespace(seconds=1.0, warmup=10.0, seeds=1, throughput=None,
+                                                        method=None, api="rows"), echo=lambda s: None)
+    assert res["api"] == "rows" and res["env_steps"] == 5
+    with pytest.raises(SystemExit) as e:  # argparse's own error for an unknown choice
+        main(["bench", "intersection", "--api", "arrays"])
+    assert e.value.code == 2 and "'arrays'" in capsys.readouterr().err
+
+
 def test_conflicts_cli(capsys):
     import json
 

@@ -74,7 +74,7 @@ def test_highway_formation_bench_times_after_its_warmup():
 
 def test_api_only_with_vs_sumo(capsys):
     assert main(["bench", "highway-ramps", "--api", "rows"]) == 2
-    assert "--api rows is an option of 'bench highway-ramps --vs-sumo'" in capsys.readouterr().err
+    assert "--api rows is an option of 'bench highway-ramps --vs-sumo' and 'bench intersection'" in capsys.readouterr().err
     with pytest.raises(SystemExit) as e:  # argparse's own error (exit 2) for an unknown choice
         main(["bench", "highway-ramps", "--vs-sumo", "--api", "arrays"])
     assert e.value.code == 2

@@ -31,28 +31,53 @@ import time
 
 import numpy as np
 
-__all__ = ["bench_intersection", "METADRIVE_AGENT_STEPS_PER_S"]
+__all__ = ["bench_intersection", "METADRIVE_AGENT_STEPS_PER_S", "APIS"]
 
 #: MetaDrive multi-agent intersection, measured for this project (about 67 env steps/s x 20 agents).
 METADRIVE_AGENT_STEPS_PER_S = 1430.0
 
+#: how the agents are stepped (``--api``; module docstring): the env's keyword arguments of each
+APIS = {"dicts": {}, "lean": {"info_keys": [], "expert_in_info": False}, "rows": {"expert_in_info": False}}
 
-def _one_seed(seed: int, seconds: float, warmup: float, throughput: float, method: str) -> dict:
+
+def _stepper(env, api: str):
+    """One step of the expert driving every agent through ``api``; the
+    dicts' stepper reads the expert's actions from the last infos
+    (``state["infos"]``, set by the caller after ``reset``)."""
+    if api == "rows":
+        core = env.core
+
+        def step():
+            env.step_rows(core.expert_actions())
+    elif api == "lean":
+        def step():
+            ex = env.expert_actions()
+            env.step({a: ex[a] for a in env.agents})
+    else:
+        def step():
+            infos = step.infos
+            step.infos = env.step({a: infos[a]["expert_action"] for a in env.agents})[4]
+    return step
+
+
+def _one_seed(seed: int, seconds: float, warmup: float, throughput: float, method: str, api: str = "dicts") -> dict:
     """One seed's timed window (see the module docstring)."""
     from icv_envs.envs.intersection_v0 import parallel_env
 
-    env = parallel_env(method=method, throughput=float(throughput), duration=float(warmup + seconds + 10.0))
-    obs, infos = env.reset(seed=seed)
+    env = parallel_env(method=method, throughput=float(throughput), duration=float(warmup + seconds + 10.0),
+                       **APIS[api])
+    step = _stepper(env, api)
+    step.infos = env.reset(seed=seed)[1]
     while env.core.world.time < warmup - 1e-9:  # warm-up, not timed
-        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+        step()
     t_start = env.core.world.time
     agent_steps = steps = 0
     counts = []
     t0 = time.perf_counter()
     c0 = time.process_time()
     while env.core.world.time < t_start + seconds - 1e-9:
-        n = len(env.agents)
-        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+        n = env.num_agents
+        step()
         agent_steps += n
         counts.append(n)
         steps += 1
@@ -68,16 +93,19 @@ def _one_seed(seed: int, seconds: float, warmup: float, throughput: float, metho
 
 
 def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, method: str = "multi-vp",
-                       warmup: float = 100.0, seeds: int = 3, echo=print) -> dict:
-    """The bench of the module docstring on seeds ``0 .. seeds-1``; returns
-    the JSON record (the totals over the seeds, and ``per_seed``)."""
+                       warmup: float = 100.0, seeds: int = 3, echo=print, api: str = "dicts") -> dict:
+    """The bench of the module docstring on seeds ``0 .. seeds-1``, the
+    agents stepped through ``api`` (:data:`APIS`); returns the JSON record
+    (the totals over the seeds, and ``per_seed``)."""
+    if not isinstance(api, str) or api not in APIS:
+        raise ValueError(f"api = {api!r}; allowed: {list(APIS)}")
     if not 0 < seconds < float("inf"):  # (NaN fails the comparison too)
         raise ValueError(f"seconds = {seconds!r}; allowed: a finite number > 0")
     if not 0 <= warmup < float("inf"):
         raise ValueError(f"warmup = {warmup!r}; allowed: a finite number >= 0")
     if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or seeds < 1:
         raise ValueError(f"seeds = {seeds!r}; allowed: an integer >= 1 (seeds 0 .. seeds-1)")
-    per = [_one_seed(s, float(seconds), float(warmup), float(throughput), method) for s in range(int(seeds))]
+    per = [_one_seed(s, float(seconds), float(warmup), float(throughput), method, api) for s in range(int(seeds))]
     agent_steps = sum(p["agent_steps"] for p in per)
     steps = sum(p["env_steps"] for p in per)
     wall = sum(p["wall_seconds"] for p in per)
@@ -87,6 +115,7 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
     res = {
         "bench": "intersection",
         "method": method,
+        "api": api,
         "throughput": float(throughput),
         "warmup_seconds": float(warmup),
         "sim_seconds": float(seconds),
@@ -113,7 +142,7 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
     for p in per:
         echo(f"  seed {p['seed']}: {p['mean_agents']:.0f} agents on average ({p['min_agents']}-{p['max_agents']}), "
              f"{p['agent_steps_per_cpu_s']:.0f} agent-steps per CPU second")
-    echo(f"intersection ({method}, {throughput:g} veh/h, {seconds:g} s after {warmup:g} s of warm-up, "
+    echo(f"intersection ({method}, {api}, {throughput:g} veh/h, {seconds:g} s after {warmup:g} s of warm-up, "
          f"{len(per)} seed{'s' if len(per) > 1 else ''}): {res['mean_agents']:.0f} agents on average "
          f"({res['min_agents']}-{res['max_agents']}), {res['env_steps_per_s']:.0f} env steps/s, "
          f"{res['agent_steps_per_s']:.0f} agent-steps/s (x{res['ratio_vs_metadrive']:.1f} MetaDrive's "
@@ -126,7 +155,8 @@ def run_cli(args, echo=print) -> dict:
     """``icv-envs bench intersection``: ``args.seconds`` (timed simulated
     seconds per seed, default 500), ``args.warmup`` (default 100),
     ``args.seeds`` (default 3), ``args.throughput`` (vehicles/h, default
-    2200) and ``args.method`` (default multi-vp)."""
+    2200), ``args.method`` (default multi-vp) and ``args.api`` (default
+    dicts)."""
     seconds = getattr(args, "seconds", None) or 500.0
     warmup = getattr(args, "warmup", None)
     warmup = 100.0 if warmup is None else float(warmup)
@@ -144,4 +174,4 @@ def run_cli(args, echo=print) -> dict:
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; allowed: {list(METHODS)}")
     return bench_intersection(seconds=float(seconds), throughput=tp, method=method, warmup=warmup, seeds=seeds,
-                              echo=echo)
+                              echo=echo, api=getattr(args, "api", None) or "dicts")
