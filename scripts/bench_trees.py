@@ -11,6 +11,10 @@ fresh process (``PYTHONPATH=<tree>``), and times ``--steps`` policy steps
   veh/h (2200), the zones filled to 60 vehicles first; every vehicle an
   agent, the expert's action from the infos (as ``icv-envs bench
   intersection``); agent-steps per CPU s;
+* ``intersection-rows`` (from stop 47; default ``--steps 1200``): the same
+  through the array path (``step_rows`` with the core's
+  ``expert_actions()``, ``expert_in_info=False``: as ``icv-envs bench
+  intersection --api rows``);
 * ``ring`` (default ``--steps 500``, 100 s): HighwayRamps at VGR 1/3 under
   the formation expert through the PettingZoo API, after 500 s of warm-up
   (the steady state of ``icv-envs bench highway-ramps --vs-sumo``);
@@ -53,6 +57,22 @@ for _ in range(steps):
 print(json.dumps({"cpu": time.process_time() - c0, "agent_steps": n}))
 """
 
+
+CHILD_ROWS = """
+import json, sys, time
+from icv_envs.envs.intersection_v0 import parallel_env
+steps, tp = int(sys.argv[1]), float(sys.argv[2])
+env = parallel_env(method="multi-vp", throughput=tp, duration=300.0 + steps / 5.0 + 10.0, expert_in_info=False)
+env.reset(seed=0)
+core = env.core
+while len(env.agents) < 60 and core.world.time < 300:
+    env.step_rows(core.expert_actions())
+c0, n = time.process_time(), 0
+for _ in range(steps):
+    n += env.num_agents
+    env.step_rows(core.expert_actions())
+print(json.dumps({"cpu": time.process_time() - c0, "agent_steps": n}))
+"""
 
 RING = """
 import json, sys, time
@@ -97,6 +117,7 @@ print(json.dumps({"cpu": cpu, "agent_steps": n}))
 # case -> (child code, default steps, unit, the child's arguments after the step count; ``{tp}``: --throughput)
 CASES = {
     "intersection": (CHILD, 1200, "agent-steps", ("{tp}",)),
+    "intersection-rows": (CHILD_ROWS, 1200, "agent-steps", ("{tp}",)),
     "ring": (RING, 500, "vehicle-steps", ()),
     "batched": (BATCHED, 100, "agent-steps", ("0",)),
     "batched-expert": (BATCHED, 100, "agent-steps", ("1",)),
@@ -142,7 +163,7 @@ def main(argv=None) -> int:
               flush=True)
     res = {"case": a.case, "unit": f"{unit} per CPU s", "median_ratio": statistics.median(ratios), "pairs": rows,
            "steps": steps, "amount": r["agent_steps"], "reference": str(ref), "test": str(test)}
-    if a.case == "intersection":
+    if a.case.startswith("intersection"):
         res["throughput"] = a.throughput
     print(f"median ratio test / reference over {a.reps} pairs: {res['median_ratio']:.2f}")
     line = json.dumps(res)

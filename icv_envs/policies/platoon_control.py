@@ -20,31 +20,104 @@ from icv_envs.policies._kernels import (
     envelope_pairs,
     normalised_actions,
     platoon_accelerations,
+    platoon_actions_rows,
     stop_line_caps,
 )
 from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE, Corridors
 from icv_envs.sim.traffic import idm_acceleration
+from icv_envs._hooks import own_hooks
 from icv_envs._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["PlatoonControl"]
+
+# (read-only empty arrays: the one-call path's unused arguments, one numba specialisation)
+_EMPTY_F = np.zeros(0)
+_EMPTY_I = np.zeros(0, dtype=np.int64)
+_EMPTY_B = np.zeros(0, dtype=bool)
+for _a in (_EMPTY_F, _EMPTY_I, _EMPTY_B):
+    _a.setflags(write=False)
 
 
 class PlatoonControl:
     """Steering, longitudinal law and safety envelope of :class:`~icv_envs.policies.platoon_expert.PlatoonExpert` (module docstring)."""
 
+    # the hooks the one-call path of ``compute`` stands for, and the longitudinal
+    # law it computes itself unless replaced (FCFS's): set by PlatoonExpert
+    # (icv_envs._hooks.hook_table of its own methods)
+    _ONE_CALL_HOOKS: tuple | None = None
+    _LONGITUDINAL_HOOK: tuple | None = None
+
     def compute(self, world) -> np.ndarray:
-        """Normalised actions ``(n, 2)`` for every vehicle (rows in fleet order)."""
+        """Normalised actions ``(n, 2)`` for every vehicle (rows in fleet
+        order): the steering (:meth:`_steering`), the longitudinal law
+        (:meth:`_longitudinal`) and the safety envelope over it
+        (:meth:`_envelope`), normalised. While the steering, the envelope
+        and the turn signals are this class's own, in one compiled call
+        (:func:`~icv_envs.policies._kernels.platoon_actions_rows`, from stop
+        47: the same kernels with the same arguments in their order; the
+        longitudinal law too unless it is replaced), with the envelope's
+        path obstacles added in Python when a vehicle stands in the box."""
         f = world.fleet
         if f.n == 0:
             return np.zeros((0, 2))
         self._check_stamp(world)
         rs = world.route()
         p = self.p
+        if self._ONE_CALL_HOOKS is not None and own_hooks(self, self._ONE_CALL_HOOKS):
+            return self._compute_one_call(world, rs)
         phi = self._steering(world, rs)
         acc = self._longitudinal(world, rs)
         cap = self._envelope(world, rs, acc)
         # normalised: a / a_max for a >= 0, else -a / a_min; phi / steer_max;
         # both clipped to [-1, 1] (compiled: policies/_kernels.normalised_actions)
+        return normalised_actions(uclip(np.minimum(acc, cap), p.a_min, p.a_max), phi, float(p.a_max),
+                                  float(p.a_min), float(p.steer_max))
+
+    def _compute_one_call(self, world, rs) -> np.ndarray:
+        """:meth:`compute` through :func:`~icv_envs.policies._kernels.platoon_actions_rows`
+        (its docstring): the arguments of :meth:`_steering`,
+        :meth:`_longitudinal` (or its result, when replaced),
+        :meth:`_envelope` and :meth:`_envelope_pairs`, in one call."""
+        p = self.p
+        f = world.fleet
+        lay = world.layout
+        n = f.n
+        if own_hooks(self, self._LONGITUDINAL_HOOK):
+            acc_given = _EMPTY_F
+            free_pow = (f.speed / np.maximum(p.v0, 0.1)) ** 4.0
+            vcap = self._vcap if len(self._vcap) == n else np.zeros(n)
+            mode, xref, vref, tight = self._mode, self._xref, self._vref, self._tight
+        else:  # (a longitudinal law of its own: its accelerations, the rest unused)
+            acc_given = np.ascontiguousarray(self._longitudinal(world, rs), dtype=np.float64)
+            free_pow = vcap = xref = vref = _EMPTY_F
+            mode, tight = _EMPTY_I, _EMPTY_B
+        base = Corridors.plain(world, rs)
+        b = abs(p.a_min)
+        tau = p.cap_tau
+        co = self._coordinated(f) | (rs.phase == 2)
+        done, actions, W, binding, passed, n_other, n_member = platoon_actions_rows(
+            f.x, f.y, f.heading, f.speed, f.klane, f.mv, rs.pid, rs.phase, rs.s, rs.u, f.lc_lane, f.lc_u0, f.lc_lat0,
+            f.lc_lat1, f.lc_len, f.leg, lay.L, lay.P0, lay.D0, lay.P1, lay.D1, lay.arc, lay.TH0, lay.SGN, lay.R,
+            lay.C, float(lay.box_half), lay.out, lay.app_dir, lay.app_right, float(lay.lane_width),
+            float(p.preview_min), float(p.preview_time), float(p.wheelbase), float(p.steer_max),
+            acc_given, free_pow, float(min(p.a_max, p.comfort[1])), float(p.idm_b), float(p.idm_T), float(p.idm_s0),
+            mode, MODE_FOLLOW, MODE_TREE, rs.X, xref, vref, tight, vcap, float(p.ref_error_clip), float(p.kp),
+            float(p.kv), float(p.comfort[0]), float(p.comfort[1]), float(p.a_min), float(p.a_max),
+            base.rows, base.corr, base.coord, base.keys, np.asarray(self._signals(f), dtype=np.int64), Corridors.BIG,
+            f.length, np.asarray(self._group(f), dtype=np.int64), np.asarray(co, dtype=bool), float(p.member_T),
+            float(p.member_s0), float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(b), float(tau), float((b * tau) ** 2),
+            bool(p.envelope_in_box), rs.L, 1.0, self._stop, float(p.stop_margin), float(np.sqrt(p.a_max * p.idm_b)),
+            0.5)
+        st = self.stats
+        st["virtual_cap_binding"] += int(binding)
+        st["signal_alongside_passed"] += int(passed)
+        if done:
+            st["envelope_box_binding"] += int(n_other)
+            st["envelope_box_binding_member"] += int(n_member)
+            return actions
+        # a vehicle stands in the box: the envelope's end as _envelope's, from the caps so far
+        phi, acc, cap, cap_other = W
+        self._envelope_tail(world, rs, acc, cap, cap_other)
         return normalised_actions(uclip(np.minimum(acc, cap), p.a_min, p.a_max), phi, float(p.a_max),
                                   float(p.a_min), float(p.steer_max))
 
@@ -114,6 +187,15 @@ class PlatoonControl:
         # unnecessary)
         self.stats["signal_alongside_passed"] += self._envelope_pairs(f, rs, cor, bool(p.envelope_in_box), cap,
                                                                       cap_other)
+        self._envelope_tail(world, rs, acc_ref, cap, cap_other)
+        return cap
+
+    def _envelope_tail(self, world, rs, acc_ref, cap, cap_other) -> None:
+        """The end of :meth:`_envelope`, on the caps towards the leaders
+        (lowered in place): the vehicles stopped on a path, then the stop
+        line and the binding counts."""
+        p = self.p
+        f = world.fleet
         # a (nearly) stopped vehicle in the box on this vehicle's path, whatever its own path
         qi, oj, og, vo = self._path_obstacles(world, rs)
         if len(qi):
@@ -133,7 +215,6 @@ class PlatoonControl:
                                            cap, cap_other, rs.phase, acc_ref)
         self.stats["envelope_box_binding"] += n_other
         self.stats["envelope_box_binding_member"] += n_member
-        return cap
 
     def _envelope_pairs(self, f, rs, cor, in_box: bool, cap, cap_other) -> int:
         """Lower ``cap`` and ``cap_other`` in place towards the leaders of the

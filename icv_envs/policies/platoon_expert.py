@@ -162,6 +162,7 @@ from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
 from icv_envs.policies.platoon_control import PlatoonControl
 from icv_envs.policies.regrouping import Regrouping
 from icv_envs.policies.virtual_platoon import VirtualPlatoon
+from icv_envs._hooks import hook_table
 from icv_envs._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["PlatoonParams", "PlatoonExpert", "VP_METHODS", "Corridors", "MODE_FREE", "MODE_FOLLOW",
@@ -499,3 +500,11 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         for sid, S in self.subs.items():
             out.append(("sub", sid, f.rows(S["members"]), -1))
         return out
+
+
+# the one-call path of PlatoonControl.compute (from stop 47): taken while these are the class's own (a
+# subclass, a monkeypatch or an instance that replaces one takes the separate calls); the longitudinal
+# law is computed inside unless replaced (FCFS's is its own: its accelerations are passed in)
+PlatoonExpert._ONE_CALL_HOOKS = hook_table(PlatoonExpert, "_steering", "_envelope", "_envelope_pairs", "_envelope_tail",
+                                           "_path_obstacles")
+PlatoonExpert._LONGITUDINAL_HOOK = hook_table(PlatoonExpert, "_longitudinal")

@@ -18,10 +18,12 @@ import numba as nb
 import numpy as np
 
 from icv_envs.formation._kernels import clip1
-from icv_envs.policies._kernels.laws import _feedback1, _idm_free1
+from icv_envs.policies._kernels.corridors import corridor_add_signals
+from icv_envs.policies._kernels.laws import _feedback1, _idm_free1, normalised_actions
 from icv_envs.sim._kernels.physics import npy_maximum, npy_minimum
 
-__all__ = ["box_obstacle_rows", "box_steering", "envelope_pairs", "platoon_accelerations", "stop_line_caps"]
+__all__ = ["box_obstacle_rows", "box_steering", "envelope_pairs", "platoon_accelerations", "stop_line_caps",
+           "platoon_actions_rows"]
 
 
 @nb.njit(cache=True)
@@ -245,3 +247,68 @@ def box_obstacle_rows(phase, s, L, speed, v_stopped):
             out[m] = i
             m += 1
     return out[:m]
+
+
+@nb.njit(cache=True, error_model="numpy")  # (its kernels' own error models: IEEE division as numpy's)
+def platoon_actions_rows(x, y, heading, speed, klane, mv, pid, phase, s, u, lc_lane, lc_u0, lc_lat0, lc_lat1, lc_len,
+                         leg, L, P0, D0, P1, D1, arc, TH0, SGN, R, C, box_half, out, app_dir, app_right, lane_width,
+                         preview_min, preview_time, wheelbase, steer_max,
+                         acc_given, free_pow, a_free, idm_b, idm_T, idm_s0, mode, mode_follow, mode_tree, X, xref,
+                         vref, tight, vcap, clip_err, kp, kv, comfort_lo, comfort_hi, a_min, a_max,
+                         b_rows, b_corr, b_coord, b_keys, signal_lane, big,
+                         length, grp, co, member_T, member_s0, sqrt_ab2, gipps_b, gipps_tau, gipps_bt2, in_box,
+                         route_L, v_stopped,
+                         stop, stop_margin, sqrt_ab, stop_s0):
+    """:meth:`icv_envs.policies.platoon_control.PlatoonControl.compute` in
+    one call (from stop 47), each kernel with the arguments its separate
+    call gets, in their order: :func:`box_steering` (``x`` ..
+    ``steer_max``); :func:`platoon_accelerations` (``speed``, ``free_pow``
+    .. ``a_max``, ``u``, ``X``), unless ``acc_given`` holds one acceleration
+    per vehicle (an expert whose longitudinal law is its own, FCFS's);
+    :func:`~icv_envs.policies._kernels.corridors.corridor_add_signals` of
+    the index without signals (``b_rows`` .. ``b_keys``, ``signal_lane``,
+    ``big``); :func:`envelope_pairs` on the caps ``inf``; then, when
+    :func:`box_obstacle_rows` finds no vehicle stopped in or just past the
+    box (``route_L``, ``v_stopped``: nothing on anybody's path, most
+    steps), :func:`stop_line_caps` (``stop`` .. ``stop_s0``) and the
+    actions ``normalised_actions(clip(minimum(acc, cap), a_min, a_max),
+    phi, ...)`` with numpy's ``minimum`` and ``clip`` (NaN kept; ``b`` on a
+    tie).
+
+    Returns ``(done, actions, W, binding, passed, n_other, n_member)``:
+    ``done`` False when there are stopped vehicles (the caller then adds
+    their caps and ends the envelope as ``_envelope`` does, from ``W``'s
+    rows ``phi, acc, cap, cap_other``; ``actions`` empty and ``n_other``,
+    ``n_member`` 0); the counts are the statistics the separate calls
+    return (``binding`` of :func:`platoon_accelerations`, 0 with
+    ``acc_given``)."""
+    n = x.shape[0]
+    W = np.empty((4, n))
+    W[0] = box_steering(x, y, heading, speed, klane, mv, pid, phase, s, u, lc_lane, lc_u0, lc_lat0, lc_lat1, lc_len,
+                        leg, L, P0, D0, P1, D1, arc, TH0, SGN, R, C, box_half, out, app_dir, app_right, lane_width,
+                        preview_min, preview_time, wheelbase, steer_max)
+    binding = 0
+    if acc_given.shape[0] == n:
+        W[1] = acc_given
+    else:
+        acc, binding = platoon_accelerations(speed, free_pow, a_free, idm_b, idm_T, idm_s0, mode, mode_follow,
+                                             mode_tree, u, X, xref, vref, tight, vcap, clip_err, kp, kv, comfort_lo,
+                                             comfort_hi, a_min, a_max)
+        W[1] = acc
+    rows, corr, coord, keys, signal_only, lead = corridor_add_signals(b_rows, b_corr, b_coord, b_keys, phase, leg, s,
+                                                                      signal_lane, big)
+    cap = W[2]
+    cap_other = W[3]
+    cap[:] = np.inf
+    cap_other[:] = np.inf
+    passed = envelope_pairs(lead, coord, rows, signal_only, length, speed, grp, co, phase, member_T, idm_T, member_s0,
+                            idm_s0, a_max, idm_b, sqrt_ab2, gipps_b, gipps_tau, gipps_bt2, in_box, cap, cap_other)
+    if box_obstacle_rows(phase, s, route_L, speed, v_stopped).shape[0]:
+        return False, np.empty((0, 2)), W, binding, passed, 0, 0
+    acc = W[1]
+    n_other, n_member = stop_line_caps(stop, u, length, speed, stop_margin, a_max, sqrt_ab, idm_T, stop_s0, cap,
+                                       cap_other, phase, acc)
+    a = np.empty(n)
+    for i in range(n):
+        a[i] = npy_minimum(npy_maximum(npy_minimum(acc[i], cap[i]), a_min), a_max)
+    return True, normalised_actions(a, W[0], a_max, a_min, steer_max), W, binding, passed, n_other, n_member
