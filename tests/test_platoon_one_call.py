@@ -98,3 +98,42 @@ def test_a_replaced_hook_is_honoured():
     ex._steering = lambda world, rs: np.zeros(world.fleet.n)
     out = ex.compute(w)
     assert not np.count_nonzero(out[:, 1]) and np.array_equal(out[:, 0], base[:, 0])
+
+
+def _state(env) -> bytes:
+    """Everything the coordination layer holds and the fleet's arrays, as bytes."""
+    core = env.core
+    f, ex = core.world.fleet, core.expert
+    parts = [repr(sorted(ex.stats.items())), repr(ex.formations), repr(ex.subs), repr(ex.nodes), repr(ex.vp_order)]
+    parts += [f.vid.tobytes()] + [getattr(f, name).tobytes() for name in sorted(f._fields)]
+    return b"".join(p.encode() if isinstance(p, str) else p for p in parts)
+
+
+@pytest.mark.parametrize("method, throughput, seed", [("multi-vp", 3000.0, 4), ("multi-vp", 1800.0, 6),
+                                                      ("single-vp", 2500.0, 5), ("fcfs", 2000.0, 7)])
+def test_regroup_in_one_call_is_the_three_steps(method, throughput, seed):
+    """``Regrouping._regroup`` (stop 47: approach and division, adjusting and
+    merging with their kernels in one call) against the three separate
+    steps (a hook set on the instance turns the one-call path off): the same
+    fleet, groups, order and statistics after every step of two twin runs,
+    divisions, adjustings and merges included."""
+    envs = []
+    for one_call in (True, False):
+        env = parallel_env(method=method, throughput=throughput, duration=200.0, expert_in_info=False)
+        env.reset(seed=seed)
+        if not one_call:
+            ex = env.core.expert
+            ex._merging = ex._merging  # (an instance attribute among the hooks: the separate calls)
+        envs.append(env)
+    from icv_envs._hooks import own_hooks
+    from icv_envs.policies.platoon_expert import _REGROUP_HOOKS
+
+    assert [own_hooks(env.core.expert, _REGROUP_HOOKS) for env in envs] == [True, False]
+    for k in range(800):
+        for env in envs:
+            env.step_rows(env.core.expert_actions())
+        assert _state(envs[0]) == _state(envs[1]), f"{method} step {k}"
+    st = envs[0].core.expert.stats
+    assert st["divisions"] > 5 and envs[0].core.world.fleet.n > 10
+    if method == "multi-vp" and throughput >= 3000:
+        assert st["merges"] > 0

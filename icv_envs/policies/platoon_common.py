@@ -39,8 +39,10 @@ def group_rows(f, members: list) -> tuple[np.ndarray, np.ndarray]:
     one ``f.rows`` call, and each group's size: how the regrouping and the
     virtual platoon hand their groups to a kernel (group ``k`` the next
     ``sizes[k]`` rows)."""
-    sizes = np.fromiter(map(len, members), dtype=np.int64, count=len(members))
-    rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=int(sizes.sum())))
+    lens = list(map(len, members))
+    sizes = np.fromiter(lens, dtype=np.int64, count=len(lens))
+    # (the count summed in Python: numpy's sum of a few dozen sizes cost more than the lookup)
+    rows = f.rows(np.fromiter(itertools.chain.from_iterable(members), dtype=np.int64, count=sum(lens)))
     return rows, sizes
 
 

@@ -162,7 +162,7 @@ from icv_envs.policies.platoon_common import (  # noqa: F401  (re-exported)
 from icv_envs.policies.platoon_control import PlatoonControl
 from icv_envs.policies.regrouping import Regrouping
 from icv_envs.policies.virtual_platoon import VirtualPlatoon
-from icv_envs._hooks import hook_table
+from icv_envs._hooks import hook_table, own_hooks
 from icv_envs._ufuncs import clip as uclip, flatnonzero
 
 __all__ = ["PlatoonParams", "PlatoonExpert", "VP_METHODS", "Corridors", "MODE_FREE", "MODE_FOLLOW",
@@ -320,9 +320,12 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         rs = world.route()
         self._prune(f)
         self._lane_change_progress(world, rs)
-        self._approach_and_division(world, rs)
-        self._adjusting(world, rs)
-        self._merging(world, rs)
+        if own_hooks(self, _REGROUP_HOOKS):  # the three below with their kernels in one call (from stop 47)
+            self._regroup(world, rs)
+        else:
+            self._approach_and_division(world, rs)
+            self._adjusting(world, rs)
+            self._merging(world, rs)
         rs = self._reroute_stuck(world, rs)
         self._coordinate(world, rs)
         self._start_lane_changes(world, rs)
@@ -508,3 +511,6 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
 PlatoonExpert._ONE_CALL_HOOKS = hook_table(PlatoonExpert, "_steering", "_envelope", "_envelope_pairs", "_envelope_tail",
                                            "_path_obstacles")
 PlatoonExpert._LONGITUDINAL_HOOK = hook_table(PlatoonExpert, "_longitudinal")
+# the regrouping's one-call path (Regrouping._regroup, from stop 47): taken while the three steps it stands
+# for and the merging's table are the class's own
+_REGROUP_HOOKS = hook_table(PlatoonExpert, "_approach_and_division", "_adjusting", "_merging", "_sub_table")

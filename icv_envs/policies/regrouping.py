@@ -18,6 +18,7 @@ from icv_envs.policies._kernels import (
     lane_change_ready,
     lane_change_state,
     merge_pairs,
+    regroup_pass,
     segment_bounds,
 )
 from icv_envs.policies.platoon_common import (
@@ -171,6 +172,12 @@ class Regrouping:
             return
         rows, sizes = group_rows(f, [F["members"] for F in todo])
         divide = approach_fronts(rows, sizes, rs.u, rs.dist, float(world.layout.R2), f.vid, f.fslot, f.ref, f.xg)
+        self._divide_marked(world, rs, todo, rows, sizes, divide)
+
+    def _divide_marked(self, world, rs, todo: list, rows, sizes, divide) -> None:
+        """The formations ``todo[k]`` marked in ``divide`` divide
+        (:meth:`_divide`), in order; formation ``k``'s members are the next
+        ``sizes[k]`` of ``rows``."""
         if np.count_nonzero(divide):
             start = np.cumsum(sizes) - sizes
             for k in flatnonzero(divide).tolist():
@@ -331,22 +338,91 @@ class Regrouping:
         # (only those with two members waiting or settled have anything to do:
         # most steps none, from stop 42)
         act = flatnonzero((pending >= 2) | settled)
-        if not len(act):
-            return
+        if len(act):
+            self._adjust_marked(world, lc, rows_all, sizes, pending, settled, act)
+
+    def _adjust_marked(self, world, groups: list, rows_all, sizes, pending, settled, act) -> bool:
+        """The adjusting's work on the sub-formations ``groups[k]`` for ``k``
+        in ``act`` (in order; sub-formation ``k``'s members the next
+        ``sizes[k]`` of ``rows_all``, ``pending[k]`` of them waiting to
+        start a lane change, ``settled[k]`` all in their target lanes).
+        Returns whether a sub-formation changed (two members exchanged
+        targets, or it is adjusted): most calls, two members wait for lane
+        changes that do not cross, and none does."""
+        f = world.fleet
         start = np.cumsum(sizes) - sizes
+        changed = False
         for k in act.tolist():
-            S = lc[k]
+            S = groups[k]
             rows = rows_all[start[k]:start[k] + sizes[k]]
             done = settled[k]
             if pending[k] >= 2:
-                self._swap_crossed_targets(S, f, rows)
+                changed |= self._swap_crossed_targets(S, f, rows)
                 done = np.all((f.klane[rows] == f.tlane[rows]) & (f.lc_lane[rows] < 0))
             if done:
                 S["state"] = "adjusted"
                 f.stage[rows] = np.maximum(f.stage[rows], ST_ADJUSTED)
                 self._set_sub_targets(world, S)
+                changed = True
+        return changed
 
-    def _swap_crossed_targets(self, S, f, rows) -> None:
+    def _regroup(self, world, rs) -> None:
+        """:meth:`_approach_and_division`, :meth:`_adjusting` and
+        :meth:`_merging`, in this order, with their kernels in one call
+        (:func:`~icv_envs.policies._kernels.regroup_pass`, from stop 47) over
+        one table of the groups' rows (the formations not yet divided, then
+        every sub-formation): the same reads and writes as the three calls.
+        What follows a division, or an adjusting that changes a
+        sub-formation, runs as the separate calls do (the sub-formations
+        changed; an adjusting with work that changes nothing, most of the
+        time, does not count); otherwise the merging's pairs and its table
+        (kept for :meth:`_sub_distances`, as :meth:`_sub_table` keeps it)
+        come from the same call. A group
+        without members takes the separate calls (and their error)."""
+        f = world.fleet
+        todo = [F for F in self.formations.values() if not F["divided"]]
+        subs = list(self.subs.values())
+        if not todo and not subs:
+            return
+        nf, K = len(todo), len(subs)
+        s_members = [S["members"] for S in subs]
+        f_members = [F["members"] for F in todo]
+        rows, sizes = group_rows(f, f_members + s_members)
+        if np.count_nonzero(sizes) < len(sizes):
+            self._approach_and_division(world, rs)
+            self._adjusting(world, rs)
+            self._merging(world, rs)
+            return
+        lay = world.layout
+        p = self.p
+        i64 = np.int64
+        divide, act, pending, settled, bounds, pairs = regroup_pass(
+            rows, sizes, nf, np.fromiter([S["state"] == "lc" for S in subs], dtype=bool, count=K),
+            np.fromiter([S["leg"] for S in subs], dtype=i64, count=K),
+            np.fromiter([S["mv"] for S in subs], dtype=i64, count=K),
+            np.fromiter([S["state"] == "adjusted" for S in subs], dtype=bool, count=K), rs.u, rs.dist,
+            float(lay.R2), f.vid, f.fslot, f.ref, f.xg, f.klane, f.tlane, f.lc_lane, lay.conflict, float(lay.R1),
+            float(p.merge_range), int(p.max_node_size))
+        q_f = sum(map(len, f_members))
+        if np.count_nonzero(divide):
+            self._divide_marked(world, rs, todo, rows[:q_f], sizes[:nf], divide)
+            self._adjusting(world, rs)
+            self._merging(world, rs)
+            return
+        if len(act) and self._adjust_marked(world, subs, rows[q_f:], sizes[nf:], pending, settled, act):
+            self._merging(world, rs)
+            return
+        if not K:
+            return
+        s_sizes = sizes[nf:]
+        dmin, dmax = bounds.tolist()
+        for arr in (bounds, s_sizes):  # (kept: read-only, as _sub_table keeps them)
+            arr.setflags(write=False)
+        self._sub_distances_kept = ((f.vid, rs, *s_members), (dmin, dmax, bounds, s_sizes))
+        for a, b in pairs.tolist():
+            self._merge(world, rs, subs[a], subs[b])
+
+    def _swap_crossed_targets(self, S, f, rows) -> bool:
         """Two members of one sub-formation that each wait to change into the
         lane the other is in exchange their targets (lane and slot).
 
@@ -356,10 +432,11 @@ class Regrouping:
         veh/h, seed 0: two members 2.6 m apart in lanes 1 and 2, each
         assigned the other's lane at division, stood from the warm-up to the
         end of the run and 92 vehicles jammed behind them).  The division's
-        assignment (Sec. 3.2's cost) is kept everywhere else."""
+        assignment (Sec. 3.2's cost) is kept everywhere else. Returns
+        whether two exchanged."""
         pend = flatnonzero((f.klane[rows] != f.tlane[rows]) & (f.lc_lane[rows] < 0))
         if len(pend) < 2:
-            return
+            return False
         done = set()
         for ia, a in enumerate(pend):
             if a in done:
@@ -375,6 +452,7 @@ class Regrouping:
                 break
         if done:
             S["members"] = [int(v) for v in f.vid[rows[np.argsort(f.tidx[rows], kind="stable")]]]
+        return bool(done)
 
     def _sub_distances(self, f, rs) -> tuple[list, list, list, list]:
         """``(ids, sub-formations, least, largest distance to the centre of

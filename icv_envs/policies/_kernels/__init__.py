@@ -62,6 +62,7 @@ from icv_envs.policies._kernels.regrouping import (
     lane_change_ready,
     lane_change_state,
     merge_pairs,
+    regroup_pass,
     segment_bounds,
     stuck_in_zone,
 )
@@ -96,5 +97,5 @@ __all__ = ["anticipated_references", "detach_candidates", "box_obstacle_rows", "
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
            "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
            "approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_starts", "lane_change_state", "lane_changes_ended", "lane_end_escape", "merge_pairs", "lane_speed_rows", "nodes_cleared", "normalised_actions", "observation_references",
-           "platoon_accelerations", "platoon_actions_rows", "preview_points", "repair_order", "safety_cap", "segment_bounds", "stop_flags", "stop_line_caps", "stuck_in_zone", "tree_layers",
+           "platoon_accelerations", "platoon_actions_rows", "preview_points", "regroup_pass", "repair_order", "safety_cap", "segment_bounds", "stop_flags", "stop_line_caps", "stuck_in_zone", "tree_layers",
            "tree_references", "virtual_caps", "vp_references", "vp_tree", "zone_orphans"]

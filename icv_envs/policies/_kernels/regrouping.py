@@ -7,7 +7,8 @@ ready (:func:`lane_change_gaps`), the merging (:func:`merge_pairs`), the
 vehicles stuck out of their lane inside ``R1`` (:func:`stuck_in_zone`), the
 lane changes that end
 (:func:`lane_change_progress`), the sub-formations' distance bounds
-(:func:`segment_bounds`). Rules:
+(:func:`segment_bounds`); the approach, the adjusting's test and the
+merging's in one call (:func:`regroup_pass`). Rules:
 :mod:`icv_envs.policies._kernels`.
 """
 
@@ -21,7 +22,7 @@ from icv_envs.policies._kernels.lane_changes import _idm_interaction
 from icv_envs.sim._kernels.physics import npy_maximum, npy_minimum
 
 __all__ = ["approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_state",
-           "merge_pairs", "segment_bounds", "stuck_in_zone"]
+           "merge_pairs", "regroup_pass", "segment_bounds", "stuck_in_zone"]
 
 
 @nb.njit(cache=True)
@@ -338,3 +339,67 @@ def stuck_in_zone(phase, lc_lane, dist, R1, coordinated, klane, tlane):
             out[m] = i
             m += 1
     return out[:m]
+
+
+@nb.njit(cache=True)
+def _crossed_pair(rows, klane, tlane, lc_lane):
+    """Whether two members (``rows``) wait to change lanes (none under way,
+    not in their target lane) each into the lane the other is in: the
+    first exchange ``Regrouping._swap_crossed_targets`` makes (it makes one
+    whenever such a pair exists)."""
+    m = rows.shape[0]
+    for a in range(m):
+        ra = rows[a]
+        if not (klane[ra] != tlane[ra] and lc_lane[ra] < 0):
+            continue
+        for b in range(a + 1, m):
+            rb = rows[b]
+            if klane[rb] != tlane[rb] and lc_lane[rb] < 0 and klane[ra] == tlane[rb] and klane[rb] == tlane[ra]:
+                return True
+    return False
+
+
+@nb.njit(cache=True)
+def regroup_pass(rows, sizes, n_form, is_lc, leg, mv, adjusted, u, dist, R2, vid, fslot, ref, xg, klane, tlane, lc_lane,
+                 conflict, R1, merge_range, max_node_size):
+    """:meth:`icv_envs.policies.regrouping.Regrouping._regroup`'s kernels in
+    one call (from stop 47), over one table of groups (members in ``rows``,
+    group ``k`` the next ``sizes[k] >= 1``): the first ``n_form`` the
+    formations not yet divided, the rest every sub-formation in
+    ``self.subs`` order (``is_lc``, ``leg``, ``mv``, ``adjusted`` of
+    those). In order, each with the arguments of its separate call:
+
+    * :func:`approach_fronts` of the formations (``ref``, ``xg`` written in
+      place; the mask of those to divide);
+    * :func:`lane_change_state` of the sub-formations changing lanes
+      (``is_lc``; computed for all, each one's on its own rows): the
+      indices (into the sub-formations) of those settled or with two
+      members waiting to change into each other's lanes (the exchange of
+      ``Regrouping._swap_crossed_targets``: two waiting members that do not
+      cross change nothing there), the adjusting's work (``act``), with
+      their ``pending`` and ``settled``;
+    * :func:`segment_bounds` of the sub-formations and :func:`merge_pairs`
+      on them, valid when nothing above is to be done (no division, ``act``
+      empty: the sub-formations are then what the merging reads).
+
+    Returns ``(divide, act, pending, settled, bounds, pairs)``."""
+    q_f = 0
+    for k in range(n_form):
+        q_f += sizes[k]
+    divide = approach_fronts(rows[:q_f], sizes[:n_form], u, dist, R2, vid, fslot, ref, xg)
+    s_rows = rows[q_f:]
+    s_sizes = sizes[n_form:]
+    pending, settled = lane_change_state(s_rows, s_sizes, klane, tlane, lc_lane)
+    ns = s_sizes.shape[0]
+    act = np.empty(ns, dtype=np.int64)
+    m = 0
+    q0 = 0
+    for k in range(ns):
+        if is_lc[k] and (settled[k] or (pending[k] >= 2 and _crossed_pair(s_rows[q0:q0 + s_sizes[k]], klane, tlane,
+                                                                          lc_lane))):
+            act[m] = k
+            m += 1
+        q0 += s_sizes[k]
+    bounds = segment_bounds(s_rows, s_sizes, dist)
+    pairs = merge_pairs(leg, mv, bounds[0], bounds[1], adjusted, s_sizes, conflict, R1, merge_range, max_node_size)
+    return divide, act[:m], pending, settled, bounds, pairs

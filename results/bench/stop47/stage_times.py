@@ -1,6 +1,6 @@
 """Real time per stage of the intersection's array-path step (stop 47):
 selected methods wrapped by a perf_counter timer (about 0.2 us per call;
-not the hooks of the expert's one-call compute, whose wrapping would turn it off),
+not the hooks of the expert's one-call paths, whose wrapping would turn them off),
 inclusive times in us per step."""
 import collections, sys, time
 from icv_envs.envs.intersection_v0 import parallel_env
@@ -10,9 +10,9 @@ core = env.core
 while core.world.time < 100 - 1e-9:
     env.step_rows(core.expert_actions())
 E = type(core.expert); C = type(core); W = type(core.world)
-names = {E: ["update", "compute", "_prune", "_lane_change_progress", "_approach_and_division", "_adjusting", "_merging",
+names = {E: ["update", "compute", "_prune", "_lane_change_progress", "_regroup",
              "_reroute_stuck", "_coordinate", "_start_lane_changes", "_references", "tree", "_detach_inverted",
-             "references", "_apply_yields", "_signals", "_member_rows", "_sub_table"],
+             "references", "_apply_yields", "_signals", "_member_rows"],
          C: ["_advance", "_react", "_post_rows", "_spawn_due", "_feature_args", "_reward_args", "_before_physics", "_leaders", "ma_step_rows"],
          W: ["substeps", "route"]}
 tot = collections.Counter(); cnt = collections.Counter()
