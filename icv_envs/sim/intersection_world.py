@@ -358,11 +358,16 @@ class IntersectionWorld:
         stt["vehicle_steps"] += nv * ran
         stt["speed_sum"], stt["abs_accel_sum"], stt["min_speed_in_box"] = ss, sa, mn
         if len(trans):
+            # each frame's events (rows in frame order) at its time; a frame
+            # without events changes nothing there (from stop 47 it is not
+            # called: every call sets the same ``busy``)
             tf = trans[:, 0].tolist()
+            n_t = len(tf)
             q = 0
-            for fr in range(ran):
-                q1 = q
-                while q1 < len(tf) and tf[q1] == fr:
+            while q < n_t:
+                fr = tf[q]
+                q1 = q + 1
+                while q1 < n_t and tf[q1] == fr:
                     q1 += 1
                 self.pet.apply(times[fr], busy, trans[q:q1, 1:])
                 q = q1
