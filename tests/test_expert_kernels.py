@@ -1569,7 +1569,7 @@ def test_lane_change_gaps_equal_the_replaced_array_code_on_runs(monkeypatch, met
     call of ``_start_lane_changes`` with ready vehicles on runs: the same
     lengths, accepted changes and yield pairs; the runs reach refusals,
     yields and dropped side-by-side starts."""
-    import icv_envs.policies.regrouping as RG
+    import icv_envs.policies.lane_changes_regrouping as RG  # (its module since stop 47)
 
     real = RG.lane_change_gaps
     seen = {"calls": 0, "refused": 0, "yields": 0, "started": 0}
