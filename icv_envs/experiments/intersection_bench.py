@@ -14,6 +14,20 @@ all seeds together and per seed, next to the reference measured for this
 project: MetaDrive's multi-agent intersection at about 67 env steps/s with
 about 20 agents, i.e. about 1,430 agent-steps/s.
 
+``api`` (``--api``, from stop 47; as ``bench highway-ramps --vs-sumo``'s):
+``dicts`` (the default: PettingZoo's dicts, every info key, the expert's
+action read from each agent's info), ``lean`` (PettingZoo's dicts without
+per-step info keys: ``info_keys=[]``, ``expert_in_info=False``; the loop
+asks ``expert_actions()`` for the dict of actions) or ``rows`` (the array
+path, :meth:`~icv_envs.envs.parallel.CoreParallelEnv.step_rows`, with the
+core's ``expert_actions()`` rows). All three drive the same trajectory
+(``tests/test_intersection_compare.py``; over the bench's 600 s of seed 2
+the same states at every step); they differ in what the API costs. The
+expert's own statistics (``virtual_cap_binding`` and the other counters of
+``metrics()`` that count per state the expert is asked about) can differ
+by the last state: the dicts ask the expert about the final state too, for
+its agents' labels (seed 2: 3941 against 3940).
+
 Why a fixed warm-up and a long window (decided at stop 43): the arrivals
 come in formations, so the number of vehicles in the zones swings between
 about 30 and 85 at 2200 veh/h (seed 0: 50 s means from 34 to 66 between
