@@ -51,12 +51,16 @@ class PlatoonControl:
         """Normalised actions ``(n, 2)`` for every vehicle (rows in fleet
         order): the steering (:meth:`_steering`), the longitudinal law
         (:meth:`_longitudinal`) and the safety envelope over it
-        (:meth:`_envelope`), normalised. While the steering, the envelope
-        and the turn signals are this class's own, in one compiled call
-        (:func:`~icv_envs.policies._kernels.platoon_actions_rows`, from stop
-        47: the same kernels with the same arguments in their order; the
-        longitudinal law too unless it is replaced), with the envelope's
-        path obstacles added in Python when a vehicle stands in the box."""
+        (:meth:`_envelope`), normalised. While the steering and the
+        envelope (its leader caps, its end and the path obstacles:
+        ``PlatoonExpert._ONE_CALL_HOOKS``) are this class's own, in one
+        compiled call (:func:`~icv_envs.policies._kernels.platoon_actions_rows`,
+        from stop 47: the same kernels with the same arguments in their
+        order; the longitudinal law too unless it is replaced; the turn
+        signals, groups and coordination flags from their hooks), with the
+        envelope's path obstacles added in Python when a vehicle stands in
+        the box. The one-call path repeats the separate calls' arguments:
+        ``tests/test_platoon_one_call.py`` holds the two equal step by step."""
         f = world.fleet
         if f.n == 0:
             return np.zeros((0, 2))
