@@ -36,6 +36,10 @@ _EMPTY_I = np.zeros(0, dtype=np.int64)
 _EMPTY_B = np.zeros(0, dtype=bool)
 for _a in (_EMPTY_F, _EMPTY_I, _EMPTY_B):
     _a.setflags(write=False)
+#: ``(free_pow, mode, xref, vref, tight, vcap)`` for a longitudinal law the one-call path does not run
+_UNUSED_LONG = (_EMPTY_F, _EMPTY_I, _EMPTY_F, _EMPTY_F, _EMPTY_B, _EMPTY_F)
+#: the speed below which a vehicle in the box is an obstacle (:meth:`PlatoonControl._path_obstacles`' default)
+_V_STOPPED = 1.0
 
 
 class PlatoonControl:
@@ -59,8 +63,9 @@ class PlatoonControl:
         order; the longitudinal law too unless it is replaced; the turn
         signals, groups and coordination flags from their hooks), with the
         envelope's path obstacles added in Python when a vehicle stands in
-        the box. The one-call path repeats the separate calls' arguments:
-        ``tests/test_platoon_one_call.py`` holds the two equal step by step."""
+        the box. Both paths take their arguments from the same builders
+        (:meth:`_steering_args` and the others); ``tests/test_platoon_one_call.py``
+        holds them equal step by step."""
         f = world.fleet
         if f.n == 0:
             return np.zeros((0, 2))
@@ -79,39 +84,24 @@ class PlatoonControl:
 
     def _compute_one_call(self, world, rs) -> np.ndarray:
         """:meth:`compute` through :func:`~icv_envs.policies._kernels.platoon_actions_rows`
-        (its docstring): the arguments of :meth:`_steering`,
-        :meth:`_longitudinal` (or its result, when replaced),
-        :meth:`_envelope` and :meth:`_envelope_pairs`, in one call."""
+        (its docstring), from the argument builders the separate calls use:
+        :meth:`_steering_args`, :meth:`_longitudinal_args` (or the replaced
+        law's accelerations), the index without signals and the signals of
+        :meth:`_envelope`, :meth:`_envelope_pairs_args`, the stopped-vehicle
+        test of :meth:`_path_obstacles` and :meth:`_stop_line_args`."""
         p = self.p
         f = world.fleet
-        lay = world.layout
-        n = f.n
         if own_hooks(self, self._LONGITUDINAL_HOOK):
-            acc_given = _EMPTY_F
-            free_pow = (f.speed / np.maximum(p.v0, 0.1)) ** 4.0
-            vcap = self._vcap if len(self._vcap) == n else np.zeros(n)
-            mode, xref, vref, tight = self._mode, self._xref, self._vref, self._tight
-        else:  # (a longitudinal law of its own: its accelerations, the rest unused)
+            acc_given, long_args = _EMPTY_F, self._longitudinal_args(world, rs)
+        else:  # (a longitudinal law of its own: its accelerations; the base law's arguments unused)
             acc_given = np.ascontiguousarray(self._longitudinal(world, rs), dtype=np.float64)
-            free_pow = vcap = xref = vref = _EMPTY_F
-            mode, tight = _EMPTY_I, _EMPTY_B
+            long_args = self._longitudinal_args(world, rs, _UNUSED_LONG)
         base = Corridors.plain(world, rs)
-        b = abs(p.a_min)
-        tau = p.cap_tau
-        co = self._coordinated(f) | (rs.phase == 2)
         done, actions, W, binding, passed, n_other, n_member = platoon_actions_rows(
-            f.x, f.y, f.heading, f.speed, f.klane, f.mv, rs.pid, rs.phase, rs.s, rs.u, f.lc_lane, f.lc_u0, f.lc_lat0,
-            f.lc_lat1, f.lc_len, f.leg, lay.L, lay.P0, lay.D0, lay.P1, lay.D1, lay.arc, lay.TH0, lay.SGN, lay.R,
-            lay.C, float(lay.box_half), lay.out, lay.app_dir, lay.app_right, float(lay.lane_width),
-            float(p.preview_min), float(p.preview_time), float(p.wheelbase), float(p.steer_max),
-            acc_given, free_pow, float(min(p.a_max, p.comfort[1])), float(p.idm_b), float(p.idm_T), float(p.idm_s0),
-            mode, MODE_FOLLOW, MODE_TREE, rs.X, xref, vref, tight, vcap, float(p.ref_error_clip), float(p.kp),
-            float(p.kv), float(p.comfort[0]), float(p.comfort[1]), float(p.a_min), float(p.a_max),
-            base.rows, base.corr, base.coord, base.keys, np.asarray(self._signals(f), dtype=np.int64), Corridors.BIG,
-            f.length, np.asarray(self._group(f), dtype=np.int64), np.asarray(co, dtype=bool), float(p.member_T),
-            float(p.member_s0), float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(b), float(tau), float((b * tau) ** 2),
-            bool(p.envelope_in_box), rs.L, 1.0, self._stop, float(p.stop_margin), float(np.sqrt(p.a_max * p.idm_b)),
-            0.5)
+            *self._steering_args(world, rs), acc_given, *long_args, base.rows, base.corr, base.coord, base.keys,
+            np.asarray(self._signals(f), dtype=np.int64), Corridors.BIG,
+            *self._envelope_pairs_args(f, rs, bool(p.envelope_in_box)), rs.L, _V_STOPPED,
+            *self._stop_line_args(world, rs))
         st = self.stats
         st["virtual_cap_binding"] += int(binding)
         st["signal_alongside_passed"] += int(passed)
@@ -129,16 +119,20 @@ class PlatoonControl:
         """Pure-pursuit steering along the kept lane, the lane-change curve or
         the path through the box (compiled: :func:`icv_envs.policies._kernels.box_steering`;
         the array code it replaced is its reference in ``tests/test_box_steering.py``)."""
+        return box_steering(*self._steering_args(world, rs))
+
+    def _steering_args(self, world, rs) -> tuple:
+        """:func:`~icv_envs.policies._kernels.box_steering`'s arguments (for
+        :meth:`_steering` and the one-call path)."""
         p = self.p
         f = world.fleet
         lay = world.layout
         # (unchecked: the parameters were checked once, _check_params; the
         # states are finite float64 arrays)
-        return box_steering(f.x, f.y, f.heading, f.speed, f.klane, f.mv, rs.pid, rs.phase, rs.s, rs.u, f.lc_lane,
-                            f.lc_u0, f.lc_lat0, f.lc_lat1, f.lc_len, f.leg, lay.L, lay.P0, lay.D0, lay.P1, lay.D1,
-                            lay.arc, lay.TH0, lay.SGN, lay.R, lay.C, float(lay.box_half), lay.out, lay.app_dir,
-                            lay.app_right, float(lay.lane_width), float(p.preview_min), float(p.preview_time),
-                            float(p.wheelbase), float(p.steer_max))
+        return (f.x, f.y, f.heading, f.speed, f.klane, f.mv, rs.pid, rs.phase, rs.s, rs.u, f.lc_lane, f.lc_u0,
+                f.lc_lat0, f.lc_lat1, f.lc_len, f.leg, lay.L, lay.P0, lay.D0, lay.P1, lay.D1, lay.arc, lay.TH0, lay.SGN,
+                lay.R, lay.C, float(lay.box_half), lay.out, lay.app_dir, lay.app_right, float(lay.lane_width),
+                float(p.preview_min), float(p.preview_time), float(p.wheelbase), float(p.steer_max))
 
     def _longitudinal(self, world, rs) -> np.ndarray:
         """Every vehicle the IDM without a leader; followers (``MODE_FOLLOW``)
@@ -150,19 +144,28 @@ class PlatoonControl:
         (:func:`icv_envs.policies._kernels.platoon_accelerations`, the
         arithmetic of the array code it replaced, frozen in
         ``tests/test_expert_kernels.py``); the IDM's power from numpy."""
+        acc, binding = platoon_accelerations(*self._longitudinal_args(world, rs))
+        self.stats["virtual_cap_binding"] += int(binding)
+        return acc
+
+    def _longitudinal_args(self, world, rs, unused: tuple | None = None) -> tuple:
+        """:func:`~icv_envs.policies._kernels.platoon_accelerations`'
+        arguments (for :meth:`_longitudinal` and the one-call path; with
+        ``unused``, the one-call path of an expert whose law is its own:
+        empty arrays ``(free_pow, mode, xref, vref, tight, vcap)`` in place
+        of the per-vehicle inputs, which it does not read)."""
         p = self.p
         f = world.fleet
         v = f.speed
-        free_pow = (v / np.maximum(p.v0, 0.1)) ** 4.0
-        n = f.n
-        vcap = self._vcap if len(self._vcap) == n else np.zeros(n)
-        acc, binding = platoon_accelerations(
-            v, free_pow, float(min(p.a_max, p.comfort[1])), float(p.idm_b), float(p.idm_T), float(p.idm_s0),
-            self._mode, MODE_FOLLOW, MODE_TREE, rs.u, rs.X, self._xref, self._vref, self._tight, vcap,
-            float(p.ref_error_clip), float(p.kp), float(p.kv), float(p.comfort[0]), float(p.comfort[1]),
-            float(p.a_min), float(p.a_max))
-        self.stats["virtual_cap_binding"] += int(binding)
-        return acc
+        if unused is None:
+            free_pow = (v / np.maximum(p.v0, 0.1)) ** 4.0
+            vcap = self._vcap if len(self._vcap) == f.n else np.zeros(f.n)
+            mode, xref, vref, tight = self._mode, self._xref, self._vref, self._tight
+        else:
+            free_pow, mode, xref, vref, tight, vcap = unused
+        return (v, free_pow, float(min(p.a_max, p.comfort[1])), float(p.idm_b), float(p.idm_T), float(p.idm_s0),
+                mode, MODE_FOLLOW, MODE_TREE, rs.u, rs.X, xref, vref, tight, vcap, float(p.ref_error_clip),
+                float(p.kp), float(p.kv), float(p.comfort[0]), float(p.comfort[1]), float(p.a_min), float(p.a_max))
 
     def _envelope(self, world, rs, acc_ref) -> np.ndarray:
         """IDM interaction cap towards the leader in every corridor (module docstring)."""
@@ -214,29 +217,41 @@ class PlatoonControl:
         # binds, towards another group's leader or a member's (compiled:
         # policies/_kernels.stop_line_caps, from stop 41; the array code it
         # replaced is frozen in tests/test_box_steering.py)
-        n_other, n_member = stop_line_caps(self._stop, rs.u, f.length, f.speed, float(p.stop_margin),
-                                           float(p.a_max), float(np.sqrt(p.a_max * p.idm_b)), float(p.idm_T), 0.5,
-                                           cap, cap_other, rs.phase, acc_ref)
+        n_other, n_member = stop_line_caps(*self._stop_line_args(world, rs), cap, cap_other, rs.phase, acc_ref)
         self.stats["envelope_box_binding"] += n_other
         self.stats["envelope_box_binding_member"] += n_member
+
+    def _stop_line_args(self, world, rs) -> tuple:
+        """:func:`~icv_envs.policies._kernels.stop_line_caps`' arguments
+        before the caps (the IDM's interaction term towards the stop line,
+        ``s0 = 0.5 m``)."""
+        p = self.p
+        f = world.fleet
+        return (self._stop, rs.u, f.length, f.speed, float(p.stop_margin), float(p.a_max),
+                float(np.sqrt(p.a_max * p.idm_b)), float(p.idm_T), 0.5)
 
     def _envelope_pairs(self, f, rs, cor, in_box: bool, cap, cap_other) -> int:
         """Lower ``cap`` and ``cap_other`` in place towards the leaders of the
         corridor index ``cor`` (:func:`icv_envs.policies._kernels.envelope_pairs`;
         the box included when ``in_box``); returns the number of signal-only
         leaders alongside that were passed."""
+        return int(envelope_pairs(cor.lead, cor.coord, cor.rows, cor.signal_only,
+                                  *self._envelope_pairs_args(f, rs, in_box), cap, cap_other))
+
+    def _envelope_pairs_args(self, f, rs, in_box: bool) -> tuple:
+        """:func:`~icv_envs.policies._kernels.envelope_pairs`' arguments
+        between the corridor index and the caps (for :meth:`_envelope_pairs`
+        and the one-call path)."""
         p = self.p
         b = abs(p.a_min)
         tau = p.cap_tau
         co = self._coordinated(f) | (rs.phase == 2)
-        return int(envelope_pairs(
-            cor.lead, cor.coord, cor.rows, cor.signal_only, f.length, f.speed,
-            np.asarray(self._group(f), dtype=np.int64), np.asarray(co, dtype=bool), rs.phase, float(p.member_T),
-            float(p.idm_T), float(p.member_s0), float(p.idm_s0), float(p.a_max), float(p.idm_b),
-            float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(b), float(tau), float((b * tau) ** 2), bool(in_box), cap,
-            cap_other))
+        return (f.length, f.speed, np.asarray(self._group(f), dtype=np.int64), np.asarray(co, dtype=bool), rs.phase,
+                float(p.member_T), float(p.idm_T), float(p.member_s0), float(p.idm_s0), float(p.a_max),
+                float(p.idm_b), float(2.0 * np.sqrt(p.a_max * p.idm_b)), float(b), float(tau), float((b * tau) ** 2),
+                bool(in_box))
 
-    def _path_obstacles(self, world, rs, v_stopped: float = 1.0, look: float = 60.0):
+    def _path_obstacles(self, world, rs, v_stopped: float = _V_STOPPED, look: float = 60.0):
         """Pairs ``(vehicle, obstacle, bumper gap, obstacle speed)``: a vehicle
         slower than ``v_stopped`` in the box (or within 10 m past it) whose
         body covers the path of a vehicle approaching (within 40 m of the

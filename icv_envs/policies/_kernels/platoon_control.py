@@ -253,24 +253,27 @@ def box_obstacle_rows(phase, s, L, speed, v_stopped):
 def platoon_actions_rows(x, y, heading, speed, klane, mv, pid, phase, s, u, lc_lane, lc_u0, lc_lat0, lc_lat1, lc_len,
                          leg, L, P0, D0, P1, D1, arc, TH0, SGN, R, C, box_half, out, app_dir, app_right, lane_width,
                          preview_min, preview_time, wheelbase, steer_max,
-                         acc_given, free_pow, a_free, idm_b, idm_T, idm_s0, mode, mode_follow, mode_tree, X, xref,
+                         acc_given, l_v, free_pow, a_free, l_b, l_T, l_s0, mode, mode_follow, mode_tree, l_u, X, xref,
                          vref, tight, vcap, clip_err, kp, kv, comfort_lo, comfort_hi, a_min, a_max,
                          b_rows, b_corr, b_coord, b_keys, signal_lane, big,
-                         length, grp, co, member_T, member_s0, sqrt_ab2, gipps_b, gipps_tau, gipps_bt2, in_box,
+                         e_length, e_speed, grp, co, e_phase, member_T, e_T, member_s0, e_s0, e_a_max, e_b, sqrt_ab2,
+                         gipps_b, gipps_tau, gipps_bt2, in_box,
                          route_L, v_stopped,
-                         stop, stop_margin, sqrt_ab, stop_s0):
+                         stop, s_u, s_length, s_speed, stop_margin, s_a_max, sqrt_ab, s_T, s_s0):
     """:meth:`icv_envs.policies.platoon_control.PlatoonControl.compute` in
-    one call (from stop 47), each kernel with the arguments its separate
-    call gets, in their order: :func:`box_steering` (``x`` ..
-    ``steer_max``); :func:`platoon_accelerations` (``speed``, ``free_pow``
-    .. ``a_max``, ``u``, ``X``), unless ``acc_given`` holds one acceleration
-    per vehicle (an expert whose longitudinal law is its own, FCFS's);
+    one call (from stop 47), each kernel with the arguments of its separate
+    call, in their order: :func:`box_steering` (``x`` .. ``steer_max``);
+    :func:`platoon_accelerations` (``l_v`` .. ``a_max``), unless
+    ``acc_given`` holds one acceleration per vehicle (an expert whose
+    longitudinal law is its own, FCFS's);
     :func:`~icv_envs.policies._kernels.corridors.corridor_add_signals` of
-    the index without signals (``b_rows`` .. ``b_keys``, ``signal_lane``,
-    ``big``); :func:`envelope_pairs` on the caps ``inf``; then, when
+    the index without signals (``b_rows`` .. ``b_keys``, with ``phase``,
+    ``leg``, ``s``, ``signal_lane``, ``big``); :func:`envelope_pairs`
+    (``e_length`` .. ``in_box``) on the caps ``inf``; then, when
     :func:`box_obstacle_rows` finds no vehicle stopped in or just past the
-    box (``route_L``, ``v_stopped``: nothing on anybody's path, most
-    steps), :func:`stop_line_caps` (``stop`` .. ``stop_s0``) and the
+    box (``phase``, ``s``, ``route_L``, ``speed``, ``v_stopped``: nothing on
+    anybody's path, most steps), :func:`stop_line_caps` (``stop`` ..
+    ``s_s0``, then the caps, ``phase`` and the accelerations) and the
     actions ``normalised_actions(clip(minimum(acc, cap), a_min, a_max),
     phi, ...)`` with numpy's ``minimum`` and ``clip`` (NaN kept; ``b`` on a
     tie).
@@ -291,9 +294,9 @@ def platoon_actions_rows(x, y, heading, speed, klane, mv, pid, phase, s, u, lc_l
     if acc_given.shape[0] == n:
         W[1] = acc_given
     else:
-        acc, binding = platoon_accelerations(speed, free_pow, a_free, idm_b, idm_T, idm_s0, mode, mode_follow,
-                                             mode_tree, u, X, xref, vref, tight, vcap, clip_err, kp, kv, comfort_lo,
-                                             comfort_hi, a_min, a_max)
+        acc, binding = platoon_accelerations(l_v, free_pow, a_free, l_b, l_T, l_s0, mode, mode_follow, mode_tree, l_u,
+                                             X, xref, vref, tight, vcap, clip_err, kp, kv, comfort_lo, comfort_hi,
+                                             a_min, a_max)
         W[1] = acc
     rows, corr, coord, keys, signal_only, lead = corridor_add_signals(b_rows, b_corr, b_coord, b_keys, phase, leg, s,
                                                                       signal_lane, big)
@@ -301,12 +304,13 @@ def platoon_actions_rows(x, y, heading, speed, klane, mv, pid, phase, s, u, lc_l
     cap_other = W[3]
     cap[:] = np.inf
     cap_other[:] = np.inf
-    passed = envelope_pairs(lead, coord, rows, signal_only, length, speed, grp, co, phase, member_T, idm_T, member_s0,
-                            idm_s0, a_max, idm_b, sqrt_ab2, gipps_b, gipps_tau, gipps_bt2, in_box, cap, cap_other)
+    passed = envelope_pairs(lead, coord, rows, signal_only, e_length, e_speed, grp, co, e_phase, member_T, e_T,
+                            member_s0, e_s0, e_a_max, e_b, sqrt_ab2, gipps_b, gipps_tau, gipps_bt2, in_box, cap,
+                            cap_other)
     if box_obstacle_rows(phase, s, route_L, speed, v_stopped).shape[0]:
         return False, np.empty((0, 2)), W, binding, passed, 0, 0
     acc = W[1]
-    n_other, n_member = stop_line_caps(stop, u, length, speed, stop_margin, a_max, sqrt_ab, idm_T, stop_s0, cap,
+    n_other, n_member = stop_line_caps(stop, s_u, s_length, s_speed, stop_margin, s_a_max, sqrt_ab, s_T, s_s0, cap,
                                        cap_other, phase, acc)
     a = np.empty(n)
     for i in range(n):
