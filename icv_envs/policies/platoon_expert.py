@@ -320,12 +320,10 @@ class PlatoonExpert(Regrouping, VirtualPlatoon, PlatoonControl):
         rs = world.route()
         self._prune(f)
         self._lane_change_progress(world, rs)
-        if own_hooks(self, _REGROUP_HOOKS):  # the three below with their kernels in one call (from stop 47)
+        if own_hooks(self, _REGROUP_HOOKS):  # the three steps with their kernels in one call (from stop 47)
             self._regroup(world, rs)
         else:
-            self._approach_and_division(world, rs)
-            self._adjusting(world, rs)
-            self._merging(world, rs)
+            self._regroup_steps(world, rs)
         rs = self._reroute_stuck(world, rs)
         self._coordinate(world, rs)
         self._start_lane_changes(world, rs)
@@ -512,5 +510,6 @@ PlatoonExpert._ONE_CALL_HOOKS = hook_table(PlatoonExpert, "_steering", "_envelop
                                            "_path_obstacles")
 PlatoonExpert._LONGITUDINAL_HOOK = hook_table(PlatoonExpert, "_longitudinal")
 # the regrouping's one-call path (Regrouping._regroup, from stop 47): taken while the three steps it stands
-# for and the merging's table are the class's own
-_REGROUP_HOOKS = hook_table(PlatoonExpert, "_approach_and_division", "_adjusting", "_merging", "_sub_table")
+# for (and their sequence, _regroup_steps) and the merging's table are the class's own
+_REGROUP_HOOKS = hook_table(PlatoonExpert, "_regroup_steps", "_approach_and_division", "_adjusting", "_merging",
+                            "_sub_table")

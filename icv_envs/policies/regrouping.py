@@ -242,6 +242,13 @@ class Regrouping(LaneChanges):
                 changed = True
         return changed
 
+    def _regroup_steps(self, world, rs) -> None:
+        """The regrouping's approach and division, adjusting and merging, as
+        separate calls (what :meth:`_regroup` stands for)."""
+        self._approach_and_division(world, rs)
+        self._adjusting(world, rs)
+        self._merging(world, rs)
+
     def _regroup(self, world, rs) -> None:
         """:meth:`_approach_and_division`, :meth:`_adjusting` and
         :meth:`_merging`, in this order, with their kernels in one call
@@ -265,20 +272,14 @@ class Regrouping(LaneChanges):
         f_members = [F["members"] for F in todo]
         rows, sizes = group_rows(f, f_members + s_members)
         if np.count_nonzero(sizes) < len(sizes):
-            self._approach_and_division(world, rs)
-            self._adjusting(world, rs)
-            self._merging(world, rs)
+            self._regroup_steps(world, rs)
             return
         lay = world.layout
         p = self.p
-        i64 = np.int64
         divide, act, pending, settled, bounds, pairs = regroup_pass(
             rows, sizes, nf, np.fromiter([S["state"] == "lc" for S in subs], dtype=bool, count=K),
-            np.fromiter([S["leg"] for S in subs], dtype=i64, count=K),
-            np.fromiter([S["mv"] for S in subs], dtype=i64, count=K),
-            np.fromiter([S["state"] == "adjusted" for S in subs], dtype=bool, count=K), rs.u, rs.dist,
-            float(lay.R2), f.vid, f.fslot, f.ref, f.xg, f.klane, f.tlane, f.lc_lane, lay.conflict, float(lay.R1),
-            float(p.merge_range), int(p.max_node_size))
+            *self._sub_columns(subs), rs.u, rs.dist, float(lay.R2), f.vid, f.fslot, f.ref, f.xg, f.klane, f.tlane,
+            f.lc_lane, lay.conflict, float(lay.R1), float(p.merge_range), int(p.max_node_size))
         q_f = sum(map(len, f_members))
         if np.count_nonzero(divide):
             self._divide_marked(world, rs, todo, rows[:q_f], sizes[:nf], divide)
@@ -290,11 +291,7 @@ class Regrouping(LaneChanges):
             return
         if not K:
             return
-        s_sizes = sizes[nf:]
-        dmin, dmax = bounds.tolist()
-        for arr in (bounds, s_sizes):  # (kept: read-only, as _sub_table keeps them)
-            arr.setflags(write=False)
-        self._sub_distances_kept = ((f.vid, rs, *s_members), (dmin, dmax, bounds, s_sizes))
+        self._keep_sub_table((f.vid, rs, *s_members), bounds, sizes[nf:])
         for a, b in pairs.tolist():
             self._merge(world, rs, subs[a], subs[b])
 
@@ -358,11 +355,26 @@ class Regrouping(LaneChanges):
         # (compiled: policies/_kernels.segment_bounds, from stop 41; the two
         # reduceat calls it replaced are its reference in tests/test_expert_kernels.py)
         bounds = segment_bounds(rows, sizes, rs.dist)
+        return (sids, subs, *self._keep_sub_table(key, bounds, sizes))
+
+    def _keep_sub_table(self, key: tuple, bounds: np.ndarray, sizes: np.ndarray) -> tuple:
+        """Keep the sub-formations' distance bounds and sizes for ``key``
+        (the fleet's rows, the route state and the member lists:
+        :meth:`_sub_table`), read-only; returns ``(dmin, dmax, bounds, sizes)``."""
         dmin, dmax = bounds.tolist()
-        for arr in (bounds, sizes):  # (kept: read-only)
+        for arr in (bounds, sizes):
             arr.setflags(write=False)
         self._sub_distances_kept = (key, (dmin, dmax, bounds, sizes))
-        return sids, subs, dmin, dmax, bounds, sizes
+        return dmin, dmax, bounds, sizes
+
+    @staticmethod
+    def _sub_columns(subs: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The merging's columns of sub-formations ``subs``: legs,
+        movements, and which are adjusted."""
+        K = len(subs)
+        return (np.fromiter([S["leg"] for S in subs], dtype=np.int64, count=K),
+                np.fromiter([S["mv"] for S in subs], dtype=np.int64, count=K),
+                np.fromiter([S["state"] == "adjusted" for S in subs], dtype=bool, count=K))
 
     def _merging(self, world, rs) -> None:
         p = self.p
@@ -376,13 +388,9 @@ class Regrouping(LaneChanges):
         # frozen in tests/test_expert_kernels.py), then the merges in that order
         # (a merge changes only the taker's members and state, which the
         # order's test reads as they were, the taker's size as it grows)
-        K = len(subs)
-        i64 = np.int64
-        pairs = merge_pairs(np.fromiter([S["leg"] for S in subs], dtype=i64, count=K),
-                            np.fromiter([S["mv"] for S in subs], dtype=i64, count=K),
-                            bounds[0], bounds[1],
-                            np.fromiter([S["state"] == "adjusted" for S in subs], dtype=bool, count=K), sizes,
-                            lay.conflict, float(lay.R1), float(p.merge_range), int(p.max_node_size))
+        leg, mv, adjusted = self._sub_columns(subs)
+        pairs = merge_pairs(leg, mv, bounds[0], bounds[1], adjusted, sizes, lay.conflict, float(lay.R1),
+                            float(p.merge_range), int(p.max_node_size))
         for a, b in pairs.tolist():
             self._merge(world, rs, subs[a], subs[b])
 
