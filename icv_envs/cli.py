@@ -36,6 +36,7 @@ from icv_envs._cli_args import (_HelpFormatter, _choice, _floats, _names, _nonne
 from icv_envs.envs.highway_ramps import METHODS as RAMP_METHODS
 from icv_envs.envs.intersection import METHODS as INTERSECTION_METHODS
 from icv_envs.envs.scenarios import SCENARIOS
+from icv_envs.experiments.bench import APIS
 from icv_envs.platoon.geometry import LANE_USE_PRESETS
 from icv_envs.policies import POLICIES
 
@@ -74,7 +75,7 @@ def _progress() -> bool:
     """Show progress bars only on a terminal (they go to stderr)."""
     return sys.stderr.isatty()
 BENCHES = ("highway-formation", "highway-ramps", "train", "intersection")
-API_CHOICES = ("dicts", "lean", "rows")  # bench highway-ramps --vs-sumo --api, bench intersection --api
+API_CHOICES = tuple(APIS)  # bench highway-ramps --vs-sumo --api, bench intersection --api
 COMPARES = ("highway-ramps", "intersection")
 
 

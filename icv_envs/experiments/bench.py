@@ -15,7 +15,15 @@ import time
 
 import numpy as np
 
-__all__ = ["bench_highway_formation", "time_icv", "time_highway_v0"]
+__all__ = ["bench_highway_formation", "time_icv", "time_highway_v0", "APIS"]
+
+#: how a bench's agents are stepped (``--api`` of ``bench highway-ramps
+#: --vs-sumo`` and ``bench intersection``), as the env's keyword arguments:
+#: PettingZoo's dicts with every info key (the default), PettingZoo's dicts
+#: without per-step info keys (``info_keys=[]``, ``expert_in_info=False``:
+#: the loop reads the expert itself), or the array path
+#: (:meth:`~icv_envs.envs.parallel.CoreParallelEnv.step_rows`)
+APIS = {"dicts": {}, "lean": {"info_keys": [], "expert_in_info": False}, "rows": {"expert_in_info": False}}
 
 
 def time_icv(n: int, seconds: float = 10.0, seed: int = 0, warmup: float = 1.0) -> dict:

@@ -45,19 +45,19 @@ import time
 
 import numpy as np
 
+from icv_envs.experiments.bench import APIS  # (how the agents are stepped, ``--api``: module docstring)
+
 __all__ = ["bench_intersection", "METADRIVE_AGENT_STEPS_PER_S", "APIS"]
 
 #: MetaDrive multi-agent intersection, measured for this project (about 67 env steps/s x 20 agents).
 METADRIVE_AGENT_STEPS_PER_S = 1430.0
 
-#: how the agents are stepped (``--api``; module docstring): the env's keyword arguments of each
-APIS = {"dicts": {}, "lean": {"info_keys": [], "expert_in_info": False}, "rows": {"expert_in_info": False}}
 
 
 def _stepper(env, api: str):
     """One step of the expert driving every agent through ``api``; the
-    dicts' stepper reads the expert's actions from the last infos
-    (``state["infos"]``, set by the caller after ``reset``)."""
+    dicts' stepper reads the expert's actions from the last infos (its
+    attribute ``infos``, set by the caller after ``reset``)."""
     if api == "rows":
         core = env.core
 

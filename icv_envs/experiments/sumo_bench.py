@@ -39,6 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
+from icv_envs.experiments.bench import APIS  # (how the ring's agents are stepped, ``--api``)
+
 __all__ = ["ramps_vs_sumo", "scaling", "time_icv_formation", "time_sumo"]
 
 
@@ -53,11 +55,6 @@ def _vehicle_steps(env) -> int:
     return int(motion.vehicle_steps) if motion is not None else int(w.stats["vehicle_steps"])
 
 
-#: how the ring's agents are stepped (``--api``): PettingZoo's dicts with
-#: every info key (the default), PettingZoo's dicts without per-step info keys
-#: (``info_keys=[]``, ``expert_in_info=False``: the loop reads the expert
-#: itself), or the array path (:meth:`~icv_envs.envs.parallel.CoreParallelEnv.step_rows`)
-APIS = {"dicts": {}, "lean": {"info_keys": [], "expert_in_info": False}, "rows": {"expert_in_info": False}}
 
 
 def _icv_steps(env, policy_steps: int, api: str = "dicts") -> None:

@@ -78,7 +78,7 @@ from pathlib import Path
 import numpy as np
 from gymnasium import spaces
 
-from icv_envs._args import check_flag
+from icv_envs._args import check_flag, check_int
 from icv_envs.envs.highway_ramps import METHODS as _RAMP_METHODS
 from icv_envs.envs.intersection import METHODS as _INTERSECTION_METHODS
 from icv_envs.rl.envs import (EnvSpec, episode_finished, make_gym_env, make_parallel_env, parse_config,
@@ -128,12 +128,6 @@ def _reference_config(spec: EnvSpec, name: str, config: dict) -> dict:
     return dict(config, method=name)
 
 
-def _check_int(name, v, lo):
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-        raise ValueError(f"{name} = {v!r} is invalid; allowed: an integer >= {lo}")
-    return int(v)
-
-
 def _check_drives(name: str, act_type) -> None:
     """The expert and the reference methods drive with the env's ``expert_action``
     (``[u_a, u_s]``): ``ValueError`` for an action type that has no form of it."""
@@ -168,8 +162,8 @@ def evaluate(env_id_or_module, policy, episodes: int = 5, seed: int = 0, config:
     the metrics dict (see the module docstring); with ``out``, also write
     ``out/eval.json``."""
     spec = resolve_env(env_id_or_module)
-    episodes = _check_int("episodes", episodes, 1)
-    seed = _check_int("seed", seed, 0)
+    episodes = check_int("episodes", episodes, 1)
+    seed = check_int("seed", seed, 0)
     if config is not None and not isinstance(config, dict):
         raise ValueError(f"config must be a dict or None, got {type(config).__name__}")
     check_flag("deterministic", deterministic)

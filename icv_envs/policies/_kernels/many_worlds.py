@@ -1,5 +1,5 @@
 """The highway expert's two neighbour passes over several worlds in one call
-(:func:`icv_envs.policies.formation_expert_many.expert_actions_many`, issue
+(:func:`icv_envs.policies.formation_expert_many.compute_many`, issue
 10 from stop 46).
 
 The worlds' state arrays are concatenated, world ``b`` holding rows
