@@ -7,7 +7,7 @@ import numba as nb
 import numpy as np
 
 from icv_envs.sim._kernels.formation import _wrap1
-from icv_envs.sim._kernels.intersection import arc_s1, box_collision_pairs_cs, intersection_events
+from icv_envs.sim._kernels.intersection import arc_s1, box_pairs_ordered, intersection_events
 from icv_envs.sim._kernels.neighbours import collision_pairs_cs
 from icv_envs.sim._kernels.physics import kinematic_substep_carry, road_check
 from icv_envs.sim._kernels.stats import motion_record, motion_sums_add, pet_transitions
@@ -168,7 +168,10 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     NumPy's), their conflict-area transitions
     (:func:`~icv_envs.sim._kernels.stats.pet_transitions`), the jam watch's
     standing times (``JamWatch.record``) and the collision pairs
-    (:func:`~icv_envs.sim._kernels.intersection.box_collision_pairs`).
+    (:func:`~icv_envs.sim._kernels.intersection.box_collision_pairs`, from
+    stop 48 as :func:`~icv_envs.sim._kernels.intersection.box_pairs_ordered`
+    with the rows' order along ``x`` kept from frame to frame: the same
+    pairs).
     It stops after the first frame in which something happened that the
     world handles in Python: a wrong exit, a vehicle clearing the box, a
     crash (a colliding pair or leaving the drivable surface), a vehicle
@@ -214,6 +217,7 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     dummy = np.zeros(n)
     jam_all = np.empty(n, dtype=np.int64)
     trig = np.empty((4, n))  # (cos, sin of the heading, steering, its tan: kinematic_substep_carry)
+    order = np.empty(0, dtype=np.int64)  # (the rows along x, sorted from frame to frame: box_pairs_ordered)
     for fr in range(n_frames):
         v_before = speed
         x, y, heading, speed, acc, st, _, cx, cy = kinematic_substep_carry(
@@ -261,7 +265,9 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
             else:
                 jam_sf[k] = 0.0
         jam_rows = jam_all[:n_jam].copy()
-        i, j = box_collision_pairs_cs(cx, cy, heading, trig[0], trig[1], length, width, box_half)
+        if fr == 0:
+            order = np.argsort(cx)
+        i, j = box_pairs_ordered(cx, cy, heading, trig[0], trig[1], length, width, box_half, order)
         event = n_jam > 0 or i.shape[0] > 0
         for q in range(n):
             if new_wrong[q] or clear_now[q] or (crash[q] and not crashed[q]) or ((removed[q] or left[q]) and not crashed[q]):

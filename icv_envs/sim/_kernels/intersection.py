@@ -14,7 +14,7 @@ import math
 import numba as nb
 import numpy as np
 
-from icv_envs.sim._kernels.neighbours import collision_pairs, collision_pairs_cs, cos_sin
+from icv_envs.sim._kernels.neighbours import _rect_overlap_cs, collision_pairs, collision_pairs_cs, cos_sin
 from icv_envs.sim._kernels.physics import npy_mod
 
 __all__ = ["intersection_events", "box_collision_pairs", "box_collision_pairs_cs", "rows_of_ids", "route_rows"]
@@ -164,10 +164,54 @@ def box_collision_pairs_cs(cx, cy, heading, ch, sh, length, width, box_half):
     """:func:`box_collision_pairs` with the headings' cosines ``ch`` and
     sines ``sh`` given (the physics frames have them, from stop 43): the
     sweep along ``x`` takes them; the one along ``y`` turns the headings
-    (``pi/2 - heading``) and takes their own."""
+    (``pi/2 - heading``) and takes their own.
+
+    From stop 48 the pairs are found as :func:`_box_pairs_bounded` finds
+    them (a pair of bodies too far apart for any heading is never tested,
+    and the turned headings' sines and cosines are taken only for the pairs
+    close enough, instead of for every vehicle of the sweep along ``y``:
+    the same pairs, 2-3x faster at the box's 50 vehicles); a non-finite
+    position, heading or size takes the two sweeps as before
+    (:func:`_box_pairs_sweeps`), whose NaN rules it keeps."""
     n = cx.shape[0]
     if n < 2:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    return box_pairs_ordered(cx, cy, heading, ch, sh, length, width, box_half, np.argsort(cx))
+
+
+@nb.njit(cache=True)
+def box_pairs_ordered(cx, cy, heading, ch, sh, length, width, box_half, order):
+    """:func:`box_collision_pairs_cs` given ``order``, a permutation of the
+    rows (any; the rows sorted along ``x`` are best), which is sorted along
+    ``x`` in place (insertion sort: linear when it was sorted a frame
+    before; :func:`~icv_envs.sim._kernels.frames.intersection_frames` keeps
+    it from frame to frame)."""
+    n = cx.shape[0]
+    if n < 2:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    for q in range(n):
+        if not (math.isfinite(cx[q]) and math.isfinite(cy[q]) and math.isfinite(heading[q])
+                and math.isfinite(ch[q]) and math.isfinite(sh[q]) and math.isfinite(length[q])
+                and math.isfinite(width[q])):
+            return _box_pairs_sweeps(cx, cy, heading, ch, sh, length, width, box_half)
+    for p in range(1, n):
+        a = order[p]
+        x = cx[a]
+        t = p
+        while t > 0 and cx[order[t - 1]] > x:
+            order[t] = order[t - 1]
+            t -= 1
+        order[t] = a
+    return _box_pairs_bounded(cx, cy, heading, ch, sh, length, width, box_half, order)
+
+
+@nb.njit(cache=True)
+def _box_pairs_sweeps(cx, cy, heading, ch, sh, length, width, box_half):
+    """The two sweeps of :func:`box_collision_pairs_cs` as written until
+    stop 47: along ``x`` over the vehicles on the east-west legs and in the
+    box region, along ``y`` over those on the north-south legs and in the
+    box region, joined, deduplicated and sorted."""
+    n = cx.shape[0]
     reach = box_half + 10.0
     keys = np.empty(0, dtype=np.int64)
     for swap in range(2):
@@ -196,6 +240,108 @@ def box_collision_pairs_cs(cx, cy, heading, ch, sh, length, width, box_half):
         return keys, keys.copy()
     keys = np.unique(keys)
     return keys // (n + 1), keys % (n + 1)
+
+
+@nb.njit(cache=True)
+def _box_pairs_bounded(cx, cy, heading, ch, sh, length, width, box_half, order):
+    """The pairs of :func:`_box_pairs_sweeps` for finite inputs, each
+    sweep's pair tested as that sweep tests it, but only the pairs a bound
+    leaves.
+
+    A sweep reports the pair ``(i, j)`` of its vehicles (``i`` first in its
+    stable order along its axis) when their boxes aligned with its axes
+    overlap (``d < h_i + h_j`` along the axis, ``|d'| < h'_i + h'_j``
+    across it, the half extents ``h = (l |cos| + w |sin|) / 2``, ``h' =
+    (l |sin| + w |cos|) / 2`` of its headings) and the separating-axis test
+    finds no gap; its reach, twice the largest ``h``, only stops the scan
+    where that overlap fails. Every half extent is at most ``r = (|l| +
+    |w|) / 2`` whatever the heading (``|cos|, |sin| <= 1``, and rounding is
+    monotone), so a pair farther apart than ``r_i + r_j`` along ``x`` or
+    ``y`` is in neither sweep's report. The pairs within those bounds (the
+    vehicles sorted along ``x``, each scanned against those after it while
+    the gap along ``x`` is below its own ``r`` plus the largest; ``order``
+    the rows sorted along ``x``) are tested
+    exactly as each sweep whose vehicles they both are tests them: its
+    half extents (the sweep along ``y`` with ``cos``, ``sin`` of ``pi/2 -
+    heading``, coordinates swapped), its overlap test in its operand order
+    and :func:`_rect_overlap_cs` with its first vehicle first. Returns the
+    pairs as ``(min, max)`` rows, sorted, each once."""
+    n = cx.shape[0]
+    reach = box_half + 10.0
+    r = np.empty(n)
+    sx = np.empty(n, dtype=np.bool_)
+    sy = np.empty(n, dtype=np.bool_)
+    rmax = 0.0
+    for q in range(n):
+        r[q] = 0.5 * (abs(length[q]) + abs(width[q]))
+        if r[q] > rmax:
+            rmax = r[q]
+        ax = abs(cx[q])
+        ay = abs(cy[q])
+        near = max(ax, ay) < reach
+        sx[q] = near or ax >= ay
+        sy[q] = near or ay > ax
+    keys = np.empty(0, dtype=np.int64)
+    m = 0
+    for p in range(n):
+        a = order[p]
+        for t in range(p + 1, n):
+            b = order[t]
+            gx = cx[b] - cx[a]
+            if not gx < r[a] + rmax:
+                break
+            rs = r[a] + r[b]
+            if not (gx < rs and abs(cy[b] - cy[a]) < rs):
+                continue
+            lo = min(a, b)
+            hi = max(a, b)
+            hit = False
+            if sx[a] and sx[b]:
+                hit = _sweep_pair(cx, cy, ch, sh, length, width, lo, hi)
+            if not hit and sy[a] and sy[b]:
+                ca = math.cos(0.5 * math.pi - heading[lo])
+                sa = math.sin(0.5 * math.pi - heading[lo])
+                cb = math.cos(0.5 * math.pi - heading[hi])
+                sb = math.sin(0.5 * math.pi - heading[hi])
+                hit = _sweep_pair2(cy[lo], cx[lo], ca, sa, length[lo], width[lo], cy[hi], cx[hi], cb, sb, length[hi],
+                                   width[hi], lo, hi)
+            if hit:
+                if m == keys.shape[0]:
+                    grown = np.empty(2 * m + 4, dtype=np.int64)
+                    grown[:m] = keys[:m]
+                    keys = grown
+                keys[m] = lo * (n + 1) + hi
+                m += 1
+    if not m:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    keys = np.unique(keys[:m])
+    return keys // (n + 1), keys % (n + 1)
+
+
+@nb.njit(cache=True, inline="always")
+def _sweep_pair(cx, cy, ch, sh, length, width, lo, hi):
+    """The sweep along ``x``'s test of rows ``lo < hi`` (:func:`_box_pairs_bounded`)."""
+    return _sweep_pair2(cx[lo], cy[lo], ch[lo], sh[lo], length[lo], width[lo], cx[hi], cy[hi], ch[hi], sh[hi],
+                        length[hi], width[hi], lo, hi)
+
+
+@nb.njit(cache=True, inline="always")
+def _sweep_pair2(x1, y1, c1, s1, l1, w1, x2, y2, c2, s2, l2, w2, lo, hi):
+    """One sweep's test of the pair of rows ``lo < hi`` in its coordinates
+    (``x`` along its axis): the overlap of the boxes aligned with its axes
+    as :func:`~icv_envs.sim._kernels.neighbours.sweep_candidates` computes
+    it (the gap from the vehicle first in the stable order along ``x``,
+    ``lo`` on a tie), then :func:`_rect_overlap_cs` with that vehicle
+    first."""
+    hx1 = 0.5 * (l1 * abs(c1) + w1 * abs(s1))
+    hy1 = 0.5 * (l1 * abs(s1) + w1 * abs(c1))
+    hx2 = 0.5 * (l2 * abs(c2) + w2 * abs(s2))
+    hy2 = 0.5 * (l2 * abs(s2) + w2 * abs(c2))
+    if x2 < x1:  # hi is first along x
+        return (x1 - x2 < hx1 + hx2 and abs(y1 - y2) < hy1 + hy2
+                and _rect_overlap_cs(x2, y2, c2, s2, l2, w2, x1, y1, c1, s1, l1, w1))
+    return (x2 - x1 < hx2 + hx1 and abs(y2 - y1) < hy2 + hy1
+            and _rect_overlap_cs(x1, y1, c1, s1, l1, w1, x2, y2, c2, s2, l2, w2))
 
 
 @nb.njit(cache=True)

@@ -190,16 +190,51 @@ def pet_transitions(vid, pid, s, length, lo, hi, occ, path, busy):
         if pid[i] < P:
             keep[m] = i
             m += 1
-    ids = np.empty(m + busy.shape[0], dtype=np.int64)
-    for q in range(m):
-        ids[q] = vid[keep[q]]
-    ids[m:] = busy
-    cand = np.unique(ids)
-    C = cand.shape[0]
+    # the candidates: the listed ids and ``busy``, sorted, each once; both
+    # lists ascending (the fleet's rows are sorted by id; ``busy`` is this
+    # function's output): merged, else sorted and searched as until stop 47
+    nb_ = busy.shape[0]
+    ascending = True
+    for q in range(1, m):
+        if not vid[keep[q]] > vid[keep[q - 1]]:
+            ascending = False
+            break
+    for q in range(1, nb_):
+        if not busy[q] > busy[q - 1]:
+            ascending = False
+            break
+    at = np.empty(m, dtype=np.int64)  # the candidate of each listed vehicle
+    if ascending:
+        cand = np.empty(m + nb_, dtype=np.int64)
+        C = 0
+        a = 0
+        b = 0
+        while a < m or b < nb_:
+            if b == nb_ or (a < m and vid[keep[a]] <= busy[b]):
+                v = vid[keep[a]]
+                if b < nb_ and busy[b] == v:
+                    b += 1
+                at[a] = C
+                a += 1
+            else:
+                v = busy[b]
+                b += 1
+            cand[C] = v
+            C += 1
+        cand = cand[:C]
+    else:
+        ids = np.empty(m + nb_, dtype=np.int64)
+        for q in range(m):
+            ids[q] = vid[keep[q]]
+        ids[m:] = busy
+        cand = np.unique(ids)
+        C = cand.shape[0]
+        for q in range(m):
+            at[q] = np.searchsorted(cand, vid[keep[q]])
     new = np.zeros((C, K), dtype=np.bool_)
     for q in range(m):
         i = keep[q]
-        c = np.searchsorted(cand, vid[i])
+        c = at[q]
         x = s[i]
         h = 0.5 * length[i]
         p = pid[i]
