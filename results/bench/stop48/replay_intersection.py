@@ -4,7 +4,7 @@ of the arguments it got, timed one call at a time; which kernels' own work
 (boundary included) fills an intersection step (stop 48). Run from the
 checkout's root: ``PYTHONPATH=<tree> python results/bench/stop48/replay_intersection.py [SEED]``."""
 import collections, sys, time
-sys.path.insert(0, "scripts")
+import os; sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "scripts"))
 import bench_kernel_boundary as bk
 from icv_envs.envs.intersection_v0 import parallel_env
 
