@@ -13,7 +13,6 @@ args = sys.argv[1:]
 old_dir = args[args.index("--old") + 1]
 args = [a for i, a in enumerate(args) if a != "--old" and (i == 0 or args[i - 1] != "--old")]
 sys.path.insert(0, old_dir)
-import numpy as np
 import oldkern.frames as oldf
 import icv_envs.sim.intersection_world as iw
 from icv_envs.envs.intersection_v0 import parallel_env
