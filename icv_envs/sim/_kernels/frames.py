@@ -8,7 +8,7 @@ import numpy as np
 
 from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.intersection import arc_s1, box_pairs_ordered, intersection_events
-from icv_envs.sim._kernels.neighbours import collision_pairs_cs
+from icv_envs.sim._kernels.neighbours import collision_pairs_kept
 from icv_envs.sim._kernels.physics import kinematic_substep_carry, road_check
 from icv_envs.sim._kernels.stats import motion_record, motion_sums_add, pet_transitions
 
@@ -43,6 +43,9 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     with the same controls, each the kernels that method calls in its order
     (:func:`kinematic_substep`, :func:`motion_record`,
     :func:`collision_pairs`, :func:`road_check`, then the exit tests; from
+    stop 48 the collision sweep's order along ``x`` is kept from frame to
+    frame, :func:`~icv_envs.sim._kernels.neighbours.collision_pairs_kept`,
+    the same order and pairs; from
     stop 43 the integration as :func:`kinematic_substep_carry`, whose
     headings' cosines and sines the collision test takes, the same numbers),
     stopping after the first substep in which something happened that the
@@ -86,6 +89,9 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     k = n_frames
     event = False
     trig = np.empty((4, n))  # (cos, sin of the heading, steering, its tan: kinematic_substep_carry)
+    # (the collision sweep's order along x and the ring's ghost rows, kept from frame to frame)
+    order = np.zeros(0, dtype=np.int64)
+    ghosts = np.zeros(0, dtype=np.int64)
     for f in range(n_frames):
         cx_before = cx
         v_before = speed
@@ -96,7 +102,7 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
         sums[f, 1] = sdv
         sums[f, 2] = sa
         stopped[f] = ns
-        i, j = collision_pairs_cs(cx, cy, trig[0], trig[1], length, width, period)
+        i, j, order, ghosts = collision_pairs_kept(cx, cy, trig[0], trig[1], length, width, period, order, ghosts)
         lane, off, at_end, n_off, n_end = road_check(cx, cy, lane_width, n_lanes, total_lanes, lane_ends, ob_lane,
                                                      ob_lo, ob_hi, ramp_iv, edge_margin, road_end)
         event = i.shape[0] > 0 or n_off > 0 or n_end > 0
