@@ -182,7 +182,10 @@ def pet_transitions(vid, pid, s, length, lo, hi, occ, path, busy):
     it returns the slots left, then the slots entered, each as ``(path,
     slot)`` pairs in increasing (id, slot) order (the left ones on their
     previous path), and the new ``busy``; the tables ``occ`` (per id, its
-    occupied slots) and ``path`` (per id, its path) are updated in place."""
+    occupied slots) and ``path`` (per id, its path) are updated in place.
+    The candidates are merged from the two lists when both are ascending
+    (the fleet's rows are sorted by id; from stop 48), else sorted and
+    searched (``np.unique``, ``np.searchsorted``): the same candidates."""
     P, K = lo.shape
     m = 0
     keep = np.empty(vid.shape[0], dtype=np.int64)
@@ -193,26 +196,26 @@ def pet_transitions(vid, pid, s, length, lo, hi, occ, path, busy):
     # the candidates: the listed ids and ``busy``, sorted, each once; both
     # lists ascending (the fleet's rows are sorted by id; ``busy`` is this
     # function's output): merged, else sorted and searched as until stop 47
-    nb_ = busy.shape[0]
+    n_busy = busy.shape[0]
     ascending = True
     for q in range(1, m):
         if not vid[keep[q]] > vid[keep[q - 1]]:
             ascending = False
             break
-    for q in range(1, nb_):
+    for q in range(1, n_busy):
         if not busy[q] > busy[q - 1]:
             ascending = False
             break
     at = np.empty(m, dtype=np.int64)  # the candidate of each listed vehicle
     if ascending:
-        cand = np.empty(m + nb_, dtype=np.int64)
+        cand = np.empty(m + n_busy, dtype=np.int64)
         C = 0
         a = 0
         b = 0
-        while a < m or b < nb_:
-            if b == nb_ or (a < m and vid[keep[a]] <= busy[b]):
+        while a < m or b < n_busy:
+            if b == n_busy or (a < m and vid[keep[a]] <= busy[b]):
                 v = vid[keep[a]]
-                if b < nb_ and busy[b] == v:
+                if b < n_busy and busy[b] == v:
                     b += 1
                 at[a] = C
                 a += 1
@@ -223,7 +226,7 @@ def pet_transitions(vid, pid, s, length, lo, hi, occ, path, busy):
             C += 1
         cand = cand[:C]
     else:
-        ids = np.empty(m + nb_, dtype=np.int64)
+        ids = np.empty(m + n_busy, dtype=np.int64)
         for q in range(m):
             ids[q] = vid[keep[q]]
         ids[m:] = busy
