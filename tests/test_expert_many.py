@@ -196,3 +196,37 @@ def test_a_world_listed_twice():
     got = IcvAgentsEnv.expert_actions_many([envs[0], envs[0]])
     assert got[0] is got[1] is envs[0].expert_actions()
     assert got[0].tobytes() == envs[1].expert_actions().tobytes()
+
+
+def test_group_tags_join_equal_keys_only_and_survive_forgetting(monkeypatch):
+    """Stop 48: a world's group key is a tag, the same int for worlds whose
+    experts and roads are equal by value (the worlds of one batch share one
+    pass), another for other parameters or another road; when the table is
+    forgotten (it is capped), new tags never repeat an old one, so worlds
+    tagged before and after can only be parted, never joined."""
+    import dataclasses
+
+    from icv_envs.policies import formation_expert_many as fm
+
+    def cores(scenario, seed, **p):
+        e = highway_formation_v0.parallel_env(scenario=scenario)
+        e.reset(seed=seed)
+        core = e.core
+        if p:
+            core.expert.p = dataclasses.replace(core.expert.p, **p)
+        return core
+
+    a, b = cores("lane-drop", 0), cores("lane-drop", 1)
+    c = cores("off-ramp", 0)
+    d = cores("lane-drop", 2, desired_speed=a.expert.p.desired_speed + 1.0)
+    ta, tb, tc, td = (fm._group_key(x.expert, x.world) for x in (a, b, c, d))
+    assert isinstance(ta, int) and ta == tb and len({ta, tc, td}) == 3
+    # forgetting the table: a fresh world equal to a and b gets a new tag, parted from them, never another key's
+    monkeypatch.setattr(fm, "_TAGS", {})
+    e = cores("lane-drop", 3)
+    te = fm._group_key(e.expert, e.world)
+    assert te not in (ta, tc)
+    # a batch still gets each world's own actions (the parted world alone, the others together)
+    worlds = [a.world, b.world, c.world, e.world]
+    got = compute_many([x.expert for x in (a, b, c, e)], worlds)
+    assert len(got) == 4 and all(g.shape == (x.traffic.n, 2) for g, x in zip(got, worlds))

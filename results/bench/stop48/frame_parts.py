@@ -4,7 +4,7 @@ multi-vp 2200 veh/h seed 0 captured over 400 steps after 100 s, then replayed wh
 moments (1), the events (2), the PET update (6: events + PET), the collision pairs (8)
 or everything (15); best of three passes, microseconds a call. Run for each tree:
 ``PYTHONPATH=<tree> python results/bench/stop48/frame_parts.py`` (stop 47: full 44.8 /
-44.1 us, collisions +14; stop 48: 32.4 / 33.1, collisions +7, PET +6.4-9.9 -> +2.8)."""
+44.1 us, collisions +14-15, PET +3.4-9.9 over four runs; stop 48: 32.4 / 33.1, collisions +7, PET +2.7-2.8)."""
 import sys, time, numpy as np, numba as nb
 import os; sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "scripts"))
 import bench_kernel_boundary as bk
