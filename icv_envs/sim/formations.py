@@ -66,6 +66,7 @@ from icv_envs.sim._kernels.formation_step import (
     reform_slots,
 )
 from icv_envs._ufuncs import flatnonzero
+from icv_envs.sim.formation_views import FormationViews
 from icv_envs.sim.join_plans import JoinPlans
 
 __all__ = ["FormationManager"]
@@ -80,7 +81,10 @@ def _obstacles(road) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             np.asarray(road._ob_hi, dtype=np.float64))
 
 
-class FormationManager:
+class FormationManager(FormationViews):
+    """The formation layer (module docstring); its read-only views of the
+    formations' state are :class:`~icv_envs.sim.formation_views.FormationViews`."""
+
     def __init__(
         self,
         *,
@@ -189,44 +193,6 @@ class FormationManager:
         self._A = np.concatenate([self._A, np.full(pad, np.nan)])
         self._L, self._stall = (np.concatenate([x, np.zeros(pad)]) for x in (self._L, self._stall))
         self._cnt, self._bits = (np.concatenate([x, np.zeros(pad, dtype=np.int64)]) for x in (self._cnt, self._bits))
-
-    def _view(self, arr: np.ndarray) -> dict:
-        return dict(zip(self._gids().tolist(), arr[self._gids()].tolist()))
-
-    @property
-    def anchor(self) -> dict[int, float]:
-        """Front target by live formation id (a snapshot)."""
-        return self._view(self._A)
-
-    @property
-    def length(self) -> dict[int, float]:
-        """Length (front target to rearmost target) by live formation id (a snapshot)."""
-        return self._view(self._L)
-
-    @property
-    def count(self) -> dict[int, int]:
-        """Member count by live formation id, as of the last re-forming (a snapshot)."""
-        return self._view(self._cnt)
-
-    @property
-    def stalled_for(self) -> dict[int, float]:
-        """Seconds each live formation has been stalled (a snapshot)."""
-        return self._view(self._stall)
-
-    @property
-    def lanes(self) -> dict[int, tuple[int, ...]]:
-        """Lane set by live formation id (a snapshot)."""
-        return {g: self._lanes[g] for g in self._gids().tolist() if g in self._lanes}
-
-    @property
-    def n_formations(self) -> int:
-        """How many formations there are."""
-        return len(self._gids())
-
-    @property
-    def plans(self) -> int:
-        """How many join plans were made so far."""
-        return self._plans.count
 
     # ---------------------------------------------------------------- helpers
     def _lane_set(self, road, anchor: float, length: float) -> tuple[int, ...]:
@@ -539,20 +505,3 @@ class FormationManager:
         ``d''``; 0 for settled members, ``nan`` for free vehicles), read-only
         (computed with :meth:`references`, and cached with them)."""
         return self._refs(traffic)[1]
-
-    def slots(self, traffic) -> np.ndarray:
-        """Per-vehicle target position ``X_slot = anchor - x_g`` (``nan`` for
-        free vehicles), the end point of every member's reference."""
-        out = np.full(traffic.n, np.nan)
-        m = flatnonzero(traffic.group >= 0)
-        if len(m):
-            out[m] = self._slot_x(traffic, m)
-            if traffic.period is not None:
-                out[m] = np.mod(out[m], traffic.period)
-        return out
-
-    def summary(self) -> list[dict]:
-        return [
-            {"id": g, "anchor": float(self._A[g]), "lanes": list(self._lanes.get(g, ())), "members": int(self._cnt[g])}
-            for g in self._gids().tolist()
-        ]
