@@ -44,7 +44,8 @@ def _fleet(rng, n, span, dense, grid):
 def test_box_pairs_within_the_bound_equal_the_two_sweeps(n, span, seed, dense, grid, start, bad):
     """The same pairs (values, dtype, order) as the two sweeps, from any
     starting order of the rows (sorted as the frames keep it, shuffled,
-    reversed), which comes back sorted along ``x``; a non-finite value
+    reversed), which comes back sorted along ``x`` (NumPy's stable order);
+    a non-finite value
     takes the sweeps themselves."""
     rng = np.random.default_rng(seed)
     cx, cy, heading, ch, sh, length, width = _fleet(rng, n, span, dense, grid)
@@ -56,13 +57,14 @@ def test_box_pairs_within_the_bound_equal_the_two_sweeps(n, span, seed, dense, g
         (np.zeros(0, dtype=np.int64),) * 2
     order = {"sorted": np.argsort(cx, kind="stable"), "shuffled": rng.permutation(n),
              "reversed": np.arange(n)[::-1].copy()}[start].astype(np.int64)
-    got = box_pairs_ordered(cx, cy, heading, ch, sh, length, width, 16.0, order)
+    *got, order = box_pairs_ordered(cx, cy, heading, ch, sh, length, width, 16.0, order)
     for g, w in zip(got, want):
         assert g.dtype == w.dtype and g.shape == w.shape and np.array_equal(g, w)
     for g, w in zip(box_collision_pairs_cs(cx, cy, heading, ch, sh, length, width, 16.0), want):
         assert np.array_equal(g, w)
     if n >= 2 and not bad:
-        assert np.all(np.diff(cx[order]) >= 0)  # (sorted in place along x)
+        assert np.all(np.diff(cx[order]) >= 0)  # (sorted along x, for the next frame)
+        assert np.array_equal(order, np.argsort(cx, kind="mergesort"))
 
 
 def test_box_pairs_find_overlaps_on_both_axes():

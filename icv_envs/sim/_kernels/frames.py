@@ -223,7 +223,7 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     dummy = np.zeros(n)
     jam_all = np.empty(n, dtype=np.int64)
     trig = np.empty((4, n))  # (cos, sin of the heading, steering, its tan: kinematic_substep_carry)
-    order = np.empty(0, dtype=np.int64)  # (the rows along x, sorted from frame to frame: box_pairs_ordered)
+    order = np.zeros(0, dtype=np.int64)  # (the rows along x, sorted from frame to frame: box_pairs_ordered)
     for fr in range(n_frames):
         v_before = speed
         x, y, heading, speed, acc, st, _, cx, cy = kinematic_substep_carry(
@@ -271,9 +271,7 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
             else:
                 jam_sf[k] = 0.0
         jam_rows = jam_all[:n_jam].copy()
-        if fr == 0:
-            order = np.argsort(cx)
-        i, j = box_pairs_ordered(cx, cy, heading, trig[0], trig[1], length, width, box_half, order)
+        i, j, order = box_pairs_ordered(cx, cy, heading, trig[0], trig[1], length, width, box_half, order)
         event = n_jam > 0 or i.shape[0] > 0
         for q in range(n):
             if new_wrong[q] or clear_now[q] or (crash[q] and not crashed[q]) or ((removed[q] or left[q]) and not crashed[q]):

@@ -14,7 +14,8 @@ import math
 import numba as nb
 import numpy as np
 
-from icv_envs.sim._kernels.neighbours import _rect_overlap_cs, collision_pairs, collision_pairs_cs, cos_sin
+from icv_envs.sim._kernels.neighbours import (_rect_overlap_cs, collision_pairs, collision_pairs_cs, cos_sin,
+                                             stable_order)
 from icv_envs.sim._kernels.physics import npy_mod
 
 __all__ = ["intersection_events", "box_collision_pairs", "box_collision_pairs_cs", "rows_of_ids", "route_rows"]
@@ -173,36 +174,32 @@ def box_collision_pairs_cs(cx, cy, heading, ch, sh, length, width, box_half):
     the same pairs, 2-3x faster at the box's 50 vehicles); a non-finite
     position, heading or size takes the two sweeps as before
     (:func:`_box_pairs_sweeps`), whose NaN rules it keeps."""
-    n = cx.shape[0]
-    if n < 2:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    return box_pairs_ordered(cx, cy, heading, ch, sh, length, width, box_half, np.argsort(cx))
+    i, j, _ = box_pairs_ordered(cx, cy, heading, ch, sh, length, width, box_half, np.zeros(0, dtype=np.int64))
+    return i, j
 
 
 @nb.njit(cache=True)
 def box_pairs_ordered(cx, cy, heading, ch, sh, length, width, box_half, order):
-    """:func:`box_collision_pairs_cs` given ``order``, a permutation of the
-    rows (any; the rows sorted along ``x`` are best), which is sorted along
-    ``x`` in place (insertion sort: linear when it was sorted a frame
-    before; :func:`~icv_envs.sim._kernels.frames.intersection_frames` keeps
-    it from frame to frame)."""
+    """:func:`box_collision_pairs_cs` given ``order``, the rows' order along
+    ``x`` of the frame before (any permutation of the rows; an empty array
+    the first time), sorted again by
+    :func:`~icv_envs.sim._kernels.neighbours.stable_order` (an insertion
+    sort: linear when it was sorted a frame before;
+    :func:`~icv_envs.sim._kernels.frames.intersection_frames` keeps it from
+    frame to frame, as the highway's frames keep theirs). Returns ``(i, j,
+    order)``."""
     n = cx.shape[0]
     if n < 2:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), order
     for q in range(n):
         if not (math.isfinite(cx[q]) and math.isfinite(cy[q]) and math.isfinite(heading[q])
                 and math.isfinite(ch[q]) and math.isfinite(sh[q]) and math.isfinite(length[q])
                 and math.isfinite(width[q])):
-            return _box_pairs_sweeps(cx, cy, heading, ch, sh, length, width, box_half)
-    for p in range(1, n):
-        a = order[p]
-        x = cx[a]
-        t = p
-        while t > 0 and cx[order[t - 1]] > x:
-            order[t] = order[t - 1]
-            t -= 1
-        order[t] = a
-    return _box_pairs_bounded(cx, cy, heading, ch, sh, length, width, box_half, order)
+            i, j = _box_pairs_sweeps(cx, cy, heading, ch, sh, length, width, box_half)
+            return i, j, order
+    order = stable_order(cx, order)
+    i, j = _box_pairs_bounded(cx, cy, heading, ch, sh, length, width, box_half, order)
+    return i, j, order
 
 
 @nb.njit(cache=True)

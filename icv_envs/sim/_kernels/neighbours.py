@@ -101,14 +101,6 @@ def cos_sin(heading):
 
 
 @nb.njit(cache=True)
-def _collision_pairs_line_cs(cx, cy, ch, sh, length, width):
-    """The sweep and the separating-axis test of :func:`collision_pairs`
-    along one line, from the headings' cosines ``ch`` and sines ``sh``
-    (the physics frames have them from the integration, from stop 43)."""
-    return _collision_pairs_line_order(cx, cy, ch, sh, length, width, np.argsort(cx, kind="mergesort"))
-
-
-@nb.njit(cache=True)
 def stable_order(x, order):
     """``np.argsort(x, kind="mergesort")`` (ascending, ties by index, NaN
     last) from ``order``, a permutation of ``x``'s indices, sorted in place
@@ -139,8 +131,11 @@ def stable_order(x, order):
 
 @nb.njit(cache=True)
 def _collision_pairs_line_order(cx, cy, ch, sh, length, width, order):
-    """:func:`_collision_pairs_line_cs` with the stable order along ``cx``
-    given (``np.argsort(cx, kind="mergesort")``, or :func:`stable_order`'s)."""
+    """The sweep and the separating-axis test of :func:`collision_pairs`
+    along one line, from the headings' cosines ``ch`` and sines ``sh``
+    (the physics frames have them from the integration, from stop 43) and
+    the stable order along ``cx`` (:func:`stable_order`'s:
+    ``np.argsort(cx, kind="mergesort")``)."""
     n = cx.shape[0]
     hx = np.empty(n)
     hy = np.empty(n)
