@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from icv_envs.formation.assignment import _solve
+from pinned_numpy import at_pinned_level
 from icv_envs.sim._kernels import drivable_lane_bits, hold_targets
 from icv_envs.sim._kernels.formation import eligible_free_rows, leaving_rows, room_ahead
 from icv_envs.sim.formations import FormationManager, _obstacles
@@ -361,20 +362,27 @@ def test_update_equals_the_replaced_code_on_boundary_states(case):
 
 
 def _old_eval(jp, vid, time):
-    """``JoinPlans._eval`` as array code (icv_envs/sim/join_plans.py at ca6947d), frozen."""
-    from icv_envs.formation._kernels import quintic_rows
-
+    """``JoinPlans._eval`` as array code (icv_envs/sim/join_plans.py at
+    ca6947d), frozen, with the quintic's arithmetic that its kernel
+    (``quintic_rows``, removed at stop 49) shared with ``_quintic``, term by
+    term, from the stored coefficients and numpy's powers."""
     t = time - jp.t0[vid]
     T = jp.T[vid]
     run = np.flatnonzero(t < T)
     d, v, a = jp.fd[vid], jp.fv[vid], jp.fa[vid]
     if len(run):
         tc = np.minimum(np.maximum(t[run], 0.0), T[run])
-        quintic_rows(tc, tc ** 3, tc ** 4, tc ** 5, vid[run], jp.d0, jp.v0, jp.a0, jp.c3, jp.c4, jp.c5, run, d, v, a)
+        k = vid[run]
+        t2, t3, t4, t5 = tc * tc, tc ** 3, tc ** 4, tc ** 5
+        d0, v0, a0, c3, c4, c5 = jp.d0[k], jp.v0[k], jp.a0[k], jp.c3[k], jp.c4[k], jp.c5[k]
+        d[run] = d0 + v0 * tc + 0.5 * a0 * t2 + c3 * t3 + c4 * t4 + c5 * t5
+        v[run] = v0 + a0 * tc + 3.0 * c3 * t2 + 4.0 * c4 * t3 + 5.0 * c5 * t4
+        a[run] = a0 + 6.0 * c3 * tc + 12.0 * c4 * t2 + 20.0 * c5 * t3
     return d, v, a
 
 
 @pytest.mark.parametrize("seed", range(4))
+@at_pinned_level  # the kernel's powers are libm's, numpy's at AVX2 (tests/pinned_numpy.py)
 def test_profile_evaluation_equals_the_replaced_array_code(seed):
     """Plans made at several times, evaluated before, at and after their
     ends (``t == T`` and ``t0 == time`` included), in any id order."""

@@ -17,7 +17,7 @@ from icv_envs._hooks import own_hooks
 from icv_envs._ufuncs import clip as uclip
 from icv_envs.envs.observations import KINEMATIC_FEATURES, Kinematics
 from icv_envs.sim._kernels import (formation_feature_rows, formation_post_rows, formation_reward_terms,
-                                   nearest_along_road)
+                                   formation_reward_total, nearest_along_road)
 
 __all__ = ["HighwayRows", "OBS_FEATURES", "STATE_FEATURES", "POST_HOOK_NAMES"]
 
@@ -139,11 +139,14 @@ class HighwayRows:
     def _reward_total(self, terms: tuple) -> tuple[np.ndarray, dict]:
         """The reward and its components from the kernel's terms
         ``(progress, safety, comfort, exponent, member, partial)``: the
-        formation term ``exp`` (NumPy's) for members, 0 for the others."""
+        formation term ``exp`` for members, 0 for the others, and the total
+        ``partial + w * form`` (compiled from stop 49,
+        :func:`~icv_envs.sim._kernels.formation_reward_total`: libm's ``exp``,
+        NumPy's at the pinned level; NumPy's ``where``, ``exp`` and two
+        array operations before)."""
         progress, safety, comfort, expo, member, partial = terms
-        form = np.where(member, np.exp(expo), 0.0)
-        total = partial + self.config["reward"]["formation"] * form
-        return total, {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
+        out = formation_reward_total(member, expo, partial, float(self.config["reward"]["formation"]))
+        return out[0], {"progress": progress, "safety": safety, "comfort": comfort, "formation": out[1]}
 
     def _post_rows(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
         """:meth:`IcvAgentsEnv._post_rows` in one compiled call

@@ -17,11 +17,19 @@ numpy code's, bit for bit (``tests/test_trajectory_hash.py``).
 
 :func:`join_search_banded` is the formation layer's plan search in one call
 (its start, the search within the speed band, the fallback without it);
-:func:`quintic_rows` evaluates join profiles from coefficients stored with
-the plan, and :func:`plan_rows` stores new plans (coefficients, end values,
-stamps) in one pass. Both leave the transcendental steps (``cbrt``, ``pow``) to numpy
-and do only exactly rounded arithmetic themselves, so their results are the
-numpy code's on every SIMD level (``tests/test_kernels.py``).
+:func:`profile_eval` evaluates join profiles from the coefficients stored
+with the plan, and :func:`plan_rows` stores new plans (coefficients, end
+values, stamps) in one pass. The search's start (``cbrt``) stays numpy's.
+The quintic's powers ``t^3``, ``t^4``, ``t^5`` are libm's ``pow``, taken
+inside the kernels (from stop 49; numpy's ``power`` between two kernels
+before): at ``X86_V3``, the level the reference fingerprints are pinned at,
+numpy's float64 ``power`` is libm's, bit for bit (0 of 1,200,000 probes
+differ, ``results/bench/stop49/libm_vs_numpy.py``), so the values are the
+same there; NumPy's AVX-512 ``power`` rounds 5% of them differently in the
+last bit, where the kernels now give the pinned level's numbers instead of
+that machine's NumPy's (the rule of :mod:`icv_envs.sim._kernels`). The
+rest is exactly rounded arithmetic in the numpy code's order
+(``tests/test_kernels.py``).
 """
 
 from __future__ import annotations
@@ -31,8 +39,8 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["clip1", "join_search", "join_search_banded", "lateral_post", "lateral_pre", "plan_rows", "profile_gather", "pursuit_post",
-           "pursuit_pre", "quintic_rows"]
+__all__ = ["clip1", "join_search", "join_search_banded", "lateral_post", "lateral_pre", "plan_rows", "profile_eval",
+           "pursuit_post", "pursuit_pre"]
 
 
 @nb.njit(cache=True)
@@ -134,88 +142,75 @@ def join_search_banded(cb, d0, v0, a0, accel, decel, jerk, t_min, grow, cap, v_l
     return T
 
 
-@nb.njit(cache=True)
-def quintic_rows(t, t3, t4, t5, vid, d0, v0, a0, c3, c4, c5, at, d_out, v_out, a_out):
+@nb.njit(cache=True, inline="always")
+def _quintic_at(ti, t3, t4, t5, d, v, a, p3, p4, p5):
     """The quintic's ``(d, d', d'')`` (``control._quintic`` with ``jerk``
-    off) for members ``vid`` at clamped times ``t`` with their powers
-    ``t3 = t**3``, ``t4``, ``t5`` (taken from numpy, so they are the same
-    numbers numpy's ``_quintic`` uses on any SIMD level), from the plan
-    arrays ``d0, v0, a0`` and coefficients ``c3, c4, c5`` indexed by vehicle
-    id, written to rows ``at`` of the outputs. Term by term the products and
-    sums of ``_quintic`` in its order (``t**2`` is numpy's exact square
-    ``t * t``): bit for bit its values."""
-    for i in range(len(t)):
-        ti, k, j = t[i], vid[i], at[i]
-        t2 = ti * ti
-        d, v, a = d0[k], v0[k], a0[k]
-        p3, p4, p5 = c3[k], c4[k], c5[k]
-        d_out[j] = d + v * ti + 0.5 * a * t2 + p3 * t3[i] + p4 * t4[i] + p5 * t5[i]
-        v_out[j] = v + a * ti + 3.0 * p3 * t2 + 4.0 * p4 * t3[i] + 5.0 * p5 * t4[i]
-        a_out[j] = a + 6.0 * p3 * ti + 12.0 * p4 * t2 + 20.0 * p5 * t3[i]
+    off) at time ``ti`` with its powers ``t3 = ti**3``, ``t4``, ``t5``, from
+    the plan's start ``(d, v, a)`` and coefficients ``p3, p4, p5``: term by
+    term the products and sums of ``_quintic`` in its order (``t**2`` is
+    numpy's exact square ``t * t``)."""
+    t2 = ti * ti
+    return (d + v * ti + 0.5 * a * t2 + p3 * t3 + p4 * t4 + p5 * t5,
+            v + a * ti + 3.0 * p3 * t2 + 4.0 * p4 * t3 + 5.0 * p5 * t4,
+            a + 6.0 * p3 * ti + 12.0 * p4 * t2 + 20.0 * p5 * t3)
 
 
 @nb.njit(cache=True)
-def plan_rows(vid, time, T, T3, T4, T5, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab,
-              c5_tab, fd_tab, fv_tab, fa_tab, stamp_tab, count):
+def plan_rows(vid, time, T, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab, fd_tab,
+              fv_tab, fa_tab, stamp_tab, count):
     """Store new join plans (:meth:`icv_envs.sim.join_plans.JoinPlans.plan`
     after its duration search) in the tables indexed by vehicle id: start
     ``time``, duration ``T``, initial state ``(d0, v0, a0)``, the quintic's
     coefficients (``control._quintic_coeffs``: its products, sums and
-    divisions in its order, from the powers ``T3 = T**3``, ``T4``, ``T5``
-    taken by numpy; ``T**2`` is numpy's exact square ``T * T``), the
-    profile's values at ``T`` (:func:`quintic_rows` at ``t = T``) and the
-    stamp ``count + len(vid)`` (the count of plans once these are made).
-    With a repeated id the last plan wins, as with numpy's fancy
-    assignment.
-    Exactly rounded arithmetic only: bit for bit the numpy code's values
-    (``tests/test_kernels.py``)."""
+    divisions in its order, from the powers ``T**3``, ``T**4``, ``T**5``,
+    libm's ``pow`` (from stop 49; numpy's before: the module docstring);
+    ``T**2`` is numpy's exact square ``T * T``), the profile's values at
+    ``T`` (:func:`_quintic_at`) and the stamp ``count + len(vid)`` (the
+    count of plans once these are made). With a repeated id the last plan
+    wins, as with numpy's fancy assignment. Bit for bit the numpy code's
+    values where numpy's ``power`` is libm's (``tests/test_kernels.py``,
+    pinned at ``X86_V3``)."""
     stamp = count + vid.shape[0]
     for i in range(vid.shape[0]):
         k = vid[i]
         Ti, d, v, a = T[i], d0[i], v0[i], a0[i]
-        t2, t3, t4, t5 = Ti * Ti, T3[i], T4[i], T5[i]
+        t2, t3, t4, t5 = Ti * Ti, Ti ** 3.0, Ti ** 4.0, Ti ** 5.0
         p3 = -(20.0 * d + 12.0 * v * Ti + 3.0 * a * t2) / (2.0 * t3)
         p4 = (30.0 * d + 16.0 * v * Ti + 3.0 * a * t2) / (2.0 * t4)
         p5 = -(12.0 * d + 6.0 * v * Ti + a * t2) / (2.0 * t5)
         t0_tab[k], T_tab[k] = time, Ti
         d0_tab[k], v0_tab[k], a0_tab[k] = d, v, a
         c3_tab[k], c4_tab[k], c5_tab[k] = p3, p4, p5
-        # quintic_rows at t = T
-        fd_tab[k] = d + v * Ti + 0.5 * a * t2 + p3 * t3 + p4 * t4 + p5 * t5
-        fv_tab[k] = v + a * Ti + 3.0 * p3 * t2 + 4.0 * p4 * t3 + 5.0 * p5 * t4
-        fa_tab[k] = a + 6.0 * p3 * Ti + 12.0 * p4 * t2 + 20.0 * p5 * t3
+        fd_tab[k], fv_tab[k], fa_tab[k] = _quintic_at(Ti, t3, t4, t5, d, v, a, p3, p4, p5)
         stamp_tab[k] = stamp
 
 
 @nb.njit(cache=True)
-def profile_gather(vid, time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab):
-    """The table part of ``JoinPlans._eval`` in one pass: per vehicle ``vid[i]``
-    the profile's end values ``(d, v, a)`` (kept where its plan has ended,
-    ``time - t0 >= T``), the positions ``run`` of the plans still running
-    and their times ``time - t0`` clamped to ``[0, T]`` (whose powers the
-    caller takes from numpy for :func:`quintic_rows`). Returns ``(P, run,
-    tc)``, ``P`` the profile ``d, v, a`` as the rows of one ``(3, n)`` array
-    (numba boxes each returned array for about 0.35 us, a view of a row
-    costs 0.1); the clamp ``min(max(t, 0), T)`` as numpy's
-    ``minimum(maximum(t, 0), T)`` (the times are finite)."""
+def profile_eval(vid, time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab):
+    """``JoinPlans._eval`` in one pass (from stop 49; before, a gather, numpy's
+    powers and a second kernel): per vehicle ``vid[i]`` the join profile
+    ``(d, v, a)`` at ``time``, as the rows of one ``(3, n)`` array (numba
+    boxes each returned array for about 0.35 us, a view of a row costs
+    0.1): the end values stored with the plan where it has ended (``time -
+    t0 >= T``), else the quintic (:func:`_quintic_at`) at ``time - t0``
+    clamped to ``[0, T]`` (numpy's ``minimum(maximum(t, 0), T)``; the times
+    are finite) with its powers from libm's ``pow`` (the module docstring)."""
     n = vid.shape[0]
     P = np.empty((3, n))
-    run = np.empty(n, dtype=np.int64)
-    tc = np.empty(n)
-    m = 0
     for i in range(n):
         k = vid[i]
-        P[0, i] = fd_tab[k]
-        P[1, i] = fv_tab[k]
-        P[2, i] = fa_tab[k]
         t = time - t0_tab[k]
         T = T_tab[k]
         if t < T:
-            run[m] = i
             x = t if t > 0.0 else 0.0
-            tc[m] = x if x < T else T
-            m += 1
-    return P, run[:m], tc[:m]
+            ti = x if x < T else T
+            P[0, i], P[1, i], P[2, i] = _quintic_at(ti, ti ** 3.0, ti ** 4.0, ti ** 5.0, d0_tab[k], v0_tab[k],
+                                                    a0_tab[k], c3_tab[k], c4_tab[k], c5_tab[k])
+        else:
+            P[0, i] = fd_tab[k]
+            P[1, i] = fv_tab[k]
+            P[2, i] = fa_tab[k]
+    return P
 
 
 # ------------------------------------------------- lane change and steering

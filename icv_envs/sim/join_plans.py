@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.formation._kernels import join_search_banded, plan_rows, profile_gather, quintic_rows
+from icv_envs.formation._kernels import join_search_banded, plan_rows, profile_eval
 from icv_envs.formation.control import (
     _PROFILE_SAMPLES,
     JOIN_GROW,
@@ -28,12 +28,6 @@ from icv_envs._ufuncs import flatnonzero
 from icv_envs.sim._kernels import id_range
 
 __all__ = ["JoinPlans", "JOIN_MAX_DURATION"]
-
-#: the quintic's exponents as a column: ``np.power(t, _POW345)`` gives ``t ** 3``,
-#: ``t ** 4``, ``t ** 5`` as its rows in one ufunc call (the same numbers as the
-#: three calls, tests/test_kernels.py; 0.9 us against 1.7 on 20 values)
-_POW345 = np.array([[3.0], [4.0], [5.0]])
-_POW345.setflags(write=False)
 
 #: cap of the join-plan duration search within the speed band [s]: a plan
 #: that needs longer is infeasible inside the band (see :meth:`JoinPlans.plan`)
@@ -113,11 +107,10 @@ class JoinPlans:
                                float(lim["t_min"]), JOIN_GROW, JOIN_MAX_DURATION, *self._band(n), True,
                                JOIN_SEARCH_CAP, _PROFILE_SAMPLES)
         # the plans, their coefficients and their values at t = T stored in
-        # one compiled pass (the powers from numpy, as _quintic_coeffs takes
-        # them; formation._kernels.plan_rows)
-        T3, T4, T5 = np.power(T, _POW345)
-        plan_rows(vid, float(time), T, T3, T4, T5, d0, v0, a0, self.t0, self.T, self.d0, self.v0,
-                  self.a0, self.c3, self.c4, self.c5, self.fd, self.fv, self.fa, self.stamp, self.count)
+        # one compiled pass (formation._kernels.plan_rows; the powers libm's
+        # from stop 49, numpy's before: that module's docstring)
+        plan_rows(vid, float(time), T, d0, v0, a0, self.t0, self.T, self.d0, self.v0, self.a0, self.c3, self.c4,
+                  self.c5, self.fd, self.fv, self.fa, self.stamp, self.count)
         self.count += len(vid)
         return T
 
@@ -163,14 +156,9 @@ class JoinPlans:
         plans still running, the stored end values for those that have ended
         (``t >= T``: the quintic is evaluated at ``T`` then, so the values
         are the same numbers; :meth:`plan` stores them)."""
-        # the end values, which plans still run and their clamped times in
-        # one compiled pass (formation._kernels.profile_gather)
-        P, run, tc = profile_gather(vid, float(time), self.t0, self.T, self.fd, self.fv, self.fa)
-        d, v, a = P  # (row views)
-        if len(run):
-            # join_profile's quintic (compiled, from the plans' stored
-            # coefficients; the powers from numpy, as join_profile takes them)
-            t3, t4, t5 = np.power(tc, _POW345)
-            quintic_rows(tc, t3, t4, t5, vid[run], self.d0, self.v0, self.a0, self.c3, self.c4,
-                         self.c5, run, d, v, a)
-        return d, v, a
+        # (compiled whole from stop 49: formation._kernels.profile_eval, the
+        # quintic's powers libm's; before, a gather, numpy's powers and a
+        # second kernel)
+        P = profile_eval(vid, float(time), self.t0, self.T, self.fd, self.fv, self.fa, self.d0, self.v0, self.a0,
+                         self.c3, self.c4, self.c5)
+        return P[0], P[1], P[2]  # (row views)

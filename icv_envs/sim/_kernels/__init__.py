@@ -30,16 +30,28 @@ kernel is also tested against the numpy code it replaced in
 ``tests/test_kernels.py``). Floating-point reassociation (``fastmath``) is
 off for the same reason.
 
-Transcendental functions (``sin``, ``cos``, ``tan``, ``atan``) come from
+Transcendental functions (``sin``, ``cos``, ``tan``, ``atan``; from stop
+49 also ``exp`` in the highway reward, :func:`formation_reward_total`, and
+``pow`` in the join profiles, :mod:`icv_envs.formation._kernels`) come from
 libm here, as in NumPy's float64 loops up to AVX2 (``X86_V3``), the level
-the reference fingerprints are pinned at. On an AVX-512 machine NumPy takes
-``tan`` and ``atan`` from its SIMD library, which can round the last bit
-differently; there the compiled substep's ``tan`` and ``atan`` are libm's
-(as on an AVX2 machine), not NumPy's SIMD ones, and headings can drift by
-ulps from the array code's during lane changes. On the development machine
-(AVX-512), 22 of 24 fresh 600 s HighwayRamps runs reproduced the committed
-results exactly and 2 differed in the 13th-16th significant digit of the
-motion figures (README, "Speed").
+the reference fingerprints are pinned at: there NumPy's ``exp``,
+``power``, ``cbrt``, ``sin``, ``cos``, ``tan``, ``arctan``, ``arcsinh``,
+``sinh``, ``hypot`` and ``arctan2`` are libm's, bit for bit (0 of 400,000
+probes each differ, ``results/bench/stop49/libm_vs_numpy.py``). On an
+AVX-512 machine NumPy takes ``exp``, ``power``, ``cbrt``, ``tan``,
+``arctan``, ``arcsinh``, ``sinh`` and ``arctan2`` from its SIMD library,
+which rounds 0.2-49% of those probes differently in the last bit (``sin``,
+``cos`` and ``hypot`` agree); there the kernels' calls are libm's (as on
+an AVX2 machine), not NumPy's SIMD ones, and trajectories can drift by
+ulps from the array code's. So a kernel may take a transcendental step
+inside rather than stop for NumPy's (stop 49: the seams a kernel stopped at
+only for NumPy's call cost 13% of a batched highway world-step): the
+pinned fingerprints stay the same, and on an AVX-512 machine the result is
+the pinned level's number rather than that machine's NumPy's. On the
+development machine (AVX-512), 22 of 24 fresh 600 s HighwayRamps runs
+reproduced the committed results exactly and 2 differed in the 13th-16th
+significant digit of the motion figures (README, "Speed"; stop 40, before
+``exp`` and ``pow`` were added).
 
 A rule for writing them: a helper that takes the road's arrays (lane
 ends, obstacles, ramp intervals) and loops over them cost about 75 ns a
@@ -75,6 +87,7 @@ from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs,
                                               build_lane_index_pair, leader_entries,
                                               leader_rows, own_lane_gap_rows, lane_gap_pass)
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_post_rows, formation_reward_terms,
+                                               formation_reward_total,
                                                intersection_feature_rows, intersection_post_rows,
                                                intersection_reward_pre, intersection_reward_rows,
                                                intersection_tracking_pre, kinematics_rows, nearest_along_road,
@@ -111,6 +124,7 @@ __all__ = [
     "formation_feature_rows",
     "formation_post_rows",
     "formation_reward_terms",
+    "formation_reward_total",
     "pairwise_sum",
     "motion_record",
     "motion_sums_add",

@@ -1,0 +1,143 @@
+"""This tree's join profiles and highway reward (libm's pow and exp inside
+the kernels, stop 49) against the code they replaced (NumPy's power and exp
+between kernels), twin worlds in one process (stop 49).
+
+Twin R has the replaced code patched onto its instances: ``JoinPlans._eval``
+and ``JoinPlans.plan``'s store (a gather kernel, ``np.power``, a second
+kernel: the reference tree's ``formation/_kernels.py``, loaded from
+``--old``) and ``HighwayRows._reward_total`` (``np.where``, ``np.exp``);
+twin T runs this tree as it is. They step alternately (which goes first
+alternates); the time of each twin's steps is summed after a warm-up, and
+every step's outputs are compared bit for bit (equal where NumPy's power
+and exp are libm's: under ``NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL"``
+on this machine).
+
+    python results/bench/stop49/ab_libm.py --old /tmp/ref49 [--case batched|batched-expert|ring] [--steps N] [--seed S]
+"""
+import argparse
+import hashlib
+import importlib.util
+import json
+import os
+import time
+import types
+
+import numpy as np
+
+
+def load_old(tree):
+    spec = importlib.util.spec_from_file_location("old_formation_kernels", f"{tree}/icv_envs/formation/_kernels.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+POW345 = np.array([[3.0], [4.0], [5.0]])
+
+
+def patch_world(core, K):
+    """The replaced code on one world's instances."""
+    plans = core.world.manager._plans
+
+    def _eval(self, vid, t):
+        P, run, tc = K.profile_gather(vid, float(t), self.t0, self.T, self.fd, self.fv, self.fa)
+        d, v, a = P
+        if len(run):
+            t3, t4, t5 = np.power(tc, POW345)
+            K.quintic_rows(tc, t3, t4, t5, vid[run], self.d0, self.v0, self.a0, self.c3, self.c4, self.c5, run, d, v, a)
+        return d, v, a
+
+    plans._eval = types.MethodType(_eval, plans)
+    import icv_envs.sim.join_plans as jpmod
+    real_plan_rows = jpmod.plan_rows
+
+    def plan(self, vid, d0, v0, a0, t):  # JoinPlans.plan with the old store (numpy's powers)
+        jpmod.plan_rows = lambda vid, time, T, d0, v0, a0, *tabs: K.plan_rows(vid, time, T, *np.power(T, POW345),
+                                                                             d0, v0, a0, *tabs)
+        try:
+            return type(self).plan(self, vid, d0, v0, a0, t)
+        finally:
+            jpmod.plan_rows = real_plan_rows
+
+    plans.plan = types.MethodType(plan, plans)
+
+    def _reward_total(self, terms):
+        progress, safety, comfort, expo, member, partial = terms
+        form = np.where(member, np.exp(expo), 0.0)
+        total = partial + self.config["reward"]["formation"] * form
+        return total, {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}
+
+    core._reward_total = types.MethodType(_reward_total, core)
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--old", required=True)
+    p.add_argument("--case", default="batched", choices=["batched", "batched-expert", "ring"])
+    p.add_argument("--steps", type=int, default=300)
+    p.add_argument("--seed", type=int, default=0)
+    a = p.parse_args()
+    K = load_old(a.old)
+    if a.case.startswith("batched"):
+        from icv_envs.vector import BatchedWorlds
+        expert = a.case == "batched-expert"
+
+        def make():
+            bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=a.seed, expert=expert)
+            bw.reset()
+            return bw
+
+        R, T = make(), make()
+        for env in R.envs:
+            patch_world(env.core, K)
+        zeros = np.zeros((16, T.K, 2), dtype=np.float32)
+
+        def step(bw):
+            return bw.step(bw.expert_actions if expert else zeros)[:5]
+
+        warm, unit = 20, 16 * 20  # agent-steps per step: reported per world-step below
+    else:
+        from icv_envs.envs.highway_ramps_v0 import parallel_env
+
+        def make():
+            env = parallel_env(vgr=1.0 / 3.0, duration=700.0, method="formation")
+            env.reset(seed=a.seed)
+            return env
+
+        R, T = make(), make()
+        patch_world(R.core, K)
+        # (R's reset ran the original code: re-made plans from here on are the patched ones; warm both to 300 s)
+
+        def step(env):
+            ex = env.expert_actions()
+            obs, rew, term, trunc, info = env.step({k: ex[k] for k in env.agents})
+            vids = sorted(obs)
+            return (np.array([obs[k] for k in vids]), np.array([rew[k] for k in vids]),
+                    env.core.world.traffic.x, env.core.world.traffic.speed)
+
+        warm = 1500
+    tR = tT = 0.0
+    first = None
+    for s in range(warm + a.steps):
+        order = (R, T) if s % 2 == 0 else (T, R)
+        out = {}
+        for w in order:
+            t0 = time.perf_counter()
+            out[id(w)] = step(w)
+            dt = time.perf_counter() - t0
+            if s >= warm:
+                if w is R:
+                    tR += dt
+                else:
+                    tT += dt
+        if first is None and not all(np.array_equal(x, y) for x, y in zip(out[id(R)], out[id(T)])):
+            first = s
+    per = a.steps * (16 if a.case.startswith("batched") else 1)
+    print(json.dumps({"case": a.case, "seed": a.seed, "cap": os.environ.get("NPY_DISABLE_CPU_FEATURES", ""),
+                      "steps": a.steps, "replaced_us": round(tR / per * 1e6, 1), "this_tree_us": round(tT / per * 1e6, 1),
+                      "speedup": round(tR / tT, 4), "identical": first is None, "first_step_differing": first,
+                      "unit": "per world-step" if a.case.startswith("batched") else "per ring step"}))
+
+
+if __name__ == "__main__":
+    main()
