@@ -1,6 +1,7 @@
-"""The highway expert's per-vehicle arithmetic, compiled around numpy's
-transcendental calls (``formation/_kernels.lateral_pre``, ``lateral_post``,
-``pursuit_pre``, ``pursuit_post``; ``policies/_kernels.lane_changes_ended``,
+"""The highway expert's per-vehicle arithmetic, compiled (``formation/_kernels.lateral_rows``,
+``pursuit_rows``, whose transcendental steps are libm's from stop 49, NumPy's
+at AVX2: those tests run pinned there, ``tests/pinned_numpy.py``;
+``policies/_kernels.lane_changes_ended``,
 ``preview_points``, ``expert_lane_speeds``, ``free_speed_ratio``,
 ``expert_accelerations``), against the array code it replaced, frozen
 below: block by block on random arrays pushed onto the rules' boundaries
@@ -15,6 +16,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from pinned_numpy import at_pinned_level
 
 from icv_envs.formation.bezier import (
     _lane_change_lateral,
@@ -135,6 +137,7 @@ def _lane_change_states(draw):
     return rows, x, y, cy, v, lc_x0, lc_y0, lc_y1, lc_len
 
 
+@at_pinned_level  # libm's transcendental steps against NumPy's: exact at AVX2 (tests/pinned_numpy.py)
 @settings(max_examples=300, deadline=None)
 @given(_lane_change_states(), st.sampled_from([0.0, 0.3, 1.0]))
 def test_lane_change_end_equals_the_replaced_array_code(state, tol):
@@ -149,6 +152,7 @@ def test_lane_change_end_equals_the_replaced_array_code(state, tol):
     assert _same(y_plan, want[0]) and _same(slope, want[1])
 
 
+@at_pinned_level  # libm's transcendental steps against NumPy's: exact at AVX2 (tests/pinned_numpy.py)
 @settings(max_examples=300, deadline=None)
 @given(_lane_change_states(), st.data())
 def test_steering_equals_the_replaced_array_code(state, data):
@@ -246,6 +250,7 @@ _LC = ("lc_lane", "lc_x0", "lc_y0", "lc_y1", "lc_len")
 
 
 @pytest.mark.parametrize("case", ["ramps", "lane-drop", "off-ramp"])
+@at_pinned_level  # libm's transcendental steps against NumPy's: exact at AVX2 (tests/pinned_numpy.py)
 def test_compute_equals_the_replaced_array_code_on_runs(monkeypatch, case):
     real = FormationExpert.compute
     seen = {"calls": 0, "active": 0, "ended": 0, "members": 0, "free": 0}
@@ -920,6 +925,7 @@ def _old_intersection_rewards(self, rows, crashed_now, F):
 
 
 @pytest.mark.parametrize("method,seed,extra", [("multi-vp", 3, False), ("fcfs", 5, True)])
+@at_pinned_level  # libm's transcendental steps against NumPy's: exact at AVX2 (tests/pinned_numpy.py)
 def test_intersection_features_and_rewards_equal_the_replaced_array_code(monkeypatch, method, seed, extra):
     from icv_envs.envs import intersection_v0
     from icv_envs.envs.intersection import IntersectionEnv

@@ -17,8 +17,7 @@ from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.observations import Kinematics
 from icv_envs.policies.platoon_common import Corridors
 from icv_envs.sim._kernels import (corridor_leaders, intersection_feature_rows, intersection_post_rows,
-                                   intersection_reward_pre, intersection_reward_rows, intersection_tracking_pre,
-                                   nearest_euclidean)
+                                   intersection_reward_rows, nearest_euclidean)
 
 __all__ = ["IntersectionRows", "POST_HOOK_NAMES"]
 
@@ -118,10 +117,10 @@ class IntersectionRows:
         reference, else 0)."""
         (rows, lo, span, gap, crashed, ua), weights = self._reward_args(rows, crashed_now)
         # (compiled: sim/_kernels/observation.intersection_reward_rows, the
-        # tracking term's exp from numpy; frozen in tests/test_expert_kernels.py)
-        ex = np.exp(intersection_reward_pre(rows, F))
+        # tracking term's exp libm's from stop 49, numpy's before; frozen in
+        # tests/test_expert_kernels.py)
         total, progress, safety, comfort, track = intersection_reward_rows(
-            rows, self.world.fleet.speed, lo, span, gap, crashed, ua, F, ex, *weights)
+            rows, self.world.fleet.speed, lo, span, gap, crashed, ua, F, *weights)
         return total, {"progress": progress, "safety": safety, "comfort": comfort, "tracking": track}
 
     def _leaders(self) -> tuple[np.ndarray, np.ndarray]:
@@ -148,7 +147,7 @@ class IntersectionRows:
         (:func:`icv_envs.sim._kernels.intersection_post_rows`: the kernels of
         :meth:`_features`, :meth:`_rewards_rows` and the ``Kinematics``
         observation with the arrays those methods give them; the cosine and
-        sine of the heading and the tracking term's ``exp`` from NumPy, as
+        sine of the heading from NumPy, the tracking term's ``exp`` libm's, as
         there), the same numbers bit for bit
         (``tests/test_intersection_api.py``). Taken when the observation is
         ``Kinematics`` without the leader columns (``OBS_EXTRA_FEATURES``)
@@ -163,7 +162,7 @@ class IntersectionRows:
         ra, weights = self._reward_args(rows, crashed_now)
         V = obs_type.V
         T, obs = intersection_post_rows(
-            *fa, *ra, np.exp(intersection_tracking_pre(ra[0], fa[6], fa[7])), *weights,
+            *fa, *ra, *weights,
             min(V - 1, self.world.fleet.n - 1), float(obs_type.pd), *obs_type.kernel_options(),
             float(self._wrap_period()))
         total, progress, safety, comfort, track = T  # (row views)

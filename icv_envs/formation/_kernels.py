@@ -39,8 +39,7 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["clip1", "join_search", "join_search_banded", "lateral_post", "lateral_pre", "plan_rows", "profile_eval",
-           "pursuit_post", "pursuit_pre"]
+__all__ = ["clip1", "join_search", "join_search_banded", "lateral_rows", "plan_rows", "profile_eval", "pursuit_rows"]
 
 
 @nb.njit(cache=True)
@@ -214,14 +213,13 @@ def profile_eval(vid, time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab, d0_tab, v0_ta
 
 
 # ------------------------------------------------- lane change and steering
-# The arithmetic of bezier._lane_change_lateral and _pure_pursuit_steering on
-# vehicle rows, around numpy's transcendental calls: the experts evaluate
-# them on a few to a few hundred rows per step, where the two dozen numpy
-# calls of the array code cost more than the arithmetic. The transcendental
-# steps (arcsinh, sinh, hypot, cos, sin, arctan) stay numpy's, whose SIMD
-# implementations round as their own (on AVX-512 not as libm, which numba
-# calls); everything here is exactly rounded, in the array code's order, so
-# the results are the array code's bit for bit on every SIMD level
+# bezier._lane_change_lateral and _pure_pursuit_steering on vehicle rows,
+# each in one pass: the experts evaluate them on a few to a few hundred rows
+# per step, where the two dozen numpy calls of the array code cost more than
+# the arithmetic. Until stop 49 the transcendental steps (arcsinh, sinh,
+# hypot, arctan) stayed numpy's, between two kernels each; they are libm's
+# now, which numpy's are at X86_V3, the reference fingerprints' level (the
+# module docstring); the rest is exactly rounded, in the array code's order
 # (tests/test_expert_kernels.py). numpy's clip: :func:`clip1`.
 
 
@@ -238,34 +236,22 @@ def clip1(v, lo, hi):
 
 
 @nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
-def lateral_pre(rows, x, x0, d):
-    """``s = clip((x - x0) / d, 0, 1)`` and ``4 s - 2`` (the argument of
-    ``arcsinh``) of the Bezier curve's parameter, for entries ``rows`` of the
-    full arrays."""
-    n = rows.shape[0]
-    s = np.empty(n)
-    w = np.empty(n)
-    for k in range(n):
-        i = rows[k]
-        v = clip1((x[i] - x0[i]) / d[i], 0.0, 1.0)
-        s[k] = v
-        w[k] = 4.0 * v - 2.0
-    return s, w
-
-
-@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
-def lateral_post(rows, s, sh, x, x0, y0, y1, d):
-    """The rest of ``_lane_change_lateral`` given ``sh = sinh(arcsinh(4 s -
-    2) / 3)``: the Newton step on ``t``, its clip to ``[0, 1]``, the lateral
-    position and slope, and the straight lanes before and after the curve.
-    Returns ``(y, slope)`` aligned with ``rows``."""
+def lateral_rows(rows, x, x0, y0, y1, d):
+    """``_lane_change_lateral`` of entries ``rows`` in one pass (from stop 49;
+    before, a kernel, NumPy's ``arcsinh`` and ``sinh``, a second kernel):
+    the parameter ``s = clip((x - x0) / d, 0, 1)``, ``t = 0.5 + sinh(asinh(4
+    s - 2) / 3)``, one Newton step on ``t`` and its clip to ``[0, 1]``, the
+    lateral position and slope, and the straight lanes before and after the
+    curve; ``asinh`` and ``sinh`` libm's (the module docstring). Returns
+    ``(y, slope)`` aligned with ``rows``."""
     n = rows.shape[0]
     y = np.empty(n)
     slope = np.empty(n)
     for k in range(n):
         i = rows[k]
-        t = 0.5 + sh[k]
-        t = clip1(t - (((t - 1.5) * t + 1.5) * t - s[k]) / ((3.0 * t - 3.0) * t + 1.5), 0.0, 1.0)
+        sv = clip1((x[i] - x0[i]) / d[i], 0.0, 1.0)
+        t = 0.5 + math.sinh(math.asinh(4.0 * sv - 2.0) / 3.0)
+        t = clip1(t - (((t - 1.5) * t + 1.5) * t - sv) / ((3.0 * t - 3.0) * t + 1.5), 0.0, 1.0)
         dy = y1[i] - y0[i]
         if x[i] <= x0[i]:
             y[k] = y0[i]
@@ -279,29 +265,28 @@ def lateral_post(rows, s, sh, x, x0, y0, y1, d):
     return y, slope
 
 
-@nb.njit(cache=True)
-def pursuit_pre(rx, ry, tx, ty):
-    """The preview point relative to the rear axle, ``(tx - rx, ty - ry)``."""
-    n = rx.shape[0]
-    dx = np.empty(n)
-    dy = np.empty(n)
-    for i in range(n):
-        dx[i] = tx[i] - rx[i]
-        dy[i] = ty[i] - ry[i]
-    return dx, dy
-
-
 @nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
-def pursuit_post(dx, dy, ld, c, sn, wb):
-    """``wb`` times the pursuit circle's curvature ``2 (c dy - sn dx) /
-    ld^2`` (0 where ``ld == 0``), the argument of ``arctan``; ``ld`` the
-    preview distance, ``c, sn`` the cosine and sine of the heading."""
-    n = dx.shape[0]
-    q = np.empty(n)
+def pursuit_rows(rx, ry, c, sn, tx, ty, wb, ms):
+    """``_pure_pursuit_steering`` in one pass (from stop 49; before, a
+    kernel, NumPy's ``hypot``, a second kernel, NumPy's ``arctan`` and
+    ``clip``): the preview point relative to the rear axle,
+    its distance ``ld`` (``hypot``), ``wb`` times the pursuit circle's
+    curvature ``2 (c dy - sn dx) / ld^2`` (0 where ``ld == 0``), its
+    ``arctan`` clipped to ``[-ms, ms]`` as numpy's clip; ``c, sn`` the
+    cosine and sine of the heading; ``hypot`` and ``atan`` libm's (the
+    module docstring)."""
+    n = rx.shape[0]
+    phi = np.empty(n)
     for i in range(n):
-        lateral = c[i] * dy[i] - sn[i] * dx[i]
-        if ld[i] > 0.0:
-            q[i] = wb * (2.0 * lateral / (ld[i] * ld[i]))
+        dx = tx[i] - rx[i]
+        dy = ty[i] - ry[i]
+        ld = math.hypot(dx, dy)
+        lateral = c[i] * dy - sn[i] * dx
+        if ld > 0.0:
+            q = wb * (2.0 * lateral / (ld * ld))
         else:
-            q[i] = wb * 0.0
-    return q
+            q = wb * 0.0
+        phi[i] = clip1(math.atan(q), -ms, ms)
+    return phi
+
+

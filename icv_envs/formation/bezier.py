@@ -28,8 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs._ufuncs import clip as uclip
-from icv_envs.formation._kernels import lateral_post, lateral_pre, pursuit_post, pursuit_pre
+from icv_envs.formation._kernels import lateral_rows, pursuit_rows
 from icv_envs.formation._validate import finite
 
 __all__ = [
@@ -191,29 +190,28 @@ def _lane_change_lateral(xa, x0a, y0a, y1a, d) -> tuple[np.ndarray, np.ndarray]:
 def _lane_change_lateral_rows(rows, x, x0, y0, y1, d) -> tuple[np.ndarray, np.ndarray]:
     """``_lane_change_lateral(x[rows], x0[rows], y0[rows], y1[rows],
     d[rows])`` for 1-D float64 arrays ``x, x0, y0, y1, d`` (finite, ``d >
-    0`` at ``rows``) and int64 ``rows``: the same numbers bit for bit, with
-    the arithmetic compiled (:func:`icv_envs.formation._kernels.lateral_pre`,
-    :func:`~icv_envs.formation._kernels.lateral_post`) and ``arcsinh``,
-    ``sinh`` from numpy as the array code takes them."""
-    if x.flags.writeable:  # one specialisation of the kernels: x is a read-only state array at most call sites
+    0`` at ``rows``) and int64 ``rows``, in one compiled pass
+    (:func:`icv_envs.formation._kernels.lateral_rows`): the same operations,
+    ``arcsinh`` and ``sinh`` libm's (from stop 49; numpy's between two
+    kernels before), which numpy's are at ``X86_V3`` (the rule of
+    :mod:`icv_envs.sim._kernels`)."""
+    if x.flags.writeable:  # one specialisation of the kernel: x is a read-only state array at most call sites
         x = x.view()
         x.flags.writeable = False
-    s, w = lateral_pre(rows, x, x0, d)
-    sh = np.sinh(np.arcsinh(w) / 3.0)
-    return lateral_post(rows, s, sh, x, x0, y0, y1, d)
+    return lateral_rows(rows, x, x0, y0, y1, d)
 
 
 def _pure_pursuit_rows(rx, ry, th, tx, ty, wb: float, ms: float, cos_sin=None) -> np.ndarray:
     """:func:`_pure_pursuit_steering` for 1-D float64 arrays of one length
-    (finite; ``wb > 0``, ``0 < ms < pi/2``): the same numbers bit for bit,
-    with the arithmetic compiled (:func:`icv_envs.formation._kernels.pursuit_pre`,
-    :func:`~icv_envs.formation._kernels.pursuit_post`) and ``hypot``,
-    ``cos``, ``sin``, ``arctan`` from numpy as the array code takes them.
-    ``cos_sin``: ``(np.cos(th), np.sin(th))`` when the caller has them."""
-    dx, dy = pursuit_pre(rx, ry, tx, ty)
+    (finite; ``wb > 0``, ``0 < ms < pi/2``) in one compiled pass
+    (:func:`icv_envs.formation._kernels.pursuit_rows`): the same operations,
+    ``hypot`` and ``arctan`` libm's (from stop 49; numpy's between two
+    kernels before), which numpy's are at ``X86_V3`` (the rule of
+    :mod:`icv_envs.sim._kernels`). ``cos_sin``: ``(np.cos(th),
+    np.sin(th))`` when the caller has them (numpy's ``cos`` and ``sin``
+    are libm's on every SIMD level checked)."""
     c, s = (np.cos(th), np.sin(th)) if cos_sin is None else cos_sin
-    q = pursuit_post(dx, dy, np.hypot(dx, dy), c, s, wb)
-    return uclip(np.arctan(q), -ms, ms)
+    return pursuit_rows(rx, ry, c, s, tx, ty, float(wb), float(ms))
 
 
 def pure_pursuit_steering(

@@ -339,8 +339,8 @@ class FormationExpert:
         # centre (until then the vehicle keeps steering for it), or stopped
         # there (a vehicle held by a lane end before the end of its curve is
         # on the new lane and may plan its next change); one that strayed
-        # from its curve re-plans (compiled: formation/_kernels.lateral_pre,
-        # lateral_post around numpy's arcsinh and sinh, and
+        # from its curve re-plans (compiled: formation/_kernels.lateral_rows,
+        # libm's arcsinh and sinh from stop 49, and
         # policies/_kernels.lane_changes_ended; every argument is a finite
         # float64 state array, every length > 0)
         active = tr.lc_lane >= 0

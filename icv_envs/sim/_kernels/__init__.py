@@ -89,8 +89,7 @@ from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs,
 from icv_envs.sim._kernels.observation import (formation_feature_rows, formation_post_rows, formation_reward_terms,
                                                formation_reward_total,
                                                intersection_feature_rows, intersection_post_rows,
-                                               intersection_reward_pre, intersection_reward_rows,
-                                               intersection_tracking_pre, kinematics_rows, nearest_along_road,
+                                               intersection_reward_rows, kinematics_rows, nearest_along_road,
                                                nearest_euclidean, corridor_leaders)
 from icv_envs.sim._kernels.physics import (controls_rows, npy_mod, kinematic_substep, road_check, interval_ends,
                                            lanes_available)
@@ -117,8 +116,6 @@ __all__ = [
     "corridor_leaders",
     "intersection_feature_rows",
     "intersection_post_rows",
-    "intersection_tracking_pre",
-    "intersection_reward_pre",
     "intersection_reward_rows",
     "kinematics_rows",
     "formation_feature_rows",

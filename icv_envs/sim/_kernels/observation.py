@@ -14,8 +14,9 @@ from icv_envs.formation._kernels import clip1
 from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.physics import interval_ends_at, lane_of1, npy_mod
 
-__all__ = ["nearest_along_road", "nearest_euclidean", "corridor_leaders", "kinematics_rows", "formation_feature_rows", "formation_reward_terms",
-           "formation_post_rows", "intersection_feature_rows", "intersection_reward_pre", "intersection_reward_rows"]
+__all__ = ["nearest_along_road", "nearest_euclidean", "corridor_leaders", "kinematics_rows", "formation_feature_rows",
+           "formation_reward_terms", "formation_reward_total", "formation_post_rows", "intersection_feature_rows",
+           "intersection_reward_rows", "intersection_post_rows"]
 
 
 @nb.njit(cache=True)
@@ -403,27 +404,17 @@ def _tracking_exponent(dx):
     return -(e * e)
 
 
-@nb.njit(cache=True)
-def intersection_reward_pre(rows, F):
-    """``-(F[rows, 8] / 10)^2``: the argument of the tracking reward's
-    ``exp`` (numpy's), for :func:`intersection_reward_rows`."""
-    m = rows.shape[0]
-    q = np.empty(m)
-    for k in range(m):
-        q[k] = _tracking_exponent(F[rows[k], 8])
-    return q
-
-
 @nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
-def intersection_reward_rows(rows, speed, lo, span, gap, crashed, ua, F, ex, w_progress, w_safety, w_comfort,
+def intersection_reward_rows(rows, speed, lo, span, gap, crashed, ua, F, w_progress, w_safety, w_comfort,
                              w_tracking):
     """The intersection env's reward terms of ``rows``
     (``IntersectionEnv._rewards_rows``): progress ``clip((v - lo) / span, 0,
     1)``, safety ``-clip(1 - gap / (2 + v), 0, 1)`` (-1 on a collision),
     comfort ``-(u_a^2 + u_s^2) / 2`` of the last actions ``ua`` (rows
-    aligned with ``rows``), tracking ``ex = exp(-(dx / 10)^2)`` where the
-    reference error ``F[:, 8]`` is not 0, and their weighted sum. Returns
-    ``(total, progress, safety, comfort, tracking)``."""
+    aligned with ``rows``), tracking ``exp(-(dx / 10)^2)`` where the
+    reference error ``dx = F[:, 8]`` is not 0 (libm's ``exp`` from stop 49,
+    NumPy's at ``X86_V3``; NumPy's, passed in, before), and their weighted
+    sum. Returns ``(total, progress, safety, comfort, tracking)``."""
     m = rows.shape[0]
     total = np.empty(m)
     progress = np.empty(m)
@@ -436,7 +427,7 @@ def intersection_reward_rows(rows, speed, lo, span, gap, crashed, ua, F, ex, w_p
         q = clip1(1.0 - gap[i] / (2.0 + speed[i]), 0.0, 1.0)
         sf = -1.0 if crashed[i] else -q
         cf = -0.5 * (ua[k, 0] * ua[k, 0] + ua[k, 1] * ua[k, 1])
-        tr = ex[k] if F[i, 8] != 0.0 else 0.0
+        tr = math.exp(_tracking_exponent(F[i, 8])) if F[i, 8] != 0.0 else 0.0
         progress[k] = p
         safety[k] = sf
         comfort[k] = cf
@@ -445,31 +436,17 @@ def intersection_reward_rows(rows, speed, lo, span, gap, crashed, ua, F, ex, w_p
     return total, progress, safety, comfort, track
 
 
-@nb.njit(cache=True)
-def intersection_tracking_pre(rows, has, d):
-    """:func:`intersection_reward_pre` from the expert's references before
-    the feature rows exist: the feature ``F[:, 8]`` is ``d`` where ``has``,
-    else 0 (:func:`intersection_feature_rows`), so ``-(F[rows, 8] / 10)^2``
-    is the same number."""
-    m = rows.shape[0]
-    q = np.empty(m)
-    for k in range(m):
-        i = rows[k]
-        q[k] = _tracking_exponent(d[i] if has[i] else 0.0)
-    return q
-
-
 @nb.njit(cache=True, error_model="numpy")
 def intersection_post_rows(cx, cy, speed, c, s, dist, has, d, dv, phase, lat_leg, klane, lane_width, lat, mv, R1, R2,
-                           go, rows, lo, span, gap, crashed, ua, ex, w_progress, w_safety, w_comfort, w_tracking, K, pd,
+                           go, rows, lo, span, gap, crashed, ua, w_progress, w_safety, w_comfort, w_tracking, K, pd,
                            idx, V, s_abs, s_rel, absolute, normalize, clip, o_period):
     """What the intersection env's step builds from the state after its
     physics and coordination, in one call (from stop 42), each kernel with
     the arguments its separate call gets, in their order:
     :func:`intersection_feature_rows` (``cx`` .. ``go``),
-    :func:`intersection_reward_rows` of ``rows`` (``rows`` .. ``w_tracking``,
-    the tracking term's ``exp`` from NumPy: ``ex``, of
-    :func:`intersection_tracking_pre`), and the ``Kinematics``
+    :func:`intersection_reward_rows` of ``rows`` (``rows`` .. ``w_tracking``;
+    until stop 49 the tracking term's ``exp`` came from NumPy, an argument),
+    and the ``Kinematics``
     observations: when ``V > 1`` and there are two vehicles or more,
     :func:`nearest_euclidean` of the ``K`` nearest on contiguous copies of
     the centre columns, then :func:`kinematics_rows` (``idx`` ..
@@ -479,7 +456,7 @@ def intersection_post_rows(cx, cy, speed, c, s, dist, has, d, dv, phase, lat_leg
     F = intersection_feature_rows(cx, cy, speed, c, s, dist, has, d, dv, phase, lat_leg, klane, lane_width, lat, mv,
                                   R1, R2, go)
     total, progress, safety, comfort, track = intersection_reward_rows(
-        rows, speed, lo, span, gap, crashed, ua, F, ex, w_progress, w_safety, w_comfort, w_tracking)
+        rows, speed, lo, span, gap, crashed, ua, F, w_progress, w_safety, w_comfort, w_tracking)
     if V > 1 and cx.shape[0] > 1:
         sel, present = nearest_euclidean(F[:, 1].copy(), F[:, 2].copy(), rows, K, pd)
     else:

@@ -2,10 +2,11 @@
 the kernels, stop 49) against the code they replaced (NumPy's power and exp
 between kernels), twin worlds in one process (stop 49).
 
-Twin R has the replaced code patched onto its instances: ``JoinPlans._eval``
-and ``JoinPlans.plan``'s store (a gather kernel, ``np.power``, a second
-kernel: the reference tree's ``formation/_kernels.py``, loaded from
-``--old``) and ``HighwayRows._reward_total`` (``np.where``, ``np.exp``);
+Twin R has the replaced code on its instances: its join plans are objects of
+the reference tree's ``JoinPlans`` (``sim/join_plans.py`` with its
+``formation/_kernels.py``, loaded from ``--old``: a gather kernel,
+``np.power``, a second kernel) and its ``_reward_total`` is the replaced
+NumPy code (``np.where``, ``np.exp``);
 twin T runs this tree as it is. They step alternately (which goes first
 alternates); the time of each twin's steps is summed after a warm-up, and
 every step's outputs are compared bit for bit (equal where NumPy's power
@@ -32,34 +33,22 @@ def load_old(tree):
     return mod
 
 
-POW345 = np.array([[3.0], [4.0], [5.0]])
+def old_join_plans(tree, K):
+    """The reference tree's ``JoinPlans`` class, its kernels the reference's (``K``)."""
+    src = open(f"{tree}/icv_envs/sim/join_plans.py").read()
+    src = src.replace("from icv_envs.formation._kernels import join_search_banded, plan_rows, profile_gather, quintic_rows",
+                      "join_search_banded, plan_rows, profile_gather, quintic_rows = (_K.join_search_banded, _K.plan_rows, "
+                      "_K.profile_gather, _K.quintic_rows)")
+    ns = {"_K": K, "__name__": "old_join_plans"}
+    exec(compile(src, f"{tree}/icv_envs/sim/join_plans.py", "exec"), ns)
+    return ns["JoinPlans"]
 
 
-def patch_world(core, K):
-    """The replaced code on one world's instances."""
-    plans = core.world.manager._plans
-
-    def _eval(self, vid, t):
-        P, run, tc = K.profile_gather(vid, float(t), self.t0, self.T, self.fd, self.fv, self.fa)
-        d, v, a = P
-        if len(run):
-            t3, t4, t5 = np.power(tc, POW345)
-            K.quintic_rows(tc, t3, t4, t5, vid[run], self.d0, self.v0, self.a0, self.c3, self.c4, self.c5, run, d, v, a)
-        return d, v, a
-
-    plans._eval = types.MethodType(_eval, plans)
-    import icv_envs.sim.join_plans as jpmod
-    real_plan_rows = jpmod.plan_rows
-
-    def plan(self, vid, d0, v0, a0, t):  # JoinPlans.plan with the old store (numpy's powers)
-        jpmod.plan_rows = lambda vid, time, T, d0, v0, a0, *tabs: K.plan_rows(vid, time, T, *np.power(T, POW345),
-                                                                             d0, v0, a0, *tabs)
-        try:
-            return type(self).plan(self, vid, d0, v0, a0, t)
-        finally:
-            jpmod.plan_rows = real_plan_rows
-
-    plans.plan = types.MethodType(plan, plans)
+def patch_world(core, K, OldJoinPlans):
+    """The replaced code on one world's instances: its join plans become an
+    instance of the reference tree's class (the same fields), its reward
+    total the NumPy code."""
+    core.world.manager._plans.__class__ = OldJoinPlans
 
     def _reward_total(self, terms):
         progress, safety, comfort, expo, member, partial = terms
@@ -78,6 +67,7 @@ def main():
     p.add_argument("--seed", type=int, default=0)
     a = p.parse_args()
     K = load_old(a.old)
+    OJ = old_join_plans(a.old, K)
     if a.case.startswith("batched"):
         from icv_envs.vector import BatchedWorlds
         expert = a.case == "batched-expert"
@@ -89,7 +79,7 @@ def main():
 
         R, T = make(), make()
         for env in R.envs:
-            patch_world(env.core, K)
+            patch_world(env.core, K, OJ)
         zeros = np.zeros((16, T.K, 2), dtype=np.float32)
 
         def step(bw):
@@ -105,7 +95,7 @@ def main():
             return env
 
         R, T = make(), make()
-        patch_world(R.core, K)
+        patch_world(R.core, K, OJ)
         # (R's reset ran the original code: re-made plans from here on are the patched ones; warm both to 300 s)
 
         def step(env):
