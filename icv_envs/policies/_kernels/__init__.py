@@ -30,11 +30,13 @@ b)`` return ``b`` on a tie, its ``clip`` keeps the value on a tie), no
 (``tests/test_trajectory_hash.py``; the replaced code is frozen in
 ``tests/test_kernels.py``, ``tests/test_expert_kernels.py``,
 ``tests/test_corridor_index.py`` and ``tests/test_box_steering.py``).
-Transcendental calls whose NumPy SIMD rounding can differ from libm's
-(``arcsinh``, ``sinh``, ``hypot``, ``cos``, ``sin``, ``arctan``, the IDM's
-power) stay NumPy's in the highway expert, the kernels computing what lies
-between them; the intersection's steering uses libm's, as NumPy's float64
-loops up to AVX2 (the rule and its AVX-512 caveat: :mod:`icv_envs.sim._kernels`).
+Transcendental calls: the IDM's power stays NumPy's in the highway
+expert, the kernels computing what lies around it; the lane-change curve's
+``arcsinh`` and ``sinh`` and the pure pursuit's ``hypot`` and ``arctan``
+are libm's inside one kernel each from stop 49
+(:mod:`icv_envs.formation._kernels`), as the intersection's steering's
+already were: NumPy's float64 loops are libm's up to AVX2 (the rule and
+its AVX-512 caveat: :mod:`icv_envs.sim._kernels`).
 Kernels added from stop 36 that divide use ``error_model="numpy"`` (IEEE
 ``inf``/``nan`` as NumPy's, no ``ZeroDivisionError``).
 """
