@@ -156,7 +156,7 @@ def _quintic_at(ti, t3, t4, t5, d, v, a, p3, p4, p5):
 
 @nb.njit(cache=True)
 def plan_rows(vid, time, T, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab, fd_tab,
-              fv_tab, fa_tab, stamp_tab, count):
+              fv_tab, fa_tab):
     """Store new join plans (:meth:`icv_envs.sim.join_plans.JoinPlans.plan`
     after its duration search) in the tables indexed by vehicle id: start
     ``time``, duration ``T``, initial state ``(d0, v0, a0)``, the quintic's
@@ -164,12 +164,12 @@ def plan_rows(vid, time, T, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c
     divisions in its order, from the powers ``T**3``, ``T**4``, ``T**5``,
     libm's ``pow`` (from stop 49; numpy's before: the module docstring);
     ``T**2`` is numpy's exact square ``T * T``), the profile's values at
-    ``T`` (:func:`_quintic_at`) and the stamp ``count + len(vid)`` (the
-    count of plans once these are made). With a repeated id the last plan
-    wins, as with numpy's fancy assignment. Bit for bit the numpy code's
+    ``T`` (:func:`_quintic_at`; until stop 49 also a stamp, the count of
+    plans once these were made, read by the patched re-evaluation that
+    stop 49 dropped). With a repeated id the last plan wins, as with
+    numpy's fancy assignment. Bit for bit the numpy code's
     values where numpy's ``power`` is libm's (``tests/test_kernels.py``,
     pinned at ``X86_V3``)."""
-    stamp = count + vid.shape[0]
     for i in range(vid.shape[0]):
         k = vid[i]
         Ti, d, v, a = T[i], d0[i], v0[i], a0[i]
@@ -181,7 +181,6 @@ def plan_rows(vid, time, T, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c
         d0_tab[k], v0_tab[k], a0_tab[k] = d, v, a
         c3_tab[k], c4_tab[k], c5_tab[k] = p3, p4, p5
         fd_tab[k], fv_tab[k], fa_tab[k] = _quintic_at(Ti, t3, t4, t5, d, v, a, p3, p4, p5)
-        stamp_tab[k] = stamp
 
 
 @nb.njit(cache=True)

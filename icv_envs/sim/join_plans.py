@@ -24,7 +24,6 @@ from icv_envs.formation.control import (
     _quintic_coeffs,
     join_profile,
 )
-from icv_envs._ufuncs import flatnonzero
 from icv_envs.sim._kernels import id_range
 
 __all__ = ["JoinPlans", "JOIN_MAX_DURATION"]
@@ -58,7 +57,6 @@ class JoinPlans:
         self._cap = 0
         self._bands: dict[int, tuple] = {}  # member count -> speed band arrays (_band)
         self.slot_gid = np.zeros(0, dtype=np.int64)  # the formation a plan was made for (-1: none)
-        self.stamp = np.zeros(0, dtype=np.int64)  # the count of plans when each was made
         for name in self.FLOATS:
             setattr(self, name, np.zeros(0))
 
@@ -70,7 +68,6 @@ class JoinPlans:
         new = max(size, 2 * self._cap, 256)
         pad = new - self._cap
         self.slot_gid = np.concatenate([self.slot_gid, np.full(pad, -1, dtype=np.int64)])
-        self.stamp = np.concatenate([self.stamp, np.zeros(pad, dtype=np.int64)])
         for name in self.FLOATS:
             setattr(self, name, np.concatenate([getattr(self, name), np.zeros(pad)]))
         self.T[self._cap:] = 1.0
@@ -110,7 +107,7 @@ class JoinPlans:
         # one compiled pass (formation._kernels.plan_rows; the powers libm's
         # from stop 49, numpy's before: that module's docstring)
         plan_rows(vid, float(time), T, d0, v0, a0, self.t0, self.T, self.d0, self.v0, self.a0, self.c3, self.c4,
-                  self.c5, self.fd, self.fv, self.fa, self.stamp, self.count)
+                  self.c5, self.fd, self.fv, self.fa)
         self.count += len(vid)
         return T
 
@@ -127,25 +124,20 @@ class JoinPlans:
         read-only. Several callers ask for the same vehicles within one step
         (the expert, the observations, the manager's own update); the last
         answer is kept, keyed on the clock and the ids, with the count of
-        plans made when it was computed. When some of them were re-planned
-        since, only those are evaluated again (the profile is element-wise,
-        so the patched arrays equal a full evaluation). ``top``: a bound
-        the caller knows, every id below it (the tables then grow to it
-        without a search for the largest)."""
+        plans made when it was computed; once a plan was made since, all of
+        them are evaluated again (one compiled call; until stop 49 only the
+        re-planned ones, patched into copies of the kept arrays: the same
+        numbers, the profile is element-wise, at more cost once the
+        evaluation was one call). ``top``: a bound the caller knows, every
+        id below it (the tables then grow to it without a search for the
+        largest)."""
         key = (time, vid.tobytes())
         c = self._cache
         if c is not None and c[0] == key and c[1] == self.count:
             return c[2]  # the kept answer (these ids were in the tables when it was computed; tables only grow)
         if len(vid):
             self.grow(top if top is not None else int(id_range(np.asarray(vid, dtype=np.int64))[1]) + 1)
-        if c is not None and c[0] == key:
-            stale = flatnonzero(self.stamp[vid] > c[1])
-            out = tuple(arr.copy() for arr in c[2])
-            if len(stale):
-                for arr, p in zip(out, self._eval(vid[stale], time)):
-                    arr[stale] = p
-        else:
-            out = self._eval(vid, time)
+        out = self._eval(vid, time)
         for arr in out:
             arr.setflags(write=False)
         self._cache = (key, self.count, out)
