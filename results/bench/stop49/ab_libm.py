@@ -48,7 +48,11 @@ def patch_world(core, K, OldJoinPlans):
     """The replaced code on one world's instances: its join plans become an
     instance of the reference tree's class (the same fields), its reward
     total the NumPy code."""
-    core.world.manager._plans.__class__ = OldJoinPlans
+    plans = core.world.manager._plans
+    plans.__class__ = OldJoinPlans
+    if not hasattr(plans, "stamp"):  # (this tree's JoinPlans keeps no stamps from stop 49: every plan counts as old)
+        plans.stamp = np.zeros(len(plans.slot_gid), dtype=np.int64)
+    plans._cache = None
 
     def _reward_total(self, terms):
         progress, safety, comfort, expo, member, partial = terms
@@ -65,6 +69,8 @@ def main():
     p.add_argument("--case", default="batched", choices=["batched", "batched-expert", "ring"])
     p.add_argument("--steps", type=int, default=300)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--worlds", type=int, default=16)
+    p.add_argument("--vehicles", type=int, default=20)
     a = p.parse_args()
     K = load_old(a.old)
     OJ = old_join_plans(a.old, K)
@@ -73,19 +79,20 @@ def main():
         expert = a.case == "batched-expert"
 
         def make():
-            bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=a.seed, expert=expert)
+            bw = BatchedWorlds(a.worlds, config={"vehicles_count": a.vehicles, "initial_position": None}, seed=a.seed,
+                               expert=expert)
             bw.reset()
             return bw
 
         R, T = make(), make()
         for env in R.envs:
             patch_world(env.core, K, OJ)
-        zeros = np.zeros((16, T.K, 2), dtype=np.float32)
+        zeros = np.zeros((a.worlds, T.K, 2), dtype=np.float32)
 
         def step(bw):
             return bw.step(bw.expert_actions if expert else zeros)[:5]
 
-        warm, unit = 20, 16 * 20  # agent-steps per step: reported per world-step below
+        warm = 20
     else:
         from icv_envs.envs.highway_ramps_v0 import parallel_env
 
@@ -122,8 +129,8 @@ def main():
                     tT += dt
         if first is None and not all(np.array_equal(x, y) for x, y in zip(out[id(R)], out[id(T)])):
             first = s
-    per = a.steps * (16 if a.case.startswith("batched") else 1)
-    print(json.dumps({"case": a.case, "seed": a.seed, "cap": os.environ.get("NPY_DISABLE_CPU_FEATURES", ""),
+    per = a.steps * (a.worlds if a.case.startswith("batched") else 1)
+    print(json.dumps({"case": a.case, "seed": a.seed, "worlds": a.worlds, "vehicles": a.vehicles, "cap": os.environ.get("NPY_DISABLE_CPU_FEATURES", ""),
                       "steps": a.steps, "replaced_us": round(tR / per * 1e6, 1), "this_tree_us": round(tT / per * 1e6, 1),
                       "speedup": round(tR / tT, 4), "identical": first is None, "first_step_differing": first,
                       "unit": "per world-step" if a.case.startswith("batched") else "per ring step"}))
