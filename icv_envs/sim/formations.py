@@ -397,16 +397,20 @@ class FormationManager(FormationViews):
         if next_gid != self.next_gid:
             self.next_gid = next_gid
             self._live = None
-        self._hold_targets(traffic, road, g_arr, chg, room, cx, dt)
+        held = self._hold_targets(traffic, road, g_arr, chg, room, cx, dt)
         changed = flatnonzero(chg[:self.next_gid]).tolist()
         for gid in changed:  # ascending
             self._reform(traffic, road, gid, cx)
         # members that fell off their reference (held back by traffic) re-plan
         # from where they are
         # (compiled: sim/_kernels/formation_step.off_reference_rows)
-        m = flatnonzero(traffic.group >= 0) if n else np.zeros(0, dtype=np.int64)
+        if held is not None and not changed:  # nothing re-formed: the hold's members and profiles
+            m, d = held
+        else:
+            m = flatnonzero(traffic.group >= 0) if n else np.zeros(0, dtype=np.int64)
+            if len(m):
+                d = self._profile(traffic, m)[0]
         if len(m):
-            d, _, _ = self._profile(traffic, m)
             off = off_reference_rows(traffic.group, m, cx, self._anchor_lut(), traffic.tgt_behind, d, length,
                                      float(self.replan_error))
             if len(off):
@@ -432,13 +436,14 @@ class FormationManager(FormationViews):
         ``chg`` (a mask over formation ids). The join profiles come from
         :class:`JoinPlans` (numpy's powers); the rest runs in one compiled
         call (:func:`icv_envs.sim._kernels.formation_step.hold_pass`), the
-        arithmetic of the array code it replaced, element by element."""
+        arithmetic of the array code it replaced, element by element.
+        Returns the members' rows and profile offsets it used, or None."""
         if not traffic.n or not len(g_arr):
-            return
+            return None
         grp = traffic.group
         m = flatnonzero(grp >= 0)
         if not len(m):
-            return
+            return None
         # the lead of the front target over its members is measured against
         # each member's REFERENCE (slot + join profile), not its slot: a member
         # on its join plan is meant to be behind its slot, and holding the
@@ -457,6 +462,7 @@ class FormationManager(FormationViews):
                   traffic.vid, self._plans.deadline, float(self.time), float(self.max_anchor_lead),
                   -self.anchor_brake * dt, float(self.stall_error), rc[0], float(dt), float(self.stall_time),
                   float(self.lookahead), *rc[1:], self._allowed(road.n_lanes))
+        return m, d_ref
 
     def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-vehicle ``(x_ref, lane_ref, v_ref, member)``: body-centre
