@@ -18,8 +18,8 @@ numpy code's, bit for bit (``tests/test_trajectory_hash.py``).
 :func:`join_search_banded` is the formation layer's plan search in one call
 (its start, the search within the speed band, the fallback without it);
 :func:`profile_eval` evaluates join profiles from the coefficients stored
-with the plan, and :func:`plan_rows` stores new plans (coefficients, end
-values, stamps) in one pass. The search's start (``cbrt``) stays numpy's.
+with the plan, and :func:`plan_rows` stores new plans (coefficients and end
+values; until stop 49 also stamps) in one pass. The search's start (``cbrt``) stays numpy's.
 The quintic's powers ``t^3``, ``t^4``, ``t^5`` are libm's ``pow``, taken
 inside the kernels (from stop 49; numpy's ``power`` between two kernels
 before): at ``X86_V3``, the level the reference fingerprints are pinned at,
