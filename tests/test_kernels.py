@@ -1406,7 +1406,7 @@ def test_formation_post_rows_kernel_on_a_ring(seed):
     observation's dx folded round it, the features' wrap), which no env
     reaches through it (every ring has exits)."""
     from icv_envs.sim._kernels import (formation_feature_rows, formation_post_rows, formation_reward_terms,
-                                       kinematics_rows, nearest_along_road)
+                                       formation_reward_total, kinematics_rows, nearest_along_road)
 
     rng = np.random.default_rng(seed)
     n, L, W, lanes = int(rng.integers(1, 30)), 1000.0, 4.0, 4
@@ -1427,7 +1427,7 @@ def test_formation_post_rows_kernel_on_a_ring(seed):
     ch, sh = np.cos(h), np.sin(h)
     got = formation_post_rows(cx, cy, v, ch, sh, x_ref, lane_ref, v_ref, member, *road[:2], L, *road[3:], rows, v,
                               30.0, gap, crashed, ua, 20.0, W, 0.4, 1.0, 0.1, V - 1, pd, True, L, idx, V, s_abs, s_rel,
-                              *flags, L)
+                              *flags, L, 0.6)
     F = formation_feature_rows(cx, cy, v, ch, sh, x_ref, lane_ref, v_ref, member, *road[:2], L, *road[3:])
     want = formation_reward_terms(rows, v, 30.0, gap, crashed, ua, F, 20.0, W, 0.4, 1.0, 0.1)
     if V > 1 and n > 1:
@@ -1435,10 +1435,11 @@ def test_formation_post_rows_kernel_on_a_ring(seed):
     else:
         sel, present = np.zeros((n, 0), dtype=np.int64), np.zeros((n, 0), dtype=bool)
     obs = kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, *flags, L)
-    T, member_q, obs_got = got  # (the float terms as rows of one array)
+    progress, safety, comfort, expo, member_q, partial = want
+    total, form = formation_reward_total(member_q, expo, partial, 0.6)
+    T, obs_got = got  # (the reward and its terms as rows of one array)
     assert T.shape == (5, n)
-    got = (T[0], T[1], T[2], T[3], member_q, T[4], obs_got)
-    for g, w in zip(got, tuple(want) + (obs,)):
+    for g, w in zip((T[0], T[1], T[2], T[3], T[4], obs_got), (total, progress, safety, comfort, form, obs)):
         assert g.dtype == w.dtype and g.tobytes() == w.tobytes()
 
 
@@ -1682,6 +1683,50 @@ def test_plan_rows_equal_numpy_plan(n, seed, dup):
     plan_rows(vid, time, T, d0, v0, a0, *(got[k] for k in names))
     for k in names:
         _exact_or_ulps(got[k], want[k])
+
+
+@at_pinned_level  # plan_pass' cbrt is libm's, NumPy's at AVX2 (tests/pinned_numpy.py)
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(1, 30), periodic=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_plan_pass_is_the_separate_calls(n, periodic, seed):
+    """``plan_pass`` (``FormationManager._plan`` in one call, from stop 50)
+    gives the durations and tables of the calls it joined, bit for bit:
+    ``plan_inputs_rows``, NumPy's ``cbrt`` of the search's start,
+    ``join_search_banded`` with the band as arrays, ``plan_rows``; members
+    far from their slot (the fallback search without the band) included."""
+    from icv_envs.formation._kernels import join_search_banded, plan_rows
+    from icv_envs.formation.control import _PROFILE_SAMPLES, JOIN_GROW, JOIN_SEARCH_CAP
+    from icv_envs.sim._kernels.formation import plan_inputs_rows
+    from icv_envs.sim._kernels.formation_step import plan_pass
+    from icv_envs.sim.join_plans import JOIN_MAX_DURATION
+
+    rng = np.random.default_rng(seed)
+    length = 2_000.0 if periodic else -1.0
+    anchors = np.append(rng.uniform(0, 2_000, 5), np.nan)
+    group = rng.integers(0, 5, n)
+    behind = rng.uniform(0, 120, n) * rng.choice([1.0, 0.0], n)
+    cx = rng.uniform(0, 2_000, n)
+    speed = rng.uniform(0, 40, n)
+    accel = rng.uniform(-9, 5, n)
+    vid = np.sort(rng.choice(3 * n, n, replace=False)).astype(np.int64)
+    rows = np.sort(rng.choice(n, rng.integers(1, n + 1), replace=False)).astype(np.int64)
+    v_form, accel_lim, decel, jerk, t_min, time = 25.0, 1.5, 3.0, 2.0, 2.0, float(rng.uniform(0, 500))
+    band = (18.0 - v_form, 33.0 - v_form)
+    names = ("t0", "T", "d0", "v0", "a0", "c3", "c4", "c5", "fd", "fv", "fa")
+    want = {k: rng.normal(size=3 * n) for k in names}
+    got = {k: v.copy() for k, v in want.items()}
+    d0, v0, a0 = plan_inputs_rows(rows, group, behind, anchors, cx, speed, accel, v_form, -decel, accel_lim, length)
+    cb = np.cbrt(60.0 * np.abs(d0) / jerk)
+    m = len(rows)
+    T_want = join_search_banded(cb, d0, v0, a0, accel_lim, decel, jerk, t_min, JOIN_GROW, JOIN_MAX_DURATION,
+                                np.full(m, band[0]), np.full(m, band[1]), True, JOIN_SEARCH_CAP, _PROFILE_SAMPLES)
+    plan_rows(vid[rows], time, T_want, d0, v0, a0, *(want[k] for k in names))
+    T_got = plan_pass(rows, group, behind, anchors, cx, speed, accel, vid, v_form, length, time, accel_lim, decel,
+                      jerk, t_min, JOIN_GROW, JOIN_MAX_DURATION, band[0], band[1], JOIN_SEARCH_CAP, _PROFILE_SAMPLES,
+                      *(got[k] for k in names))
+    assert T_got.tobytes() == T_want.tobytes()
+    for k in names:
+        assert got[k].tobytes() == want[k].tobytes(), k
 
 
 def _numpy_lane_change_starts(expert, world, index, active, lane, desired, member):

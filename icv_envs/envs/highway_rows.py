@@ -151,10 +151,10 @@ class HighwayRows:
     def _post_rows(self, rows: np.ndarray, crashed_now: np.ndarray) -> tuple:
         """:meth:`IcvAgentsEnv._post_rows` in one compiled call
         (:func:`icv_envs.sim._kernels.formation_post_rows`: the kernels of
-        :meth:`_features`, :meth:`_rewards_rows` and the ``Kinematics``
-        observation with the arrays those methods give them; the ``exp`` of
-        the formation term from NumPy, as there), the same numbers bit for
-        bit (``tests/test_kernels.py``). Taken when the observation is
+        :meth:`_features`, :meth:`_rewards_rows` (with :meth:`_reward_total`'s
+        kernel, inside from stop 50) and the ``Kinematics`` observation with
+        the arrays those methods give them), the same numbers bit for bit
+        (``tests/test_kernels.py``). Taken when the observation is
         ``Kinematics``, the road has no exits (their column is written
         between the features and the observation) and none of the hooks
         it stands for (``POST_HOOK_NAMES``) is replaced, on a subclass, on the
@@ -165,12 +165,11 @@ class HighwayRows:
                 or not own_hooks(self, self._post_hooks)):
             return super()._post_rows(rows, crashed_now)
         options = obs_type.kernel_options()  # (idx, V, s_abs, s_rel, absolute, normalize, clip)
-        T, member, obs = formation_post_rows(*self._feature_args(), *self._reward_args(rows, crashed_now),
-                                             *self._neighbour_args(options[1] - 1, obs_type.pd), *options,
-                                             float(self._wrap_period()))
-        progress, safety, comfort, expo, partial = T  # (row views)
-        total, parts = self._reward_total((progress, safety, comfort, expo, member, partial))
-        return total, parts, obs
+        T, obs = formation_post_rows(*self._feature_args(), *self._reward_args(rows, crashed_now),
+                                     *self._neighbour_args(options[1] - 1, obs_type.pd), *options,
+                                     float(self._wrap_period()), float(self.config["reward"]["formation"]))
+        total, progress, safety, comfort, form = T  # (row views)
+        return total, {"progress": progress, "safety": safety, "comfort": comfort, "formation": form}, obs
 
     def global_state(self, slots: list[str]) -> np.ndarray:
         """Fixed-size global state: one row per possible agent (slot order),
@@ -194,4 +193,4 @@ class HighwayRows:
 #: the hooks :meth:`HighwayRows._post_rows` stands for; the env class keeps
 #: their table (``HighwayFormationEnv._post_hooks``), whose functions they must be
 POST_HOOK_NAMES = ("_features", "_rewards_rows", "_observe_rows", "_neighbours", "_wrap_dx", "_wrap_period",
-                   "_obs_scales")
+                   "_obs_scales", "_reward_total")

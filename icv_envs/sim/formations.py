@@ -57,13 +57,12 @@ from icv_envs.formation.control import (
     PROFILE_MIN_DURATION,
 )
 from icv_envs.formation.targets import formation_targets
-from icv_envs.sim._kernels.formation import drivable_lane_bits1, plan_inputs_rows, reference_rows
+from icv_envs.sim._kernels.formation import drivable_lane_bits1, reference_rows
 from icv_envs.sim._kernels.formation_step import (
-    hold_pass,
-    membership_pass,
     off_reference_rows,
     reform_costs,
     reform_slots,
+    update_pass,
 )
 from icv_envs._ufuncs import flatnonzero
 from icv_envs.sim.formation_views import FormationViews
@@ -279,18 +278,16 @@ class FormationManager(FormationViews):
 
     def _plan(self, traffic, road, rows, cx) -> np.ndarray:
         """Plan references for members ``rows`` from their current state
-        (:meth:`JoinPlans.plan`); returns the plans' durations."""
+        (:meth:`JoinPlans.plan_members`: the offsets from their slots,
+        ``road.wrap(cx - slot)``, speeds relative to the formation and
+        clipped accelerations, the search and the store in one compiled
+        call); returns the plans' durations."""
         if not len(rows):
             return np.zeros(0)
-        lim = self.profile_limits
-        # road.wrap(cx - slot), v - v_formation and the clipped acceleration of
-        # each row, compiled (sim/_kernels/formation.plan_inputs_rows; tests/test_kernels.py)
-        rows = np.asarray(rows, dtype=np.int64)
-        d0, v0, a0 = plan_inputs_rows(rows, traffic.group, traffic.tgt_behind, self._anchor_lut(),
-                                      np.asarray(cx, dtype=np.float64), traffic.speed, traffic.accel,
-                                      float(self.speed), -float(lim["decel"]), float(lim["accel"]),
-                                      float(road.length) if road.periodic else -1.0)
-        return self._plans.plan(traffic.vid[rows], d0, v0, a0, self.time)
+        return self._plans.plan_members(np.asarray(rows, dtype=np.int64), traffic.group, traffic.tgt_behind,
+                                        self._anchor_lut(), np.asarray(cx, dtype=np.float64), traffic.speed,
+                                        traffic.accel, traffic.vid, float(road.length) if road.periodic else -1.0,
+                                        self.time)
 
     def _profile(self, traffic, rows):
         """``join_profile`` of the members at ``rows`` now (:meth:`JoinPlans.profile`, cached)."""
@@ -375,46 +372,73 @@ class FormationManager(FormationViews):
         formation founds a new one; each front target is held back behind
         the formation ahead (``formation_gap``) and within
         ``max_anchor_lead`` of its members; lane-set changes and stalls are
-        detected; every formation that changed re-forms."""
+        detected; every formation that changed re-forms; members farther
+        than ``replan_error`` from their reference re-plan.
+
+        The hold (per formation, all at once): the front target slows down
+        (by at most ``anchor_brake`` m/s, so members see a smooth reference)
+        when it leads its best-placed member by more than
+        ``max_anchor_lead`` or comes closer than ``formation_gap`` to the
+        formation ahead. The lead is measured against each member's
+        REFERENCE (slot + join profile), not its slot: a member on its join
+        plan is meant to be behind its slot, and holding the front target
+        back for it would move the slot slower than the plan assumes, so
+        the reference would never pull the member up (a positive feedback
+        that left whole formations at the speed floor). A change of the
+        drivable lane set over the formation's window, or a member far from
+        its target AFTER its plan should have brought it there (the join
+        profile's deadline) for ``stall_time`` in a row (e.g. it joined
+        ahead of the formation and its target lies beyond a member in its
+        lane), marks it for re-forming (the stall count restarts; a
+        formation that re-forms anyway restarts it too). Everything up to
+        the re-forming is one compiled call
+        (:func:`icv_envs.sim._kernels.formation_step.update_pass`, from stop
+        50), the arithmetic of the array code it replaced, element by
+        element."""
         cx, cy = traffic.center()
         self._version += 1
         self.time += dt
         n = traffic.n
         length = float(road.length) if road.periodic else -1.0
+        jp = self._plans
         if n:
-            self._plans.grow(int(traffic.vid[-1]) + 1)  # (rows sorted by id)
+            jp.grow(int(traffic.vid[-1]) + 1)  # (rows sorted by id)
         self._reserve(self.next_gid + n + 1)  # room for one new formation per vehicle (step 5 below)
         # front targets, leaving members, member counts, joins, new
-        # formations and the room ahead of each formation, compiled in one
-        # pass (sim/_kernels/formation_step.membership_pass: the array code it
-        # replaced is frozen in tests/test_formation_update.py)
-        chg, next_gid, g_arr, room = membership_pass(
+        # formations and the room ahead of each formation
+        # (sim/_kernels/formation_step.membership_pass: the array code it
+        # replaced is frozen in tests/test_formation_update.py), then the
+        # members' join profiles, the front-target hold, lane windows and
+        # stall clocks (the hold) and, when nothing re-forms, the
+        # re-plan test, in one compiled call (update_pass, from stop 50)
+        rh = self._road_args(road)["hold"]  # (period or -1, length, lane ends, obstacles)
+        changed, next_gid, M, P, off = update_pass(
             traffic.group, traffic.tgt_lane, traffic.vid, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
-            self._plans.slot_gid, self._A, self._L, self._cnt, self._stall, self._gids(), self.next_gid,
+            jp.slot_gid, self._A, self._L, self._cnt, self._stall, self._gids(), self.next_gid,
             self.speed * dt, *self._road_args(road)["membership"], float(self.exit_lookahead),
             float(self.exit_lookahead_per_lane), self.max_size, float(self.join_distance), self.create_new,
-            float(self.new_formation_gap), float(self.formation_gap))
+            float(self.new_formation_gap), float(self.formation_gap), self._bits, traffic.tgt_behind, jp.deadline,
+            float(self.time), float(self.max_anchor_lead), -self.anchor_brake * dt, float(self.stall_error),
+            float(dt), float(self.stall_time), float(self.lookahead), *rh[1:], self._allowed(road.n_lanes),
+            float(self.replan_error), jp.t0, jp.T, jp.fd, jp.fv, jp.fa, jp.d0, jp.v0, jp.a0, jp.c3, jp.c4, jp.c5)
         if next_gid != self.next_gid:
             self.next_gid = next_gid
             self._live = None
-        held = self._hold_targets(traffic, road, g_arr, chg, room, cx, dt)
-        changed = flatnonzero(chg[:self.next_gid]).tolist()
+        if M.shape[1]:  # the members' profiles now: the answer every later caller in this step asks for
+            jp.keep(M[1], self.time, P)
+        changed = changed.tolist()
         for gid in changed:  # ascending
             self._reform(traffic, road, gid, cx)
         # members that fell off their reference (held back by traffic) re-plan
-        # from where they are
-        # (compiled: sim/_kernels/formation_step.off_reference_rows)
-        if held is not None and not changed:  # nothing re-formed: the hold's members and profiles
-            m, d = held
-        else:
-            m = flatnonzero(traffic.group >= 0) if n else np.zeros(0, dtype=np.int64)
+        # from where they are (after a re-forming, which moves slots, tested
+        # here: compiled, sim/_kernels/formation_step.off_reference_rows)
+        if changed and n:
+            m = flatnonzero(traffic.group >= 0)
             if len(m):
-                d = self._profile(traffic, m)[0]
-        if len(m):
-            off = off_reference_rows(traffic.group, m, cx, self._anchor_lut(), traffic.tgt_behind, d, length,
-                                     float(self.replan_error))
-            if len(off):
-                self._plan(traffic, road, off, cx)
+                off = off_reference_rows(traffic.group, m, cx, self._anchor_lut(), traffic.tgt_behind,
+                                         self._profile(traffic, m)[0], length, float(self.replan_error))
+        if len(off):
+            self._plan(traffic, road, off, cx)
         g_arr = self._gids()
         for gid in g_arr[self._cnt[g_arr] == 0].tolist():  # formations without members dissolve
             self._A[gid] = np.nan
@@ -422,47 +446,6 @@ class FormationManager(FormationViews):
             self._live = None
         self._version += 1
         return changed
-
-    def _hold_targets(self, traffic, road, g_arr: np.ndarray, chg: np.ndarray, room: np.ndarray, cx,
-                      dt: float) -> None:
-        """Per formation (all at once, as arrays): the front target slows
-        down (by at most ``anchor_brake`` m/s, so members see a smooth
-        reference) when it leads its best-placed member by more than
-        ``max_anchor_lead`` or comes closer than ``formation_gap`` to the
-        formation ahead; a change of the drivable lane set over the
-        formation's window, or a member far from its target for
-        ``stall_time`` (e.g. it joined ahead of the formation and its target
-        lies beyond a member in its lane), marks it for re-forming in
-        ``chg`` (a mask over formation ids). The join profiles come from
-        :class:`JoinPlans` (numpy's powers); the rest runs in one compiled
-        call (:func:`icv_envs.sim._kernels.formation_step.hold_pass`), the
-        arithmetic of the array code it replaced, element by element.
-        Returns the members' rows and profile offsets it used, or None."""
-        if not traffic.n or not len(g_arr):
-            return None
-        grp = traffic.group
-        m = flatnonzero(grp >= 0)
-        if not len(m):
-            return None
-        # the lead of the front target over its members is measured against
-        # each member's REFERENCE (slot + join profile), not its slot: a member
-        # on its join plan is meant to be behind its slot, and holding the
-        # front target back for it would move the slot slower than the plan
-        # assumes, so the reference would never pull the member up (a
-        # positive feedback that left whole formations at the speed floor)
-        # (the profiles of all members in row order, the order every other
-        # caller in this step asks for: one evaluation, then the cache)
-        d_ref = self._profile(traffic, m)[0]
-        # a member far from its target AFTER its plan should have brought it
-        # there (the join profile's deadline) counts as stalled (``late``)
-        # for ``stall_time`` in a row: the formation re-forms (and the count
-        # restarts); a formation that re-forms anyway restarts it too
-        rc = self._road_args(road)["hold"]  # (period or -1, length, lane ends, obstacles)
-        hold_pass(grp, g_arr, self._A, self._L, self._bits, self._stall, chg, room, traffic.tgt_behind, cx, d_ref,
-                  traffic.vid, self._plans.deadline, float(self.time), float(self.max_anchor_lead),
-                  -self.anchor_brake * dt, float(self.stall_error), rc[0], float(dt), float(self.stall_time),
-                  float(self.lookahead), *rc[1:], self._allowed(road.n_lanes))
-        return m, d_ref
 
     def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-vehicle ``(x_ref, lane_ref, v_ref, member)``: body-centre

@@ -25,6 +25,7 @@ from icv_envs.formation.control import (
     join_profile,
 )
 from icv_envs.sim._kernels import id_range
+from icv_envs.sim._kernels.formation_step import plan_pass
 
 __all__ = ["JoinPlans", "JOIN_MAX_DURATION"]
 
@@ -110,6 +111,37 @@ class JoinPlans:
                   self.c5, self.fd, self.fv, self.fa)
         self.count += len(vid)
         return T
+
+    def plan_members(self, rows: np.ndarray, group: np.ndarray, tgt_behind: np.ndarray, anchors: np.ndarray,
+                     cx: np.ndarray, speed: np.ndarray, accel: np.ndarray, vid: np.ndarray, period: float,
+                     time: float) -> np.ndarray:
+        """:meth:`plan` for the members at ``rows`` (non-empty, int64) of a
+        formation state (rows ``vid`` sorted by id, as ``Traffic`` holds
+        them): the offset from the slot ``wrap(cx - (anchors[group] -
+        tgt_behind))`` (``period < 0``: a straight road), the speed relative
+        to the formation and the acceleration clipped to the profile's
+        limits, then :meth:`plan`'s search and store, in one compiled call
+        (:func:`~icv_envs.sim._kernels.formation_step.plan_pass`, from stop
+        50; the search's start ``cbrt`` libm's there, NumPy's in
+        :meth:`plan`: the same numbers at ``X86_V3``). Returns the durations."""
+        self.grow(int(vid[-1]) + 1)
+        lim = self.limits
+        T = plan_pass(rows, group, tgt_behind, anchors, cx, speed, accel, vid, float(self.speed), float(period),
+                      float(time), float(lim["accel"]), float(lim["decel"]), float(lim["jerk"]), float(lim["t_min"]),
+                      JOIN_GROW, JOIN_MAX_DURATION, self.speeds[0] - self.speed, self.speeds[1] - self.speed,
+                      JOIN_SEARCH_CAP, _PROFILE_SAMPLES, self.t0, self.T, self.d0, self.v0, self.a0, self.c3, self.c4,
+                      self.c5, self.fd, self.fv, self.fa)
+        self.count += len(rows)
+        return T
+
+    def keep(self, vid: np.ndarray, time: float, P: np.ndarray) -> None:
+        """Keep ``P (3, n)``, the profiles ``(d, v, a)`` of vehicles ``vid`` at
+        ``time`` evaluated elsewhere from these tables (the formation
+        update's one call), as :meth:`profile`'s answer for them."""
+        out = (P[0], P[1], P[2])
+        for arr in out:
+            arr.setflags(write=False)
+        self._cache = ((time, vid.tobytes()), self.count, out)
 
     def _band(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         """The speed band relative to the formation speed, as two arrays of

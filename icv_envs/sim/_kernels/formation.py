@@ -118,7 +118,7 @@ def _wrap1(d, length):
 @nb.njit(cache=True)
 def hold_targets(grp, slot_of_gid, A, chg, room, tb, cx, d_members, vid, deadline, time, max_lead, brake_step,
                  stall_error, length):
-    """The array part of ``FormationManager._hold_targets`` in one pass per
+    """The array part of ``FormationManager.update``'s front-target hold in one pass per
     quantity, over formations ``k`` (``slot_of_gid[gid] = k``, -1 for ids not
     asked about) with front targets ``A`` (updated in place), re-forming
     flags ``chg`` and room to the formation ahead ``room`` (nan: none):

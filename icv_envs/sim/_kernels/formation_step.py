@@ -4,7 +4,11 @@ rules every kernel here follows: :mod:`icv_envs.sim._kernels`): membership
 and front targets (:func:`membership_pass`), the front-target hold, lane
 windows and stall clocks (:func:`hold_pass`), the re-plan test
 (:func:`off_reference_rows`), the re-forming's frame and costs
-(:func:`reform_costs`) and its slots (:func:`reform_slots`). Each performs
+(:func:`reform_costs`) and its slots (:func:`reform_slots`); from stop 50
+the step's passes up to the re-forming in one call (:func:`update_pass`:
+membership, the members' join profiles, the hold, the re-plan test) and a
+re-plan in one call (:func:`plan_pass`: the plans' inputs, the search's
+start, the search and the store). Each performs
 the operations of the array code it replaced in the same order (frozen in
 ``tests/test_formation_update.py``); the per-vehicle rules and lane windows
 they use live in :mod:`icv_envs.sim._kernels.formation`."""
@@ -14,11 +18,13 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from icv_envs.formation._kernels import join_search_banded, plan_rows, profile_eval
 from icv_envs.sim._kernels.formation import (_wrap1, drivable_lane_bits, eligible_free_rows, hold_targets,
-                                             leaving_rows, room_ahead)
+                                             leaving_rows, plan_inputs_rows, room_ahead)
 from icv_envs.sim._kernels.physics import lane_of1, npy_mod
 
-__all__ = ["hold_pass", "membership_pass", "off_reference_rows", "reform_costs", "reform_slots"]
+__all__ = ["hold_pass", "membership_pass", "off_reference_rows", "plan_pass", "reform_costs", "reform_slots",
+           "update_pass"]
 
 
 @nb.njit(cache=True)
@@ -166,7 +172,7 @@ def membership_pass(group, tgt_lane, vid, crashed, cx, cy, lc_lane, exit_id, slo
 def hold_pass(grp, g_arr, A_all, L_all, bits_all, stall_all, chg_all, room, tb, cx, d_members, vid, deadline, time,
               max_lead, brake_step, stall_error, length, dt, stall_time, lookahead, road_length, lane_ends, ob_lane,
               ob_lo, ob_hi, allowed):
-    """``FormationManager._hold_targets`` after the join profiles, in one
+    """The front-target hold of ``FormationManager.update`` after the join profiles, in one
     call: :func:`hold_targets` over the live formations ``g_arr`` (front
     targets braked in ``A_all``); a formation with members and not marked
     in ``chg_all`` whose drivable lane set over ``[A - L - 10, A +
@@ -244,6 +250,103 @@ def off_reference_rows(group, m, cx, anchor_of, tb, d, length, replan_error):
             out[k] = r
             k += 1
     return out[:k]
+
+
+@nb.njit(cache=True)
+def update_pass(group, tgt_lane, vid, crashed, cx, cy, lc_lane, exit_id, slot_gid, A_all, L_all, cnt_all, stall_all,
+                g_live, next_gid, advance, length, n_exits, lane_width, total_lanes, n_lanes, has_ramp, diverge_iv,
+                exit_lookahead, per_lane, max_size, join_distance, create_new, new_formation_gap, formation_gap,
+                bits_all, tb, deadline, time, max_lead, brake_step, stall_error, dt, stall_time, lookahead,
+                road_length, lane_ends, ob_lane, ob_lo, ob_hi, allowed, replan_error, t0_tab, T_tab, fd_tab, fv_tab,
+                fa_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab):
+    """``FormationManager.update`` up to the re-forming, in one call (from
+    stop 50; four calls and the Python between them before, the same
+    operations in the same order): :func:`membership_pass` (``group`` ..
+    ``formation_gap``); when there are vehicles and live formations, the
+    members (rows with ``group >= 0``, ascending), their join profiles at
+    ``time`` (:func:`~icv_envs.formation._kernels.profile_eval` on the
+    plans' tables ``t0_tab`` .. ``c5_tab``) and, with live formations,
+    :func:`hold_pass` with the profiles' offsets (``bits_all`` ..
+    ``allowed``; ``length`` the ring's length or -1); then, when no
+    formation was marked for re-forming, :func:`off_reference_rows` of the
+    members (``replan_error``).
+
+    Returns ``(changed, next_gid, M, P, off)``: the marked formation ids
+    below ``next_gid``, ascending; the next id; ``M (2, m)`` the members'
+    rows and ids; ``P (3, m)`` their profiles
+    ``(d, v, a)``; ``off`` the members farther than ``replan_error`` from
+    their reference (empty when a formation re-forms: the re-forming moves
+    slots, so the test is made after it, in Python)."""
+    chg, gid_next, g_arr, room = membership_pass(
+        group, tgt_lane, vid, crashed, cx, cy, lc_lane, exit_id, slot_gid, A_all, L_all, cnt_all, stall_all, g_live,
+        next_gid, advance, length, n_exits, lane_width, total_lanes, n_lanes, has_ramp, diverge_iv, exit_lookahead,
+        per_lane, max_size, join_distance, create_new, new_formation_gap, formation_gap)
+    n = cx.shape[0]
+    m = 0
+    if n:
+        for r in range(n):
+            if group[r] >= 0:
+                m += 1
+    M = np.empty((2, m), dtype=np.int64)
+    q = 0
+    if m:
+        for r in range(n):
+            if group[r] >= 0:
+                M[0, q] = r
+                M[1, q] = vid[r]
+                q += 1
+    P = profile_eval(M[1], time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab,
+                     c5_tab)
+    if m and g_arr.shape[0]:
+        hold_pass(group, g_arr, A_all, L_all, bits_all, stall_all, chg, room, tb, cx, P[0], vid, deadline, time,
+                  max_lead, brake_step, stall_error, length, dt, stall_time, lookahead, road_length, lane_ends,
+                  ob_lane, ob_lo, ob_hi, allowed)
+    nc = 0
+    for g in range(gid_next):
+        if chg[g]:
+            nc += 1
+    changed = np.empty(nc, dtype=np.int64)
+    q = 0
+    for g in range(gid_next):
+        if chg[g]:
+            changed[q] = g
+            q += 1
+    if nc == 0 and m:
+        off = off_reference_rows(group, M[0], cx, A_all, tb, P[0], length, replan_error)
+    else:
+        off = np.zeros(0, dtype=np.int64)
+    return changed, gid_next, M, P, off
+
+
+@nb.njit(cache=True)
+def plan_pass(rows, group, tgt_behind, anchors, cx, speed, accel, vid, v_form, period, time, accel_lim, decel, jerk,
+              t_min, grow, cap, band_lo, band_hi, cap_free, tau, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab,
+              c4_tab, c5_tab, fd_tab, fv_tab, fa_tab):
+    """``FormationManager._plan`` of members ``rows`` (non-empty) in one call
+    (from stop 50; three kernels and NumPy's ``cbrt`` between them before):
+    the plans' inputs (:func:`~icv_envs.sim._kernels.formation.plan_inputs_rows`,
+    the acceleration clipped to ``[-decel, accel_lim]``), the search's start
+    ``cbrt(60 |d0| / jerk)`` (libm's ``cbrt``: NumPy's at ``X86_V3``, the
+    rule of :mod:`icv_envs.sim._kernels`), the search within the speed band
+    ``[band_lo, band_hi]`` relative to the formation and, for members that
+    reach ``cap``, without it (:func:`~icv_envs.formation._kernels.join_search_banded`),
+    and the plans stored in the tables by vehicle id
+    (:func:`~icv_envs.formation._kernels.plan_rows`, which must hold every
+    id of ``vid[rows]``). Returns the durations."""
+    d0, v0, a0 = plan_inputs_rows(rows, group, tgt_behind, anchors, cx, speed, accel, v_form, -decel, accel_lim,
+                                  period)
+    m = rows.shape[0]
+    cb = np.empty(m)
+    for i in range(m):
+        cb[i] = np.cbrt(60.0 * abs(d0[i]) / jerk)
+    T = join_search_banded(cb, d0, v0, a0, accel_lim, decel, jerk, t_min, grow, cap, np.full(m, band_lo),
+                           np.full(m, band_hi), True, cap_free, tau)
+    ids = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        ids[i] = vid[rows[i]]
+    plan_rows(ids, time, T, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab, fd_tab,
+              fv_tab, fa_tab)
+    return T
 
 
 @nb.njit(cache=True)

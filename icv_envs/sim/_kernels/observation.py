@@ -328,7 +328,7 @@ def formation_reward_total(member, expo, partial, w_formation):
 def formation_post_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
                         n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, rows, r_speed, v_max, gap, crashed_now, ua,
                         spacing, r_lane_width, w_progress, w_safety, w_comfort, K, pd, periodic, road_length, idx, V,
-                        s_abs, s_rel, absolute, normalize, clip, o_period):
+                        s_abs, s_rel, absolute, normalize, clip, o_period, w_formation):
     """What the highway env's step builds from the state after its
     physics, in one call, each kernel with the arguments its separate call
     gets, in their order: :func:`formation_feature_rows` (``cx`` ..
@@ -337,11 +337,13 @@ def formation_post_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, l
     observations: when ``V > 1`` and there are two vehicles or more,
     :func:`nearest_along_road` on a contiguous copy of the x column
     (``K`` .. ``road_length``), then :func:`kinematics_rows` (``idx`` ..
-    ``o_period``). For ``HighwayRows._post_rows`` (HighwayFormation) on roads without
-    exits (the exits' column is written in Python between the features and
-    the observation). Returns ``(T, member, obs)``, ``T`` the float reward
-    terms by rows ``progress, safety, comfort, exponent, partial`` (one
-    array instead of five: numba boxes each returned array for about
+    ``o_period``), and the reward's total and formation term
+    (:func:`formation_reward_total` with ``w_formation``; a second call
+    until stop 50). For ``HighwayRows._post_rows`` (HighwayFormation) on
+    roads without exits (the exits' column is written in Python between the
+    features and the observation). Returns ``(T, obs)``, ``T`` the reward
+    and its terms by rows ``total, progress, safety, comfort, formation``
+    (one array instead of five: numba boxes each returned array for about
     0.35 us, a view of a row costs 0.1)."""
     F = formation_feature_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, lane_width, total_lanes, period,
                                n_lanes, lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv)
@@ -353,13 +355,14 @@ def formation_post_rows(cx, cy, speed, ch, sh, x_ref, lane_ref, v_ref, member, l
         sel = np.zeros((rows.shape[0], 0), dtype=np.int64)
         present = np.zeros((rows.shape[0], 0), dtype=np.bool_)
     obs = kinematics_rows(F, rows, sel, present, idx, V, s_abs, s_rel, absolute, normalize, clip, o_period)
+    tf = formation_reward_total(member_q, expo, partial, w_formation)
     T = np.empty((5, rows.shape[0]))
-    T[0] = progress
-    T[1] = safety
-    T[2] = comfort
-    T[3] = expo
-    T[4] = partial
-    return T, member_q, obs
+    T[0] = tf[0]
+    T[1] = progress
+    T[2] = safety
+    T[3] = comfort
+    T[4] = tf[1]
+    return T, obs
 
 
 @nb.njit(cache=True)
