@@ -412,7 +412,7 @@ class FormationManager(FormationViews):
         # stall clocks (the hold) and, when nothing re-forms, the
         # re-plan test, in one compiled call (update_pass, from stop 50)
         rh = self._road_args(road)["hold"]  # (period or -1, length, lane ends, obstacles)
-        changed, next_gid, M, P, off = update_pass(
+        changed, next_gid, M, P, off, R, lane_ref, member = update_pass(
             traffic.group, traffic.tgt_lane, traffic.vid, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
             jp.slot_gid, self._A, self._L, self._cnt, self._stall, self._gids(), self.next_gid,
             self.speed * dt, *self._road_args(road)["membership"], float(self.exit_lookahead),
@@ -420,31 +420,35 @@ class FormationManager(FormationViews):
             float(self.new_formation_gap), float(self.formation_gap), self._bits, traffic.tgt_behind, jp.deadline,
             float(self.time), float(self.max_anchor_lead), -self.anchor_brake * dt, float(self.stall_error),
             float(dt), float(self.stall_time), float(self.lookahead), *rh[1:], self._allowed(road.n_lanes),
-            float(self.replan_error), jp.t0, jp.T, jp.fd, jp.fv, jp.fa, jp.d0, jp.v0, jp.a0, jp.c3, jp.c4, jp.c5)
+            float(self.replan_error), traffic.speed, traffic.accel, float(self.speed),
+            -1.0 if traffic.period is None else float(traffic.period), *jp.search_args(), *jp.tables())
         if next_gid != self.next_gid:
             self.next_gid = next_gid
             self._live = None
+        jp.count += len(off)  # (the re-plans made inside)
         if M.shape[1]:  # the members' profiles now: the answer every later caller in this step asks for
             jp.keep(M[1], self.time, P)
         changed = changed.tolist()
         for gid in changed:  # ascending
             self._reform(traffic, road, gid, cx)
-        # members that fell off their reference (held back by traffic) re-plan
-        # from where they are (after a re-forming, which moves slots, tested
-        # here: compiled, sim/_kernels/formation_step.off_reference_rows)
         if changed and n:
+            # members that fell off their reference (held back by traffic)
+            # re-plan from where they are, tested after the re-forming
+            # (which moves slots; compiled, off_reference_rows)
             m = flatnonzero(traffic.group >= 0)
             if len(m):
                 off = off_reference_rows(traffic.group, m, cx, self._anchor_lut(), traffic.tgt_behind,
                                          self._profile(traffic, m)[0], length, float(self.replan_error))
-        if len(off):
-            self._plan(traffic, road, off, cx)
+                if len(off):
+                    self._plan(traffic, road, off, cx)
         g_arr = self._gids()
         for gid in g_arr[self._cnt[g_arr] == 0].tolist():  # formations without members dissolve
             self._A[gid] = np.nan
             self._lanes.pop(gid, None)
             self._live = None
         self._version += 1
+        if not changed:  # the references of this state, made in the same call: kept for references()
+            self._keep_refs(traffic, ((R[0], lane_ref, R[1], member), R[2]))
         return changed
 
     def references(self, traffic) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -468,10 +472,13 @@ class FormationManager(FormationViews):
         c = self._refs_cache
         if c is not None and c[0] == key:
             return c[1]
-        out = self._references(traffic)
+        return self._keep_refs(traffic, self._references(traffic), key)
+
+    def _keep_refs(self, traffic, out: tuple, key: tuple | None = None) -> tuple:
+        """Keep ``out`` as the references of ``traffic``'s current state (read-only; see :meth:`references`)."""
         for arr in out[0] + (out[1],):
             arr.setflags(write=False)
-        self._refs_cache = (key, out)
+        self._refs_cache = (key or (self.time, self._version, id(traffic), traffic.vid.tobytes()), out)
         return out
 
     def _references(self, traffic) -> tuple:

@@ -125,14 +125,26 @@ class JoinPlans:
         50; the search's start ``cbrt`` libm's there, NumPy's in
         :meth:`plan`: the same numbers at ``X86_V3``). Returns the durations."""
         self.grow(int(vid[-1]) + 1)
-        lim = self.limits
         T = plan_pass(rows, group, tgt_behind, anchors, cx, speed, accel, vid, float(self.speed), float(period),
-                      float(time), float(lim["accel"]), float(lim["decel"]), float(lim["jerk"]), float(lim["t_min"]),
-                      JOIN_GROW, JOIN_MAX_DURATION, self.speeds[0] - self.speed, self.speeds[1] - self.speed,
-                      JOIN_SEARCH_CAP, _PROFILE_SAMPLES, self.t0, self.T, self.d0, self.v0, self.a0, self.c3, self.c4,
-                      self.c5, self.fd, self.fv, self.fa)
+                      float(time), *self.search_args(), *self.tables())
         self.count += len(rows)
         return T
+
+    def search_args(self) -> tuple:
+        """The compiled plan's limits and search settings, in
+        :func:`~icv_envs.sim._kernels.formation_step.plan_pass`' order
+        (``accel_lim`` .. ``tau``): the profile's acceleration, deceleration,
+        jerk and shortest duration, the search's ratio and cap, the speed
+        band relative to the formation, the cap without it, the sample points."""
+        lim = self.limits
+        return (float(lim["accel"]), float(lim["decel"]), float(lim["jerk"]), float(lim["t_min"]), JOIN_GROW,
+                JOIN_MAX_DURATION, self.speeds[0] - self.speed, self.speeds[1] - self.speed, JOIN_SEARCH_CAP,
+                _PROFILE_SAMPLES)
+
+    def tables(self) -> tuple:
+        """The plans' tables by vehicle id, in the compiled passes' order:
+        ``t0, T, d0, v0, a0, c3, c4, c5, fd, fv, fa``."""
+        return self.t0, self.T, self.d0, self.v0, self.a0, self.c3, self.c4, self.c5, self.fd, self.fv, self.fa
 
     def keep(self, vid: np.ndarray, time: float, P: np.ndarray) -> None:
         """Keep ``P (3, n)``, the profiles ``(d, v, a)`` of vehicles ``vid`` at

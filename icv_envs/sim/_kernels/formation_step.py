@@ -5,10 +5,10 @@ and front targets (:func:`membership_pass`), the front-target hold, lane
 windows and stall clocks (:func:`hold_pass`), the re-plan test
 (:func:`off_reference_rows`), the re-forming's frame and costs
 (:func:`reform_costs`) and its slots (:func:`reform_slots`); from stop 50
-the step's passes up to the re-forming in one call (:func:`update_pass`:
-membership, the members' join profiles, the hold, the re-plan test) and a
-re-plan in one call (:func:`plan_pass`: the plans' inputs, the search's
-start, the search and the store). Each performs
+the step but the re-forming in one call (:func:`update_pass`: membership,
+the members' join profiles, the hold, the re-plan test, the re-plans and
+the references) and a re-plan in one call (:func:`plan_pass`: the plans'
+inputs, the search's start, the search and the store). Each performs
 the operations of the array code it replaced in the same order (frozen in
 ``tests/test_formation_update.py``); the per-vehicle rules and lane windows
 they use live in :mod:`icv_envs.sim._kernels.formation`."""
@@ -20,7 +20,7 @@ import numpy as np
 
 from icv_envs.formation._kernels import join_search_banded, plan_rows, profile_eval
 from icv_envs.sim._kernels.formation import (_wrap1, drivable_lane_bits, eligible_free_rows, hold_targets,
-                                             leaving_rows, plan_inputs_rows, room_ahead)
+                                             leaving_rows, plan_inputs_rows, reference_rows, room_ahead)
 from icv_envs.sim._kernels.physics import lane_of1, npy_mod
 
 __all__ = ["hold_pass", "membership_pass", "off_reference_rows", "plan_pass", "reform_costs", "reform_slots",
@@ -257,44 +257,47 @@ def update_pass(group, tgt_lane, vid, crashed, cx, cy, lc_lane, exit_id, slot_gi
                 g_live, next_gid, advance, length, n_exits, lane_width, total_lanes, n_lanes, has_ramp, diverge_iv,
                 exit_lookahead, per_lane, max_size, join_distance, create_new, new_formation_gap, formation_gap,
                 bits_all, tb, deadline, time, max_lead, brake_step, stall_error, dt, stall_time, lookahead,
-                road_length, lane_ends, ob_lane, ob_lo, ob_hi, allowed, replan_error, t0_tab, T_tab, fd_tab, fv_tab,
-                fa_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab):
-    """``FormationManager.update`` up to the re-forming, in one call (from
-    stop 50; four calls and the Python between them before, the same
-    operations in the same order): :func:`membership_pass` (``group`` ..
-    ``formation_gap``); when there are vehicles and live formations, the
-    members (rows with ``group >= 0``, ascending), their join profiles at
-    ``time`` (:func:`~icv_envs.formation._kernels.profile_eval` on the
-    plans' tables ``t0_tab`` .. ``c5_tab``) and, with live formations,
-    :func:`hold_pass` with the profiles' offsets (``bits_all`` ..
-    ``allowed``; ``length`` the ring's length or -1); then, when no
-    formation was marked for re-forming, :func:`off_reference_rows` of the
-    members (``replan_error``).
+                road_length, lane_ends, ob_lane, ob_lo, ob_hi, allowed, replan_error, speed, accel, v_form, period,
+                accel_lim, decel, jerk, t_min, grow, cap, band_lo, band_hi, cap_free, tau, t0_tab, T_tab, d0_tab,
+                v0_tab, a0_tab, c3_tab, c4_tab, c5_tab, fd_tab, fv_tab, fa_tab):
+    """``FormationManager.update`` but the re-forming, in one call (from
+    stop 50; four to seven calls and the Python between them before, the
+    same operations in the same order): :func:`membership_pass` (``group``
+    .. ``formation_gap``); the members (rows with ``group >= 0``, ascending)
+    and their join profiles at ``time``
+    (:func:`~icv_envs.formation._kernels.profile_eval` on the plans' tables
+    ``t0_tab`` .. ``fa_tab``); with live formations, :func:`hold_pass` with
+    the profiles' offsets (``bits_all`` .. ``allowed``; ``length`` the
+    ring's length or -1). When no formation was marked for re-forming (the
+    re-forming moves slots; the rest of the step is then made in Python):
+    :func:`off_reference_rows` of the members (``replan_error``), the plans
+    of those (:func:`plan_pass`: ``speed`` .. ``tau``, ``period`` the
+    traffic's ring length or -1) and, after them, the members' profiles
+    again, then the references of every vehicle
+    (:func:`~icv_envs.sim._kernels.formation.reference_rows`).
 
-    Returns ``(changed, next_gid, M, P, off)``: the marked formation ids
-    below ``next_gid``, ascending; the next id; ``M (2, m)`` the members'
-    rows and ids; ``P (3, m)`` their profiles
-    ``(d, v, a)``; ``off`` the members farther than ``replan_error`` from
-    their reference (empty when a formation re-forms: the re-forming moves
-    slots, so the test is made after it, in Python)."""
+    Returns ``(changed, next_gid, M, P, off, R, lane_ref, member)``: the
+    marked formation ids below ``next_gid``, ascending; the next id; ``M
+    (2, m)`` the members' rows and ids; ``P (3, m)`` their profiles ``(d,
+    v, a)`` (after the plans); ``off`` the members that were re-planned;
+    ``reference_rows``' results (empty when a formation was marked)."""
     chg, gid_next, g_arr, room = membership_pass(
         group, tgt_lane, vid, crashed, cx, cy, lc_lane, exit_id, slot_gid, A_all, L_all, cnt_all, stall_all, g_live,
         next_gid, advance, length, n_exits, lane_width, total_lanes, n_lanes, has_ramp, diverge_iv, exit_lookahead,
         per_lane, max_size, join_distance, create_new, new_formation_gap, formation_gap)
+    anchors = A_all[:gid_next + 1]  # (FormationManager._anchor_lut)
     n = cx.shape[0]
     m = 0
-    if n:
-        for r in range(n):
-            if group[r] >= 0:
-                m += 1
+    for r in range(n):
+        if group[r] >= 0:
+            m += 1
     M = np.empty((2, m), dtype=np.int64)
     q = 0
-    if m:
-        for r in range(n):
-            if group[r] >= 0:
-                M[0, q] = r
-                M[1, q] = vid[r]
-                q += 1
+    for r in range(n):
+        if group[r] >= 0:
+            M[0, q] = r
+            M[1, q] = vid[r]
+            q += 1
     P = profile_eval(M[1], time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab,
                      c5_tab)
     if m and g_arr.shape[0]:
@@ -311,11 +314,20 @@ def update_pass(group, tgt_lane, vid, crashed, cx, cy, lc_lane, exit_id, slot_gi
         if chg[g]:
             changed[q] = g
             q += 1
-    if nc == 0 and m:
-        off = off_reference_rows(group, M[0], cx, A_all, tb, P[0], length, replan_error)
-    else:
-        off = np.zeros(0, dtype=np.int64)
-    return changed, gid_next, M, P, off
+    off = np.zeros(0, dtype=np.int64)
+    if nc:
+        R = np.empty((3, 0))
+        return changed, gid_next, M, P, off, R, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.bool_)
+    if m:
+        off = off_reference_rows(group, M[0], cx, anchors, tb, P[0], length, replan_error)
+        if off.shape[0]:
+            plan_pass(off, group, tb, anchors, cx, speed, accel, vid, v_form, length, time, accel_lim, decel, jerk,
+                      t_min, grow, cap, band_lo, band_hi, cap_free, tau, t0_tab, T_tab, d0_tab, v0_tab, a0_tab,
+                      c3_tab, c4_tab, c5_tab, fd_tab, fv_tab, fa_tab)
+            P = profile_eval(M[1], time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab, d0_tab, v0_tab, a0_tab, c3_tab,
+                             c4_tab, c5_tab)
+    R, lane_ref, member = reference_rows(group, tgt_lane, tb, anchors, M[0], P[0], P[1], P[2], v_form, period)
+    return changed, gid_next, M, P, off, R, lane_ref, member
 
 
 @nb.njit(cache=True)
