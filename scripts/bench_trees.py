@@ -21,7 +21,8 @@ fresh process (``PYTHONPATH=<tree>``), and times ``--steps`` policy steps
   vehicle-steps (one vehicle, one physics step) per CPU s;
 * ``batched`` / ``batched-expert`` (default ``--steps 100``):
   :class:`icv_envs.vector.BatchedWorlds`, 16 HighwayFormation worlds of 20
-  agents, zero actions / the expert's action for every agent (as the batched
+  agents (``--worlds``, ``--vehicles``, ``--seed``: another setting, from
+  stop 50), zero actions / the expert's action for every agent (as the batched
   part of ``icv-envs bench train``); agent-steps per CPU s of the second
   of two identical runs (the first loads the kernels from numba's cache:
   before stop 38 the only run was timed, and the load at the first
@@ -96,12 +97,13 @@ import json, sys, time
 import numpy as np
 from icv_envs.vector import BatchedWorlds
 steps, expert = int(sys.argv[1]), sys.argv[2] == "1"
+B, N, seed = (int(x) for x in sys.argv[3:6])
 # the same run twice, the second timed: the first loads every kernel the run
 # reaches from numba's cache (at the first step, and at the first collision)
 for timed in (False, True):
-    bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0, expert=expert)
+    bw = BatchedWorlds(B, config={"vehicles_count": N, "initial_position": None}, seed=seed, expert=expert)
     bw.reset()
-    acts = np.zeros((16, bw.K, 2), dtype=np.float32)
+    acts = np.zeros((B, bw.K, 2), dtype=np.float32)
     for _ in range(3):
         bw.step(bw.expert_actions if expert else acts)
     c0, n = time.process_time(), 0
@@ -119,15 +121,16 @@ CASES = {
     "intersection": (CHILD, 1200, "agent-steps", ("{tp}",)),
     "intersection-rows": (CHILD_ROWS, 1200, "agent-steps", ("{tp}",)),
     "ring": (RING, 500, "vehicle-steps", ()),
-    "batched": (BATCHED, 100, "agent-steps", ("0",)),
-    "batched-expert": (BATCHED, 100, "agent-steps", ("1",)),
+    "batched": (BATCHED, 100, "agent-steps", ("0", "{worlds}", "{vehicles}", "{seed}")),
+    "batched-expert": (BATCHED, 100, "agent-steps", ("1", "{worlds}", "{vehicles}", "{seed}")),
 }
 
 
-def _run(tree: Path, steps: int, tp: float, case: str = "intersection") -> dict:
+def _run(tree: Path, steps: int, tp: float, case: str = "intersection", worlds: int = 16, vehicles: int = 20,
+         seed: int = 0) -> dict:
     env = dict(os.environ, PYTHONPATH=str(tree))
     code, _, _, args = CASES[case]
-    extra = [a.format(tp=tp) for a in args]
+    extra = [a.format(tp=tp, worlds=worlds, vehicles=vehicles, seed=seed) for a in args]
     out = subprocess.run([sys.executable, "-c", code, str(steps)] + extra, cwd=tree, env=env, check=True,
                          capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
@@ -141,10 +144,20 @@ def main(argv=None) -> int:
     p.add_argument("--reps", type=int, default=6)
     p.add_argument("--steps", type=int, default=None, help="policy steps timed (default: per case, see above)")
     p.add_argument("--throughput", type=float, default=2200.0, help="intersection case only (veh/h)")
+    p.add_argument("--worlds", type=int, default=16, help="batched cases only: worlds")
+    p.add_argument("--vehicles", type=int, default=20, help="batched cases only: agents per world")
+    p.add_argument("--seed", type=int, default=0, help="batched cases only: the batch's seed")
     p.add_argument("--out", default=None, help="also write the JSON line to this file")
     a = p.parse_args(argv)
     if a.reps < 1:
         raise SystemExit(f"--reps {a.reps}; allowed: an integer >= 1")
+    for name in ("worlds", "vehicles"):
+        if getattr(a, name) < 1:
+            raise SystemExit(f"--{name} {getattr(a, name)}; allowed: an integer >= 1")
+    if a.seed < 0:
+        raise SystemExit(f"--seed {a.seed}; allowed: an integer >= 0")
+    if not a.case.startswith("batched") and (a.worlds, a.vehicles, a.seed) != (16, 20, 0):
+        raise SystemExit(f"--worlds, --vehicles and --seed apply to the batched cases only, not --case {a.case}")
     steps = CASES[a.case][1] if a.steps is None else a.steps
     if steps < 1:
         raise SystemExit(f"--steps {steps}; allowed: an integer >= 1")
@@ -152,7 +165,8 @@ def main(argv=None) -> int:
     ref, test = Path(a.reference).resolve(), Path(a.test).resolve()
     ratios, rows = [], []
     for i in range(a.reps):
-        r, t = _run(ref, steps, a.throughput, a.case), _run(test, steps, a.throughput, a.case)
+        kw = {"worlds": a.worlds, "vehicles": a.vehicles, "seed": a.seed}
+        r, t = _run(ref, steps, a.throughput, a.case, **kw), _run(test, steps, a.throughput, a.case, **kw)
         if r["agent_steps"] != t["agent_steps"]:
             raise SystemExit(f"the trees simulate different amounts ({r['agent_steps']} vs {t['agent_steps']} "
                              f"{unit}): not a like-for-like comparison")
@@ -165,6 +179,8 @@ def main(argv=None) -> int:
            "steps": steps, "amount": r["agent_steps"], "reference": str(ref), "test": str(test)}
     if a.case.startswith("intersection"):
         res["throughput"] = a.throughput
+    if a.case.startswith("batched"):
+        res.update(worlds=a.worlds, vehicles=a.vehicles, seed=a.seed)
     print(f"median ratio test / reference over {a.reps} pairs: {res['median_ratio']:.2f}")
     line = json.dumps(res)
     print(line)
