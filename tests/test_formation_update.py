@@ -470,3 +470,57 @@ def test_profile_with_a_known_top_equals_the_searched_one():
         for x, y in zip(a.profile(vid, t), b.profile(vid, t, int(vid[-1]) + 1)):
             np.testing.assert_array_equal(x, y)
     assert b._cap >= int(vid[-1]) + 1
+
+
+@pytest.mark.parametrize("case", ["ramps", "learned"])
+def test_the_updates_kept_answers_are_the_fresh_ones(case):
+    """From stop 50 ``update`` makes the re-plans and the references in its
+    one call and keeps them: the members' join profiles as
+    ``JoinPlans.profile``'s answer and the references as ``references()``'.
+    After every step both must equal a fresh evaluation from the tables and
+    the state (the kept profiles dropped), bit for bit: a kept answer from
+    before the step's re-plans would pass every comparison that reads it
+    through the same cache. ``learned``: zero actions (as the batched
+    bench's), which let members drift off their references, so many steps
+    re-plan inside the call."""
+    from icv_envs.envs import highway_formation_v0, highway_ramps_v0
+
+    if case == "ramps":
+        env = highway_ramps_v0.parallel_env(vgr=1 / 3, duration=120.0)
+    else:
+        env = highway_formation_v0.parallel_env(vehicles_count=16, duration=60.0, expert_driven_check=False)
+    env.reset(seed=11)
+    w = env.core.world
+    man, jp = w.manager, w.manager._plans
+    kept = inside = 0
+    for _ in range(250):
+        if not env.agents:
+            break
+        if case == "ramps":
+            ex = env.unwrapped.expert_actions()
+            acts = {a: ex[a] for a in env.agents}
+        else:
+            acts = {a: np.zeros(2, dtype=np.float32) for a in env.agents}
+        count = jp.count
+        reforms = man.reforms
+        env.step(acts)
+        tr = w.traffic
+        key = (man.time, man._version, id(tr), tr.vid.tobytes())
+        if man._refs_cache is not None and man._refs_cache[0] == key:
+            kept += 1
+            inside += int(jp.count > count and man.reforms == reforms)
+        got = man.references(tr) + (man.reference_accel(tr),)
+        m = np.flatnonzero(tr.group >= 0)
+        got_p = jp.profile(tr.vid[m], man.time) if len(m) else None
+        jp._cache = None
+        man._refs_cache = None
+        want = man.references(tr) + (man.reference_accel(tr),)
+        for g, x in zip(got, want):
+            assert g.dtype == x.dtype and g.tobytes() == x.tobytes()
+        if got_p is not None:
+            want_p = jp._eval(tr.vid[m], man.time)
+            for g, x in zip(got_p, want_p):
+                assert g.tobytes() == x.tobytes()
+    assert kept > 50, kept  # (the update's kept answers were read, not recomputed)
+    if case == "learned":
+        assert inside > 20, inside  # (re-plans made inside the one call, then the references)
