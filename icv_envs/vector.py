@@ -436,11 +436,19 @@ class BatchedWorlds:
             ask = [env.core for env in self.envs if _asks_expert(env.core._act_type) and env.core._vehicles().n]
             if len(ask) > 1:
                 type(ask[0]).expert_actions_many(ask)
+        K = self.K
         for b, env in enumerate(self.envs):
             # every world through its array path (the same agents and values as the dicts; discrete
             # actions too from stop 45, which went through the per-agent dicts)
             if ctl is not None and _plain_continuous(env.core._act_type):
-                out = env._step_controls(ctl[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
+                vid = env.core._vehicles().vid
+                if self._lut_identity and len(vid) == K and vid[-1] == K - 1:
+                    # every slot on the road, in order (sorted distinct ids 0 .. K-1): world b's rows of the
+                    # batch's fresh clipped array as they are (from stop 50; the slots' gather gave a copy
+                    # of the same values, which the step only reads)
+                    out = env._step_controls(ctl[b])
+                else:
+                    out = env._step_controls(ctl[b, self._slots_of_vid(vid, ascending=True)])
             else:
                 out = env.step_rows(acts[b, self._slots_of_vid(env.core._vehicles().vid, ascending=True)])
             n = len(out.vid)
