@@ -19,7 +19,10 @@ numpy code's, bit for bit (``tests/test_trajectory_hash.py``).
 (its start, the search within the speed band, the fallback without it);
 :func:`profile_eval` evaluates join profiles from the coefficients stored
 with the plan, and :func:`plan_rows` stores new plans (coefficients and end
-values; until stop 49 also stamps) in one pass. The search's start (``cbrt``) stays numpy's.
+values; until stop 49 also stamps) in one pass. The search's start
+(``cbrt``) is numpy's in ``JoinPlans.plan``; the formation layer's re-plans
+take libm's inside ``sim/_kernels/formation_step.plan_pass`` (from stop 50;
+the same numbers at ``X86_V3``, as the powers below).
 The quintic's powers ``t^3``, ``t^4``, ``t^5`` are libm's ``pow``, taken
 inside the kernels (from stop 49; numpy's ``power`` between two kernels
 before): at ``X86_V3``, the level the reference fingerprints are pinned at,
@@ -101,8 +104,9 @@ def join_search(lo, d0, v0, a0, hi_a, lo_a, v_hi, v_lo, jerk, max_duration, grow
 @nb.njit(cache=True)
 def join_search_banded(cb, d0, v0, a0, accel, decel, jerk, t_min, grow, cap, v_lo, v_hi, fallback, cap_free, tau):
     """``control._join_duration_banded`` after its cube roots (``cb =
-    cbrt(60 |d0| / jerk)``, taken by numpy, whose SIMD ``cbrt`` may round
-    differently from libm's): the start of the search (the rest-to-rest
+    cbrt(60 |d0| / jerk)``, taken by numpy in ``JoinPlans.plan``, whose
+    SIMD ``cbrt`` may round differently from libm's, and by libm inside
+    ``plan_pass``): the start of the search (the rest-to-rest
     estimate of the minimum-jerk move, the limits widened to the member's
     own state: element-wise max/min, ``sqrt`` and the divisions, exactly
     rounded everywhere), :func:`join_search` within the per-member speed

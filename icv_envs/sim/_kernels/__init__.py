@@ -21,7 +21,9 @@ may join, :func:`eligible_free_rows`; the members leaving for their exit,
 :func:`leaving_rows`) and its step outside re-forming (membership, front
 targets, room ahead: :func:`membership_pass`; the front-target hold, lane
 windows and stall clocks: :func:`hold_pass`; the re-plan test and the
-re-forming's frame, costs and slots, all in ``formation_step.py``). They take and return plain
+re-forming's frame, costs and slots; from stop 50 the step but the
+re-forming in one call, :func:`update_pass`, and a re-plan in one,
+:func:`plan_pass`; all in ``formation_step.py``). They take and return plain
 arrays (no Python objects inside), and they perform the same IEEE-754
 operations, in the same order, as the numpy code they replace (reductions
 included: :func:`pairwise_sum` is NumPy's own summation order), so
@@ -32,7 +34,8 @@ off for the same reason.
 
 Transcendental functions (``sin``, ``cos``, ``tan``, ``atan``; from stop
 49 also ``exp`` in the highway reward, :func:`formation_reward_total`, and
-``pow`` in the join profiles, :mod:`icv_envs.formation._kernels`) come from
+``pow`` in the join profiles, :mod:`icv_envs.formation._kernels`; from
+stop 50 ``cbrt`` at the join search's start, :func:`plan_pass`) come from
 libm here, as in NumPy's float64 loops up to AVX2 (``X86_V3``), the level
 the reference fingerprints are pinned at: there NumPy's ``exp``,
 ``power``, ``cbrt``, ``sin``, ``cos``, ``tan``, ``arctan``, ``arcsinh``,
