@@ -22,6 +22,12 @@ and the outputs are compared exactly (hashes of the raw bytes):
   multi-agent envs, with and without the expert.
 
 Prints one line per check and exits 1 if any differs.
+
+``--pinned-reference`` runs the reference tree's processes with NumPy's
+SIMD dispatch capped at AVX2 (``X86_V3``, as the fingerprint test pins it)
+and the test tree's natively: ``compare_trees.py TREE TREE
+--pinned-reference`` asks whether a tree's native runs on this machine are
+its pinned ones (from stop 50).
 """
 
 from __future__ import annotations
@@ -101,8 +107,24 @@ print(json.dumps(out))
 CHECKS = ("fingerprints", "highway metrics", "intersection metrics", "batched")
 
 
-def _run(tree: Path, ref_tests: Path, check: str) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(tree))
+def _pinned_env() -> dict:
+    """This environment with NumPy's dispatch capped at ``X86_V3`` (the
+    targets above it this machine has disabled); an error where it cannot
+    run that level."""
+    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+
+    order = list(__cpu_dispatch__)
+    if "X86_V3" not in order or not __cpu_features__.get("X86_V3", False):
+        raise SystemExit("--pinned-reference: this machine cannot run NumPy's X86_V3 (AVX2) level")
+    env = dict(os.environ)
+    env.pop("NPY_ENABLE_CPU_FEATURES", None)
+    env["NPY_DISABLE_CPU_FEATURES"] = " ".join(f for f in order[order.index("X86_V3") + 1:]
+                                               if __cpu_features__.get(f, False))
+    return env
+
+
+def _run(tree: Path, ref_tests: Path, check: str, base: dict | None = None) -> dict:
+    env = dict(os.environ if base is None else base, PYTHONPATH=str(tree))
     res = subprocess.run([sys.executable, "-c", CHILD, str(ref_tests), check], cwd=tree, env=env, check=True,
                          capture_output=True, text=True)
     return json.loads(res.stdout.strip().splitlines()[-1])
@@ -114,6 +136,8 @@ def main(argv=None) -> int:
     p.add_argument("test")
     p.add_argument("--checks", default=",".join(CHECKS),
                    help=f"comma-separated subset of: {', '.join(CHECKS)} (default: all)")
+    p.add_argument("--pinned-reference", action="store_true",
+                   help="run the reference tree with NumPy capped at X86_V3 (AVX2), the test tree natively")
     a = p.parse_args(argv)
     checks = [c.strip() for c in a.checks.split(",") if c.strip()]
     bad = [c for c in checks if c not in CHECKS]
@@ -123,9 +147,10 @@ def main(argv=None) -> int:
     ref_tests = ref / "tests"
     if not (ref_tests / "trajectory_hash.py").exists():
         raise SystemExit(f"{ref} has no tests/trajectory_hash.py; pass a checkout of this repository")
+    base = _pinned_env() if a.pinned_reference else None
     differs = 0
     for check in checks:
-        r, t = _run(ref, ref_tests, check), _run(test, ref_tests, check)
+        r, t = _run(ref, ref_tests, check, base), _run(test, ref_tests, check)
         diff = sorted(k for k in r if r[k] != t.get(k)) + sorted(k for k in t if k not in r)
         differs += bool(diff)
         print(f"{check}: {len(r) - len(diff)} of {len(r)} identical" + (f"; DIFFER: {diff}" if diff else ""),

@@ -2,7 +2,7 @@
 ``pursuit_rows``, whose transcendental steps are libm's from stop 49, NumPy's
 at AVX2: those tests run pinned there, ``tests/pinned_numpy.py``;
 ``policies/_kernels.lane_changes_ended``,
-``preview_points``, ``expert_lane_speeds``, ``free_speed_ratio``,
+``preview_points``, ``expert_lane_speeds``, ``free_speed_pow`` (its power libm's from stop 50, compared pinned),
 ``expert_accelerations``), against the array code it replaced, frozen
 below: block by block on random arrays pushed onto the rules' boundaries
 (hypothesis), and the whole of ``FormationExpert.compute`` on every policy
@@ -28,7 +28,7 @@ from icv_envs.formation.control import _longitudinal_feedback
 from icv_envs.policies._kernels import (
     expert_accelerations,
     expert_lane_speeds,
-    free_speed_ratio,
+    free_speed_pow,
     lane_changes_ended,
     preview_points,
 )
@@ -105,7 +105,7 @@ def _new_longitudinal(p, lane_speed, lane, n_lanes, exiting, blocked, member, v,
     ls = expert_lane_speeds(lane_speed, lane, exiting, blocked, member, n_lanes, p["exit_speed"],
                             p["blocked_slowdown"], p["v_min"])
     free_rows, m = np.flatnonzero(~member), np.flatnonzero(member)
-    free_pow = free_speed_ratio(free_rows, v, ls) ** 4.0
+    free_pow = free_speed_pow(free_rows, v, ls)  # (the power libm's from stop 50: compared pinned)
     acc = expert_accelerations(len(v), free_rows, free_pow, v, p["a_max"], p["idm_b"], p["idm_T"], p["idm_s0"], m,
                                cx, x_ref, v_ref, a_ref_all, length, p["kp"], p["kv"], p["lo"], p["hi"], p["v_min"])
     return ls, acc
@@ -195,6 +195,7 @@ def _longitudinal_states(draw):
     return p, lane_speed, lane, 4, flags[0], flags[1], flags[2], v, cx, x_ref, v_ref, a_ref, length
 
 
+@at_pinned_level  # the free term's power is libm's, NumPy's at AVX2 (tests/pinned_numpy.py)
 @settings(max_examples=300, deadline=None)
 @given(_longitudinal_states())
 def test_longitudinal_law_equals_the_replaced_array_code(state):
@@ -353,6 +354,7 @@ def test_platoon_normalisation_equals_the_replaced_array_code(data):
 
 @pytest.mark.parametrize("method,throughput,seed", [("multi-vp", 2600.0, 3), ("single-vp", 2200.0, 4),
                                                     ("fcfs", 2600.0, 5)])
+@at_pinned_level  # the IDM's free term's power is libm's from stop 50, NumPy's at AVX2 (tests/pinned_numpy.py)
 def test_platoon_longitudinal_equals_the_replaced_array_code_on_runs(monkeypatch, method, throughput, seed):
     from icv_envs.policies.platoon_common import MODE_FOLLOW, MODE_TREE
     from icv_envs.policies.platoon_control import PlatoonControl

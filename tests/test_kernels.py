@@ -2304,7 +2304,7 @@ def test_formation_expert_one_call_runs_equal_the_separate_calls(module, config,
     for name in ("_exit_lanes", "_safety_cap"):  # one hook of each run, set on the instance
         setattr(ex_b, name, getattr(type(ex_b), name).__get__(ex_b))
     # the one-call kernels (env a) and the separate ones (env b: called from Python only there)
-    calls = {"desired_lane_rows": 0, "expert_control_rows": 0, "free_speed_ratio_rows": 0, "exit_lanes": 0,
+    calls = {"desired_lane_rows": 0, "expert_control_rows": 0, "free_speed_pow_rows": 0, "exit_lanes": 0,
              "safety_cap": 0, "expert_lane_speeds": 0}
     saved = {k: getattr(fe, k) for k in calls}
 

@@ -37,8 +37,10 @@ def _libm(x, y, which):
             out[i] = math.sin(v)
         elif which == 8:
             out[i] = math.cos(v)
-        else:
+        elif which == 9:
             out[i] = np.cbrt(v)
+        else:
+            out[i] = v ** 4.0
     return out
 
 
@@ -58,6 +60,7 @@ def test_numpy_transcendentals_are_libms_at_the_pinned_level():
         (np.sin, rng.uniform(-7.0, 7.0, n)),
         (np.cos, rng.uniform(-7.0, 7.0, n)),
         (np.cbrt, rng.uniform(0.0, 5_000.0, n)),  # the join search's start (from stop 50 inside plan_pass)
+        (lambda t: t ** 4.0, rng.uniform(0.0, 2.0, n)),  # the IDM's free term (from stop 50 inside the experts' kernels)
     ]
     for which, (f, x) in enumerate(cases):
         got, want = _libm(x, y, which), f(x)

@@ -56,8 +56,8 @@ from icv_envs.policies._kernels import (
     expert_accelerations,
     expert_control_rows,
     expert_lane_speeds,
-    free_speed_ratio,
-    free_speed_ratio_rows,
+    free_speed_pow,
+    free_speed_pow_rows,
     lane_change_starts,
     lane_changes_ended,
     lane_end_escape,
@@ -398,14 +398,15 @@ class FormationExpert:
         m = flatnonzero(member)
         a_ref = world.manager.reference_accel(tr)  # (cached with references() above)
         if tail:
-            # the lane speeds and the free term's base, then (after numpy's power) the
-            # longitudinal law, the safety envelope and the normalised actions, each run
-            # in one call (policies/_kernels.free_speed_ratio_rows, expert_control_rows)
-            free_pow = free_speed_ratio_rows(*self._lane_speed_args(road, lane), *targets, free_rows, v) ** 4.0
+            # the lane speeds and the free term (its power libm's inside from stop 50,
+            # numpy's between the calls before), then the longitudinal law, the safety
+            # envelope and the normalised actions, each run in one call
+            # (policies/_kernels.free_speed_pow_rows, expert_control_rows)
+            free_pow = free_speed_pow_rows(*self._lane_speed_args(road, lane), *targets, free_rows, v)
             head, tail_args = self._safety_args(world, index, lane, desired, member, exiting)
             return expert_control_rows(*self._accel_args(world, n, free_rows, free_pow, m, x_ref, v_ref, a_ref), *head,
                                        *tail_args, np.asarray(phi, dtype=np.float64), *self._normalise_args())
-        free_pow = free_speed_ratio(free_rows, v, lane_speed) ** 4.0
+        free_pow = free_speed_pow(free_rows, v, lane_speed)
         acc = expert_accelerations(*self._accel_args(world, n, free_rows, free_pow, m, x_ref, v_ref, a_ref))
         # safety envelope: leaders in the lanes the vehicle occupies or enters
         acc = self._safety_cap(world, index, acc, lane, desired, member, exiting)

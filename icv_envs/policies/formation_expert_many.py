@@ -32,7 +32,7 @@ import numpy as np
 from icv_envs._hooks import own_hooks
 from icv_envs._ufuncs import flatnonzero
 from icv_envs.formation.bezier import _lane_change_lateral_rows, _pure_pursuit_rows
-from icv_envs.policies._kernels import desired_lane_rows, free_speed_ratio_rows, lane_changes_ended, preview_points
+from icv_envs.policies._kernels import desired_lane_rows, free_speed_pow_rows, lane_changes_ended, preview_points
 from icv_envs.policies._kernels.many_worlds import expert_control_many, lane_change_starts_many
 from icv_envs.policies.formation_expert import _HEAD_HOOKS, _TAIL_HOOKS, FormationExpert
 
@@ -187,9 +187,9 @@ def _compute_group(experts: list, worlds: list) -> tuple[np.ndarray, np.ndarray]
     free_rows = flatnonzero(~member)
     m = flatnonzero(member)
     a_ref = np.concatenate([w.manager.reference_accel(tr) for w, tr in zip(worlds, trs)])
-    free_pow = free_speed_ratio_rows(*e0._lane_speed_args(road, lane), *e0._lane_target_args(road, exiting, blocked,
-                                                                                             member),
-                                     free_rows, v) ** 4.0
+    free_pow = free_speed_pow_rows(*e0._lane_speed_args(road, lane), *e0._lane_target_args(road, exiting, blocked,
+                                                                                           member),
+                                   free_rows, v)
     acts = expert_control_many(offs, np.searchsorted(free_rows, offs), np.searchsorted(m, offs), ioffs, i_offset,
                                free_rows, free_pow, v, c["idm"], m, cx, np.asarray(x_ref, dtype=np.float64),
                                np.asarray(v_ref, dtype=np.float64), np.asarray(a_ref, dtype=np.float64),

@@ -18,6 +18,7 @@ from icv_envs.policies._kernels import (
     box_obstacle_rows,
     box_steering,
     envelope_pairs,
+    idm_free_pow,
     normalised_actions,
     platoon_accelerations,
     platoon_actions_rows,
@@ -158,7 +159,8 @@ class PlatoonControl:
         f = world.fleet
         v = f.speed
         if unused is None:
-            free_pow = (v / np.maximum(p.v0, 0.1)) ** 4.0
+            # (compiled from stop 50: the power libm's, numpy's before)
+            free_pow = idm_free_pow(np.asarray(v, dtype=np.float64), float(np.maximum(p.v0, 0.1)))
             vcap = self._vcap if len(self._vcap) == f.n else np.zeros(f.n)
             mode, xref, vref, tight = self._mode, self._xref, self._vref, self._tight
         else:

@@ -48,15 +48,16 @@ from icv_envs.policies._kernels.formation_expert import (
     expert_accelerations,
     expert_control_rows,
     expert_lane_speeds,
+    free_speed_pow,
+    free_speed_pow_rows,
     free_speed_ratio,
-    free_speed_ratio_rows,
     lane_end_escape,
     lane_speed_rows,
     preview_points,
     safety_cap,
 )
 from icv_envs.policies._kernels.lane_changes import lane_change_starts, lane_changes_ended
-from icv_envs.policies._kernels.laws import normalised_actions
+from icv_envs.policies._kernels.laws import idm_free_pow, normalised_actions
 from icv_envs.policies._kernels.regrouping import (
     approach_fronts,
     lane_change_gaps,
@@ -97,7 +98,7 @@ from icv_envs.policies._kernels.vp_references import (
 
 __all__ = ["anticipated_references", "detach_candidates", "box_obstacle_rows", "box_steering", "node_heads", "corridor_add_signals", "corridor_index", "corridor_neighbours", "desired_lane_rows",
            "envelope_pairs", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
-           "follow_references", "free_speed_ratio", "free_speed_ratio_rows",
+           "follow_references", "free_speed_pow", "idm_free_pow", "free_speed_pow_rows", "free_speed_ratio",
            "approach_fronts", "lane_change_gaps", "lane_change_progress", "lane_change_ready", "lane_change_starts", "lane_change_state", "lane_changes_ended", "lane_end_escape", "merge_pairs", "lane_speed_rows", "nodes_cleared", "normalised_actions", "observation_references",
            "platoon_accelerations", "platoon_actions_rows", "preview_points", "regroup_pass", "repair_order", "safety_cap", "segment_bounds", "stop_flags", "stop_line_caps", "stuck_in_zone", "tree_layers",
            "tree_references", "virtual_caps", "vp_references", "vp_tree", "zone_orphans"]

@@ -6,9 +6,9 @@ before), :func:`exit_lanes` and :func:`lane_end_escape` the lanes it
 heads for (about thirty); then the arithmetic of ``compute``'s preview
 points and longitudinal law around the numpy calls that stay
 (:func:`preview_points`, :func:`lane_speed_rows`, :func:`expert_lane_speeds`,
-:func:`free_speed_ratio`, :func:`expert_accelerations`), and the runs of
+:func:`free_speed_ratio`, :func:`free_speed_pow`, :func:`expert_accelerations`), and the runs of
 these kernels ``compute`` makes in one call (:func:`desired_lane_rows`,
-:func:`free_speed_ratio_rows`, :func:`expert_control_rows`). Its
+:func:`free_speed_pow_rows`, :func:`expert_control_rows`). Its
 lane-change decisions are :mod:`.lane_changes`. Rules:
 :mod:`icv_envs.policies._kernels`.
 """
@@ -26,7 +26,7 @@ from icv_envs.sim._kernels.neighbours import leader_rows
 from icv_envs.sim._kernels.physics import interval_ends_at
 
 __all__ = ["desired_lane_rows", "exit_lanes", "expert_accelerations", "expert_control_rows", "expert_lane_speeds",
-           "free_speed_ratio", "free_speed_ratio_rows", "lane_end_escape", "lane_speed_rows", "preview_points",
+           "free_speed_pow", "free_speed_pow_rows", "free_speed_ratio", "lane_end_escape", "lane_speed_rows", "preview_points",
            "safety_cap"]
 
 
@@ -270,6 +270,18 @@ def free_speed_ratio(rows, v, v0):
     return r
 
 
+@nb.njit(cache=True, error_model="numpy")  # (free_speed_ratio's division, as there)
+def free_speed_pow(rows, v, v0):
+    """:func:`free_speed_ratio` to the fourth power, the IDM's free-road
+    term ``(v / v0)^4``, the power libm's ``pow`` (from stop 50; NumPy's
+    ``** 4.0`` between the kernels before, the same numbers at ``X86_V3``:
+    the rule of :mod:`icv_envs.sim._kernels`)."""
+    r = free_speed_ratio(rows, v, v0)
+    for k in range(r.shape[0]):
+        r[k] = r[k] ** 4.0
+    return r
+
+
 @nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
 def expert_accelerations(n, free_rows, free_pow, v, a_max, b, T, s0, m_rows, cx, x_ref, v_ref, a_ref, length, kp, kv,
                          lo, hi, v_min):
@@ -340,15 +352,16 @@ def desired_lane_rows(member, lane_ref, lane, exit_id, cx, has_ramp, n_exits, n_
 
 
 @nb.njit(cache=True, error_model="numpy")  # (free_speed_ratio's division, as there)
-def free_speed_ratio_rows(use_table, table, lane, n_lanes, has_ramp, ramp_speed, desired_speed, exiting, blocked, member,
-                          t_n_lanes, exit_speed, slowdown, v_min, free_rows, v):
+def free_speed_pow_rows(use_table, table, lane, n_lanes, has_ramp, ramp_speed, desired_speed, exiting, blocked, member,
+                        t_n_lanes, exit_speed, slowdown, v_min, free_rows, v):
     """:func:`lane_speed_rows` (``use_table`` .. ``desired_speed``), then
     :func:`expert_lane_speeds` (``exiting`` .. ``v_min``) and
-    :func:`free_speed_ratio` of ``free_rows`` (the base of the IDM's free
-    term, whose power the caller takes)."""
+    :func:`free_speed_pow` of ``free_rows`` (the IDM's free term; until
+    stop 50 ``free_speed_ratio_rows``, the base, whose power the caller
+    took with NumPy)."""
     ls = lane_speed_rows(use_table, table, lane, n_lanes, has_ramp, ramp_speed, desired_speed)
     lane_speed = expert_lane_speeds(ls, lane, exiting, blocked, member, t_n_lanes, exit_speed, slowdown, v_min)
-    return free_speed_ratio(free_rows, v, lane_speed)
+    return free_speed_pow(free_rows, v, lane_speed)
 
 
 @nb.njit(cache=True)

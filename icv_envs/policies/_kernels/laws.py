@@ -1,7 +1,9 @@
 """The control laws both experts share, one vehicle at a time (numba,
 ``@njit(cache=True)``): :func:`normalised_actions` turns controls into
 normalised actions in one pass (five numpy calls and their temporaries
-before; the highway expert and the intersection experts), :func:`_idm_free1` the IDM without a leader and
+before; the highway expert and the intersection experts), :func:`idm_free_pow`
+the IDM's free-road term of every vehicle for one desired speed (from stop
+50, its power libm's; the intersection experts), :func:`_idm_free1` the IDM without a leader and
 :func:`_feedback1` the clipped longitudinal feedback law
 (``formation.control._longitudinal_feedback``, paper Sec. 2.2, eq. (law)), called by the
 highway and the intersection kernels. Rules: :mod:`icv_envs.policies._kernels`.
@@ -14,7 +16,7 @@ import numpy as np
 
 from icv_envs.formation._kernels import clip1
 
-__all__ = ["normalised_actions"]
+__all__ = ["idm_free_pow", "normalised_actions"]
 
 
 @nb.njit(cache=True)
@@ -45,7 +47,8 @@ def _idm_free1(v, free_pow, a_max, T, s0, root):
     """``traffic.idm_acceleration`` of one vehicle without a leader (gap
     ``inf``, ``dv = 0``): ``a_max (1 - free_pow - (s*/inf)^2)`` with ``s* =
     s0 + max(0, v T + v 0 / root)``, ``root = 2 sqrt(a_max b)`` and
-    ``free_pow`` the free term's power (numpy's)."""
+    ``free_pow`` the free term's power (from stop 50 libm's ``pow``,
+    :func:`idm_free_pow` and ``free_speed_pow``; NumPy's before)."""
     w = v * T + v * 0.0 / root
     s_star = s0 + (0.0 if 0.0 > w else w)
     q = s_star / np.inf
@@ -57,3 +60,16 @@ def _feedback1(a_ref, x, x_ref, v, v_ref, kp, kv, lo, hi):
     """``formation.control._longitudinal_feedback`` of one vehicle:
     ``clip(a_ref + kp (x - x_ref) + kv (v - v_ref), lo, hi)``."""
     return clip1(a_ref + kp * (x - x_ref) + kv * (v - v_ref), lo, hi)
+
+
+@nb.njit(cache=True, error_model="numpy")  # IEEE division (inf, nan) as numpy's, no ZeroDivisionError
+def idm_free_pow(v, v0):
+    """The IDM's free-road term ``(v / v0)^4`` of every vehicle for one
+    desired speed ``v0`` (the caller's ``max(v0, 0.1)``): NumPy's ``(v /
+    v0) ** 4.0``, the division exactly rounded, the power libm's ``pow``
+    (from stop 50; NumPy's before, the same numbers at ``X86_V3``: the rule
+    of :mod:`icv_envs.sim._kernels`)."""
+    out = np.empty(v.shape[0])
+    for i in range(v.shape[0]):
+        out[i] = (v[i] / v0) ** 4.0
+    return out
