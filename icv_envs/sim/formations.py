@@ -409,8 +409,9 @@ class FormationManager(FormationViews):
         # (sim/_kernels/formation_step.membership_pass: the array code it
         # replaced is frozen in tests/test_formation_update.py), then the
         # members' join profiles, the front-target hold, lane windows and
-        # stall clocks (the hold) and, when nothing re-forms, the
-        # re-plan test, in one compiled call (update_pass, from stop 50)
+        # stall clocks and, when nothing re-forms, the re-plan test, the
+        # re-plans and the references, in one compiled call (update_pass,
+        # from stop 50)
         rh = self._road_args(road)["hold"]  # (period or -1, length, lane ends, obstacles)
         changed, next_gid, M, P, off, R, lane_ref, member = update_pass(
             traffic.group, traffic.tgt_lane, traffic.vid, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
