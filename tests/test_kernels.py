@@ -1729,6 +1729,41 @@ def test_plan_pass_is_the_separate_calls(n, periodic, seed):
         assert got[k].tobytes() == want[k].tobytes(), k
 
 
+@at_pinned_level  # libm's atan2 against NumPy's arctan2: exact at AVX2 (tests/pinned_numpy.py)
+@settings(max_examples=100, deadline=None)
+@given(n=st.integers(1, 40), seed=st.integers(0, 2**32 - 1), on_axis=st.booleans())
+def test_arc_project_rows_is_the_numpy_expression(n, seed, on_axis):
+    """``IntersectionLayout.arc_project`` through ``arc_project_rows`` (from
+    stop 50) against the NumPy expression it replaced, bit for bit: points
+    around every turn arc, some exactly on the axes through an arc's centre
+    (``atan2`` of a zero leg) and at the angle's wrap."""
+    from icv_envs.sim._kernels.intersection import arc_project_rows
+    from icv_envs.sim.intersection_layout import IntersectionLayout
+
+    lay = IntersectionLayout()
+    arcs = np.flatnonzero(lay.arc)
+    rng = np.random.default_rng(seed)
+    q = rng.choice(arcs, n).astype(np.int64)
+    ang = rng.uniform(-np.pi, np.pi, n)
+    if on_axis:
+        ang[: n // 2] = rng.choice([0.0, np.pi / 2, np.pi, -np.pi / 2], n // 2)
+    rad = lay.R[q] + rng.uniform(-3.0, 3.0, n)
+    cx = lay.C[q, 0] + rad * np.cos(ang)
+    cy = lay.C[q, 1] + rad * np.sin(ang)
+    if on_axis:
+        cy[: n // 2] = np.where(np.abs(np.sin(ang[: n // 2])) < 0.5, lay.C[q[: n // 2], 1], cy[: n // 2])
+    qx, qy = cx - lay.C[q, 0], cy - lay.C[q, 1]
+    a = np.arctan2(qy, qx) - lay.TH0[q]
+    a = (a + np.pi) % (2.0 * np.pi) - np.pi
+    want = (lay.R[q] * a * lay.SGN[q], lay.SGN[q] * (np.hypot(qx, qy) - lay.R[q]))
+    got = arc_project_rows(q, cx, cy, lay.C, lay.TH0, lay.R, lay.SGN)
+    for g, w in zip(got, want):
+        assert g.tobytes() == w.tobytes()
+    got2 = lay.arc_project(q, cx, cy)
+    for g, w in zip(got2, want):
+        assert g.tobytes() == w.tobytes()
+
+
 def _numpy_lane_change_starts(expert, world, index, active, lane, desired, member):
     """FormationExpert.compute's "start lane changes" as array code (what
     policies/_kernels.lane_change_starts replaced), frozen here as its

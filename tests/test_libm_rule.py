@@ -39,8 +39,10 @@ def _libm(x, y, which):
             out[i] = math.cos(v)
         elif which == 9:
             out[i] = np.cbrt(v)
-        else:
+        elif which == 10:
             out[i] = v ** 4.0
+        else:
+            out[i] = math.atan2(v, y[i])
     return out
 
 
@@ -61,6 +63,7 @@ def test_numpy_transcendentals_are_libms_at_the_pinned_level():
         (np.cos, rng.uniform(-7.0, 7.0, n)),
         (np.cbrt, rng.uniform(0.0, 5_000.0, n)),  # the join search's start (from stop 50 inside plan_pass)
         (lambda t: t ** 4.0, rng.uniform(0.0, 2.0, n)),  # the IDM's free term (from stop 50 inside the experts' kernels)
+        (lambda x: np.arctan2(x, y), rng.uniform(-50.0, 50.0, n)),  # the turn arcs' and FCFS paths' angles (stop 50)
     ]
     for which, (f, x) in enumerate(cases):
         got, want = _libm(x, y, which), f(x)

@@ -4,10 +4,25 @@ in and out, the same operations as the code they replace)."""
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
-__all__ = ["depths_of"]
+__all__ = ["atan2_rows", "depths_of"]
+
+
+@nb.njit(cache=True)
+def atan2_rows(y, x):
+    """NumPy's ``arctan2(y, x)`` of two float arrays of one length, libm's
+    ``atan2`` (from stop 50, for the FCFS reservation's path headings:
+    NumPy's at ``X86_V3``, the level the reference fingerprints are pinned
+    at; NumPy's AVX-512 ``arctan2`` rounds some values differently, the rule
+    of :mod:`icv_envs.sim._kernels`)."""
+    out = np.empty(y.shape[0])
+    for i in range(y.shape[0]):
+        out[i] = math.atan2(y[i], x[i])
+    return out
 
 
 @nb.njit(cache=True)

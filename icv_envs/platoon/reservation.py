@@ -25,6 +25,7 @@ import operator
 import numpy as np
 
 from ..formation._validate import finite
+from ._kernels import atan2_rows
 from .geometry import DEFAULT_BOX_HALF
 
 __all__ = [
@@ -359,7 +360,9 @@ def _pose_along(path: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray
     i = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(ln) - 1)
     t = (s - cum[i]) / ln[i]  # < 0 before the start, > 1 past the end (straight extension)
     xy = starts[i] + t[:, None] * seg[i]
-    return xy, np.arctan2(seg[i, 1], seg[i, 0])
+    # (the headings' atan2 libm's from stop 50, _kernels.atan2_rows: NumPy's at X86_V3)
+    return xy, atan2_rows(np.ascontiguousarray(seg[i, 1], dtype=np.float64), np.ascontiguousarray(seg[i, 0],
+                                                                                                  dtype=np.float64))
 
 
 def simulate_path_occupancy(path, s0: float, speed: float, dt: float = DEFAULT_DT,

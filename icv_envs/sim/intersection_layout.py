@@ -35,7 +35,9 @@ import math
 import numpy as np
 
 from icv_envs.platoon.conflicts import conflict_model
+from icv_envs.platoon._kernels import atan2_rows
 from icv_envs.platoon.geometry import LEGS, N_LANES, lane_use_table
+from icv_envs.sim._kernels.intersection import arc_project_rows
 
 __all__ = ["IntersectionLayout", "DEFAULT_BOX_HALF", "validate_radii"]
 
@@ -186,7 +188,8 @@ class IntersectionLayout:
         dirn = np.where(after[:, None], self.D1[pid], self.D0[pid])
         t = np.where(after, s - L, s)
         pts = base + t[:, None] * dirn
-        head = np.arctan2(dirn[:, 1], dirn[:, 0])
+        # (libm's atan2 from stop 50, platoon/_kernels.atan2_rows: NumPy's arctan2 at X86_V3)
+        head = atan2_rows(np.ascontiguousarray(dirn[:, 1]), np.ascontiguousarray(dirn[:, 0]))
         on_arc = self.arc[pid] & (s >= 0) & ~after
         if on_arc.any():
             k = np.flatnonzero(on_arc)
@@ -229,11 +232,11 @@ class IntersectionLayout:
         """:meth:`project` of points in the box onto the turn arcs ``q``
         (path ids with ``arc``): the angle around the arc's centre, as arc
         length from the stop line, and the signed offset to the right."""
-        qx = cx - self.C[q, 0]
-        qy = cy - self.C[q, 1]
-        ang = np.arctan2(qy, qx) - self.TH0[q]
-        ang = (ang + math.pi) % (2.0 * math.pi) - math.pi
-        return self.R[q] * ang * self.SGN[q], self.SGN[q] * (np.hypot(qx, qy) - self.R[q])
+        # (compiled from stop 50, sim/_kernels/intersection.arc_project_rows: libm's atan2, NumPy's at
+        # X86_V3; NumPy's arctan2 before)
+        q = np.asarray(q, dtype=np.int64)
+        return arc_project_rows(q, np.asarray(cx, dtype=np.float64), np.asarray(cy, dtype=np.float64), self.C,
+                                self.TH0, self.R, self.SGN)
 
     # ---------------------------------------------------------------- network
     def to_network(self, approach_extra: float = 20.0):
