@@ -48,12 +48,8 @@ def arc_project_rows(q, cx, cy, C, TH0, R, SGN):
     lat = np.empty(n)
     for k in range(n):
         p = q[k]
-        qx = cx[k] - C[p, 0]
-        qy = cy[k] - C[p, 1]
-        ang = math.atan2(qy, qx) - TH0[p]
-        ang = npy_mod(ang + math.pi, 2.0 * math.pi) - math.pi
-        s[k] = R[p] * ang * SGN[p]
-        lat[k] = SGN[p] * (math.hypot(qx, qy) - R[p])
+        s[k] = arc_s1(p, cx[k], cy[k], C, TH0, R, SGN)
+        lat[k] = SGN[p] * (math.hypot(cx[k] - C[p, 0], cy[k] - C[p, 1]) - R[p])
     return s, lat
 
 
