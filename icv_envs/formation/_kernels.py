@@ -20,9 +20,9 @@ numpy code's, bit for bit (``tests/test_trajectory_hash.py``).
 :func:`profile_eval` evaluates join profiles from the coefficients stored
 with the plan, and :func:`plan_rows` stores new plans (coefficients and end
 values; until stop 49 also stamps) in one pass. The search's start
-(``cbrt``) is numpy's in ``JoinPlans.plan``; the formation layer's re-plans
-take libm's inside ``sim/_kernels/formation_step.plan_pass`` (from stop 50;
-the same numbers at ``X86_V3``, as the powers below).
+(``cbrt``) is libm's inside :func:`plan_search_store`, which every plan
+goes through from stop 50 (numpy's before; the same numbers at ``X86_V3``,
+as the powers below).
 The quintic's powers ``t^3``, ``t^4``, ``t^5`` are libm's ``pow``, taken
 inside the kernels (from stop 49; numpy's ``power`` between two kernels
 before): at ``X86_V3``, the level the reference fingerprints are pinned at,
@@ -42,7 +42,8 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["clip1", "join_search", "join_search_banded", "lateral_rows", "plan_rows", "profile_eval", "pursuit_rows"]
+__all__ = ["clip1", "join_search", "join_search_banded", "lateral_rows", "plan_rows", "plan_search_store", "profile_eval",
+           "pursuit_rows"]
 
 
 @nb.njit(cache=True)
@@ -104,9 +105,9 @@ def join_search(lo, d0, v0, a0, hi_a, lo_a, v_hi, v_lo, jerk, max_duration, grow
 @nb.njit(cache=True)
 def join_search_banded(cb, d0, v0, a0, accel, decel, jerk, t_min, grow, cap, v_lo, v_hi, fallback, cap_free, tau):
     """``control._join_duration_banded`` after its cube roots (``cb =
-    cbrt(60 |d0| / jerk)``, taken by numpy in ``JoinPlans.plan``, whose
-    SIMD ``cbrt`` may round differently from libm's, and by libm inside
-    ``plan_pass``): the start of the search (the rest-to-rest
+    cbrt(60 |d0| / jerk)``, libm's from :func:`plan_search_store`; numpy's,
+    whose SIMD ``cbrt`` may round differently, until stop 50): the start of
+    the search (the rest-to-rest
     estimate of the minimum-jerk move, the limits widened to the member's
     own state: element-wise max/min, ``sqrt`` and the divisions, exactly
     rounded everywhere), :func:`join_search` within the per-member speed
@@ -185,6 +186,28 @@ def plan_rows(vid, time, T, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c
         d0_tab[k], v0_tab[k], a0_tab[k] = d, v, a
         c3_tab[k], c4_tab[k], c5_tab[k] = p3, p4, p5
         fd_tab[k], fv_tab[k], fa_tab[k] = _quintic_at(Ti, t3, t4, t5, d, v, a, p3, p4, p5)
+
+
+@nb.njit(cache=True)
+def plan_search_store(ids, time, d0, v0, a0, accel, decel, jerk, t_min, grow, cap, band_lo, band_hi, cap_free, tau,
+                      t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab, fd_tab, fv_tab, fa_tab):
+    """New join plans for vehicles ``ids`` at ``time`` from their offsets
+    ``d0``, relative speeds ``v0`` and accelerations ``a0`` (finite), in one
+    pass (from stop 50; ``JoinPlans.plan`` and the formation layer's
+    re-plans share it): the search's start ``cbrt(60 |d0| / jerk)`` (libm's
+    ``cbrt``, NumPy's at ``X86_V3``; NumPy's before, between the kernels),
+    :func:`join_search_banded` within the speed band ``[band_lo, band_hi]``
+    with its fallback, and :func:`plan_rows` into the tables (which must
+    hold every id). Returns the durations."""
+    m = d0.shape[0]
+    cb = np.empty(m)
+    for i in range(m):
+        cb[i] = np.cbrt(60.0 * abs(d0[i]) / jerk)
+    T = join_search_banded(cb, d0, v0, a0, accel, decel, jerk, t_min, grow, cap, np.full(m, band_lo),
+                           np.full(m, band_hi), True, cap_free, tau)
+    plan_rows(ids, time, T, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab, fd_tab,
+              fv_tab, fa_tab)
+    return T
 
 
 @nb.njit(cache=True)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.formation._kernels import join_search_banded, plan_rows, profile_eval
+from icv_envs.formation._kernels import plan_search_store, profile_eval
 from icv_envs.formation.control import (
     _PROFILE_SAMPLES,
     JOIN_GROW,
@@ -56,7 +56,6 @@ class JoinPlans:
         self.count = 0  # plans made: which cached profiles a plan makes stale (profile)
         self._cache = None  # (key, count when computed, profiles): see profile
         self._cap = 0
-        self._bands: dict[int, tuple] = {}  # member count -> speed band arrays (_band)
         self.slot_gid = np.zeros(0, dtype=np.int64)  # the formation a plan was made for (-1: none)
         for name in self.FLOATS:
             setattr(self, name, np.zeros(0))
@@ -85,7 +84,6 @@ class JoinPlans:
         ``d0``, relative speeds ``v0`` and accelerations ``a0`` (finite);
         returns their durations."""
         self.grow(int(id_range(np.asarray(vid, dtype=np.int64))[1]) + 1)
-        lim = self.limits
         # no duration keeps a quintic inside the speed band when the member
         # must first reverse a large relative speed (a slow ramp vehicle
         # joining behind its slot: d0 < 0, v0 << 0 overshoots any band): the
@@ -96,19 +94,13 @@ class JoinPlans:
         # (one compiled search for both; unchecked: d0, v0, a0 are finite
         # float64 arrays, the limits were checked when the manager was made)
         d0, v0, a0 = (np.ascontiguousarray(x, dtype=np.float64) for x in (d0, v0, a0))
-        # (control._join_duration_banded's search, called directly with the
-        # band as the plans' fixed arrays: the cube roots from numpy, the
-        # search compiled)
-        n = d0.shape[0]
-        cb = np.cbrt(60.0 * np.abs(d0) / lim["jerk"])
-        T = join_search_banded(cb, d0, v0, a0, float(lim["accel"]), float(lim["decel"]), float(lim["jerk"]),
-                               float(lim["t_min"]), JOIN_GROW, JOIN_MAX_DURATION, *self._band(n), True,
-                               JOIN_SEARCH_CAP, _PROFILE_SAMPLES)
-        # the plans, their coefficients and their values at t = T stored in
-        # one compiled pass (formation._kernels.plan_rows; the powers libm's
-        # from stop 49, numpy's before: that module's docstring)
-        plan_rows(vid, float(time), T, d0, v0, a0, self.t0, self.T, self.d0, self.v0, self.a0, self.c3, self.c4,
-                  self.c5, self.fd, self.fv, self.fa)
+        # the search's start, the search within the band (and without it for
+        # the members it caps) and the store of the plans, their
+        # coefficients and their values at t = T, in one compiled pass
+        # (formation._kernels.plan_search_store, from stop 50; the cube
+        # roots and powers libm's: that module's docstring)
+        T = plan_search_store(np.asarray(vid, dtype=np.int64), float(time), d0, v0, a0, *self.search_args(),
+                              *self.tables())
         self.count += len(vid)
         return T
 
@@ -122,8 +114,7 @@ class JoinPlans:
         to the formation and the acceleration clipped to the profile's
         limits, then :meth:`plan`'s search and store, in one compiled call
         (:func:`~icv_envs.sim._kernels.formation_step.plan_pass`, from stop
-        50; the search's start ``cbrt`` libm's there, NumPy's in
-        :meth:`plan`: the same numbers at ``X86_V3``). Returns the durations."""
+        50). Returns the durations."""
         self.grow(int(vid[-1]) + 1)
         T = plan_pass(rows, group, tgt_behind, anchors, cx, speed, accel, vid, float(self.speed), float(period),
                       float(time), *self.search_args(), *self.tables())
@@ -132,8 +123,8 @@ class JoinPlans:
 
     def search_args(self) -> tuple:
         """The compiled plan's limits and search settings, in
-        :func:`~icv_envs.sim._kernels.formation_step.plan_pass`' order
-        (``accel_lim`` .. ``tau``): the profile's acceleration, deceleration,
+        :func:`~icv_envs.formation._kernels.plan_search_store`'s order
+        (``accel`` .. ``tau``): the profile's acceleration, deceleration,
         jerk and shortest duration, the search's ratio and cap, the speed
         band relative to the formation, the cap without it, the sample points."""
         lim = self.limits
@@ -147,21 +138,14 @@ class JoinPlans:
         return self.t0, self.T, self.d0, self.v0, self.a0, self.c3, self.c4, self.c5, self.fd, self.fv, self.fa
 
     def keep(self, vid: np.ndarray, time: float, P: np.ndarray) -> None:
-        """Keep ``P (3, n)``, the profiles ``(d, v, a)`` of vehicles ``vid`` at
-        ``time`` evaluated elsewhere from these tables (the formation
-        update's one call), as :meth:`profile`'s answer for them."""
+        """Keep ``P`` (three arrays, or the rows of one ``(3, n)`` array), the
+        profiles ``(d, v, a)`` of vehicles ``vid`` at ``time`` evaluated from
+        these tables (by :meth:`profile`, or by the formation update's one
+        call), read-only, as :meth:`profile`'s answer for them."""
         out = (P[0], P[1], P[2])
         for arr in out:
             arr.setflags(write=False)
         self._cache = ((time, vid.tobytes()), self.count, out)
-
-    def _band(self, n: int) -> tuple[np.ndarray, np.ndarray]:
-        """The speed band relative to the formation speed, as two arrays of
-        length ``n`` (kept between calls; the search only reads them)."""
-        b = self._bands.get(n)
-        if b is None:
-            b = self._bands[n] = (np.full(n, self.speeds[0] - self.speed), np.full(n, self.speeds[1] - self.speed))
-        return b
 
     def profile(self, vid: np.ndarray, time: float, top: int | None = None):
         """``join_profile`` ``(d, v, a)`` of vehicles ``vid`` at ``time``,
@@ -181,11 +165,8 @@ class JoinPlans:
             return c[2]  # the kept answer (these ids were in the tables when it was computed; tables only grow)
         if len(vid):
             self.grow(top if top is not None else int(id_range(np.asarray(vid, dtype=np.int64))[1]) + 1)
-        out = self._eval(vid, time)
-        for arr in out:
-            arr.setflags(write=False)
-        self._cache = (key, self.count, out)
-        return out
+        self.keep(vid, time, self._eval(vid, time))
+        return self._cache[2]
 
     def _eval(self, vid, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``join_profile`` of vehicles ``vid`` at ``time``: evaluated for the

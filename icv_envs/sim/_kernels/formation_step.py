@@ -18,7 +18,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from icv_envs.formation._kernels import join_search_banded, plan_rows, profile_eval
+from icv_envs.formation._kernels import plan_search_store, profile_eval
 from icv_envs.sim._kernels.formation import (_wrap1, drivable_lane_bits, eligible_free_rows, hold_targets,
                                              leaving_rows, plan_inputs_rows, reference_rows, room_ahead)
 from icv_envs.sim._kernels.physics import lane_of1, npy_mod
@@ -337,28 +337,20 @@ def plan_pass(rows, group, tgt_behind, anchors, cx, speed, accel, vid, v_form, p
     """``FormationManager._plan`` of members ``rows`` (non-empty) in one call
     (from stop 50; three kernels and NumPy's ``cbrt`` between them before):
     the plans' inputs (:func:`~icv_envs.sim._kernels.formation.plan_inputs_rows`,
-    the acceleration clipped to ``[-decel, accel_lim]``), the search's start
-    ``cbrt(60 |d0| / jerk)`` (libm's ``cbrt``: NumPy's at ``X86_V3``, the
-    rule of :mod:`icv_envs.sim._kernels`), the search within the speed band
+    the acceleration clipped to ``[-decel, accel_lim]``), then
+    :func:`~icv_envs.formation._kernels.plan_search_store` of ``vid[rows]``
+    (the search's start, libm's ``cbrt``; the search within the speed band
     ``[band_lo, band_hi]`` relative to the formation and, for members that
-    reach ``cap``, without it (:func:`~icv_envs.formation._kernels.join_search_banded`),
-    and the plans stored in the tables by vehicle id
-    (:func:`~icv_envs.formation._kernels.plan_rows`, which must hold every
-    id of ``vid[rows]``). Returns the durations."""
+    reach ``cap``, without it; the store into the tables, which must hold
+    every id). Returns the durations."""
     d0, v0, a0 = plan_inputs_rows(rows, group, tgt_behind, anchors, cx, speed, accel, v_form, -decel, accel_lim,
                                   period)
-    m = rows.shape[0]
-    cb = np.empty(m)
-    for i in range(m):
-        cb[i] = np.cbrt(60.0 * abs(d0[i]) / jerk)
-    T = join_search_banded(cb, d0, v0, a0, accel_lim, decel, jerk, t_min, grow, cap, np.full(m, band_lo),
-                           np.full(m, band_hi), True, cap_free, tau)
-    ids = np.empty(m, dtype=np.int64)
-    for i in range(m):
+    ids = np.empty(rows.shape[0], dtype=np.int64)
+    for i in range(rows.shape[0]):
         ids[i] = vid[rows[i]]
-    plan_rows(ids, time, T, d0, v0, a0, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab, fd_tab,
-              fv_tab, fa_tab)
-    return T
+    return plan_search_store(ids, time, d0, v0, a0, accel_lim, decel, jerk, t_min, grow, cap, band_lo, band_hi,
+                             cap_free, tau, t0_tab, T_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab, c5_tab, fd_tab,
+                             fv_tab, fa_tab)
 
 
 @nb.njit(cache=True)
