@@ -108,18 +108,16 @@ CHECKS = ("fingerprints", "highway metrics", "intersection metrics", "batched")
 
 
 def _pinned_env() -> dict:
-    """This environment with NumPy's dispatch capped at ``X86_V3`` (the
-    targets above it this machine has disabled); an error where it cannot
-    run that level."""
-    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    """This environment with NumPy's dispatch capped at ``X86_V3``, as the
+    fingerprint test pins it (this checkout's
+    ``tests/trajectory_hash.pinned_environment``); an error where the
+    machine cannot run that level."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from trajectory_hash import pinned_environment
 
-    order = list(__cpu_dispatch__)
-    if "X86_V3" not in order or not __cpu_features__.get("X86_V3", False):
+    env = pinned_environment()
+    if env is None:
         raise SystemExit("--pinned-reference: this machine cannot run NumPy's X86_V3 (AVX2) level")
-    env = dict(os.environ)
-    env.pop("NPY_ENABLE_CPU_FEATURES", None)
-    env["NPY_DISABLE_CPU_FEATURES"] = " ".join(f for f in order[order.index("X86_V3") + 1:]
-                                               if __cpu_features__.get(f, False))
     return env
 
 
