@@ -412,11 +412,12 @@ class FormationManager(FormationViews):
         # stall clocks and, when nothing re-forms, the re-plan test, the
         # re-plans and the references, in one compiled call (update_pass,
         # from stop 50)
-        rh = self._road_args(road)["hold"]  # (period or -1, length, lane ends, obstacles)
+        ra = self._road_args(road)
+        rh = ra["hold"]  # (period or -1, length, lane ends, obstacles)
         changed, next_gid, M, P, off, R, lane_ref, member = update_pass(
             traffic.group, traffic.tgt_lane, traffic.vid, traffic.crashed, cx, cy, traffic.lc_lane, traffic.exit,
             jp.slot_gid, self._A, self._L, self._cnt, self._stall, self._gids(), self.next_gid,
-            self.speed * dt, *self._road_args(road)["membership"], float(self.exit_lookahead),
+            self.speed * dt, *ra["membership"], float(self.exit_lookahead),
             float(self.exit_lookahead_per_lane), self.max_size, float(self.join_distance), self.create_new,
             float(self.new_formation_gap), float(self.formation_gap), self._bits, traffic.tgt_behind, jp.deadline,
             float(self.time), float(self.max_anchor_lead), -self.anchor_brake * dt, float(self.stall_error),
