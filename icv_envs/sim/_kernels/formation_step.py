@@ -286,36 +286,21 @@ def update_pass(group, tgt_lane, vid, crashed, cx, cy, lc_lane, exit_id, slot_gi
         next_gid, advance, length, n_exits, lane_width, total_lanes, n_lanes, has_ramp, diverge_iv, exit_lookahead,
         per_lane, max_size, join_distance, create_new, new_formation_gap, formation_gap)
     anchors = A_all[:gid_next + 1]  # (FormationManager._anchor_lut)
-    n = cx.shape[0]
-    m = 0
-    for r in range(n):
-        if group[r] >= 0:
-            m += 1
+    rows = np.flatnonzero(group >= 0)
+    m = rows.shape[0]
     M = np.empty((2, m), dtype=np.int64)
-    q = 0
-    for r in range(n):
-        if group[r] >= 0:
-            M[0, q] = r
-            M[1, q] = vid[r]
-            q += 1
+    for q in range(m):
+        M[0, q] = rows[q]
+        M[1, q] = vid[rows[q]]
     P = profile_eval(M[1], time, t0_tab, T_tab, fd_tab, fv_tab, fa_tab, d0_tab, v0_tab, a0_tab, c3_tab, c4_tab,
                      c5_tab)
     if m and g_arr.shape[0]:
         hold_pass(group, g_arr, A_all, L_all, bits_all, stall_all, chg, room, tb, cx, P[0], vid, deadline, time,
                   max_lead, brake_step, stall_error, length, dt, stall_time, lookahead, road_length, lane_ends,
                   ob_lane, ob_lo, ob_hi, allowed)
-    nc = 0
-    for g in range(gid_next):
-        if chg[g]:
-            nc += 1
-    changed = np.empty(nc, dtype=np.int64)
-    q = 0
-    for g in range(gid_next):
-        if chg[g]:
-            changed[q] = g
-            q += 1
+    changed = np.flatnonzero(chg[:gid_next])
     off = np.zeros(0, dtype=np.int64)
-    if nc:
+    if changed.shape[0]:
         R = np.empty((3, 0))
         return changed, gid_next, M, P, off, R, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.bool_)
     if m:
