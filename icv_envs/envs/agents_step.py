@@ -144,6 +144,17 @@ class AgentsStep:
     def _new_events(self):
         raise NotImplementedError
 
+    _all_rows_kept: np.ndarray | None = None
+
+    def _all_rows(self, n: int) -> np.ndarray:
+        """``np.arange(n)``: the rows of every vehicle in order, as a step
+        hands them to its builders, remembered by identity (``rows is
+        self._all_rows_kept`` tells a builder it has them all, in order; from
+        stop 51). A fresh array each step (writable: a read-only one would be
+        a second specialisation of every kernel that takes rows)."""
+        r = self._all_rows_kept = np.arange(n)
+        return r
+
     def _controls(self, acts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Normalised actions -> (acceleration, steering angle) within the
         configured limits (:func:`~icv_envs.envs.actions.action_to_controls`)."""
@@ -171,6 +182,9 @@ class AgentsStep:
                 # (compiled: envs/_kernels.expert_match_rows, np.all(np.abs(acts - ex) <= 1e-6, axis=1))
                 em = expert_match_rows(acts, ex, 1e-6)
             else:  # every vehicle policy-driven; the expert is not computed (config docs)
+                if not getattr(self.action_type, "carries_expert_plan", False):
+                    self._policy_drivers(vids)  # (nobody expert-driven or carrying the plan: no masks, stop 51)
+                    return
                 em = np.zeros(len(vids), dtype=bool)
             carries = bool(getattr(self.action_type, "carries_expert_plan", False))
             # (the plan mask em | carries; em itself when the action type carries no plan)
@@ -178,6 +192,13 @@ class AgentsStep:
 
     def _drivers(self, vids: np.ndarray, expert_mask: np.ndarray, plan_mask: np.ndarray) -> None:
         """Hook: who drives in the coming step (see :meth:`_before_physics`)."""
+
+    def _policy_drivers(self, vids: np.ndarray) -> None:
+        """Hook: :meth:`_drivers` with no vehicle expert-driven and none
+        carrying the expert's plan (a learned policy drives them all); an
+        env may say so without the masks."""
+        em = np.zeros(len(vids), dtype=bool)
+        self._drivers(vids, em, em)
 
     def _react(self, events) -> list:
         """Hook: the world reacts to the physics before anyone observes;
@@ -266,7 +287,7 @@ class AgentsStep:
         veh = self._vehicles()
         crashed_now = veh.crashed.copy()
         self._last_actions = self._realign_rows(before, acts, veh.vid)
-        rows = np.arange(veh.n)
+        rows = self._all_rows(veh.n)
         step_vid = veh.vid.copy()
         rew, parts, obs = self._post_rows(rows, crashed_now)
         truncated_all = w.time >= float(c["duration"]) - 1e-9

@@ -274,6 +274,12 @@ class HighwayFormationEnv(HighwayRows, IcvAgentsEnv):
     def _drivers(self, vids, expert_mask, plan_mask) -> None:
         self.world.set_expert_driven(vids, expert_mask, plan_mask)
 
+    def _policy_drivers(self, vids) -> None:
+        if type(self)._drivers is HighwayFormationEnv._drivers:  # (a subclass's own _drivers hears of it as before)
+            self.world.set_policy_driven()
+        else:
+            super()._policy_drivers(vids)
+
     def _react(self, events: StepEvents) -> list:
         # formations react to what happened; new vehicles appear after the
         # others observed (_spawn_late)

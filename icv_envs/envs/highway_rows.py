@@ -130,7 +130,13 @@ class HighwayRows:
         tr = w.traffic
         wts = c["reward"]
         gap, _ = w._own_lane_gaps_kept()  # (the kernels only read it)
-        ua = self._last_actions[rows] if len(self._last_actions) == tr.n else np.zeros((len(rows), 2))
+        la = self._last_actions
+        if len(la) != tr.n:
+            ua = np.zeros((len(rows), 2))
+        elif rows is self._all_rows_kept:  # every row in order: the actions as they are (the kernels only read them)
+            ua = la
+        else:
+            ua = la[rows]
         return (np.asarray(rows, dtype=np.int64), tr.speed, float(c["speed_range"][1]), gap,
                 np.asarray(crashed_now, dtype=bool), np.ascontiguousarray(ua, dtype=np.float64),
                 float(c["formation"]["spacing"]), float(w.road.lane_width), float(wts["progress"]),

@@ -444,10 +444,12 @@ class FormationManager(FormationViews):
                 if len(off):
                     self._plan(traffic, road, off, cx)
         g_arr = self._gids()
-        for gid in g_arr[self._cnt[g_arr] == 0].tolist():  # formations without members dissolve
-            self._A[gid] = np.nan
-            self._lanes.pop(gid, None)
-            self._live = None
+        cnt = self._cnt[g_arr]
+        if np.count_nonzero(cnt) != len(cnt):  # (the count first: most steps nobody's formation empties)
+            for gid in g_arr[cnt == 0].tolist():  # formations without members dissolve
+                self._A[gid] = np.nan
+                self._lanes.pop(gid, None)
+                self._live = None
         self._version += 1
         if not changed:  # the references of this state, made in the same call: kept for references()
             self._keep_refs(traffic, ((R[0], lane_ref, R[1], member), R[2]))

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs.sim._kernels import build_lane_index, build_lane_index_pair, collision_pairs, leader_rows
+from icv_envs.sim._kernels import build_lane_index, build_lane_index_pair, collision_pairs, cos_sin_rows, leader_rows
 
 __all__ = [
     "Traffic",
@@ -174,23 +174,35 @@ class Traffic:
         if c is not None and c[0] is self.x and c[1] is self.y and c[2] is self.heading:
             return c[3], c[4]
         h = 0.5 * self.wheelbase
-        cx = self.x + h * np.cos(self.heading)
+        ch, sh = self.heading_cos_sin()  # (libm's, as the compiled substeps' centres; NumPy's before stop 51)
+        cx = self.x + h * ch
         if self.period is not None:
             cx = np.mod(cx, self.period)
-        return self.set_center(cx, self.y + h * np.sin(self.heading))
+        return self.set_center(cx, self.y + h * sh)
 
     def heading_cos_sin(self) -> tuple[np.ndarray, np.ndarray]:
-        """NumPy's ``cos`` and ``sin`` of the headings, kept until ``heading``
-        is replaced (as :meth:`center`; ``heading`` is read-only from then
-        on), so the observations' features and the expert's pure pursuit of
-        one state share them. Read them, do not write them."""
+        """libm's ``cos`` and ``sin`` of the headings (the compiled
+        substeps' calls; from stop 51, NumPy's before), kept until
+        ``heading`` is replaced (as :meth:`center`; ``heading`` is read-only
+        from then on), so the observations' features and the expert's pure
+        pursuit of one state share them. The compiled substeps leave theirs
+        (:meth:`keep_cos_sin`); otherwise one compiled call
+        (:func:`icv_envs.sim._kernels.cos_sin_rows`). Read them, do not
+        write them."""
         c = self._cos_sin
         h = self.heading
         if c is not None and c[0] is h:
             return c[1], c[2]
-        h.setflags(write=False)
-        self._cos_sin = (h, np.cos(h), np.sin(h))
-        return self._cos_sin[1], self._cos_sin[2]
+        cs = cos_sin_rows(h)
+        return self.keep_cos_sin(cs[0], cs[1])
+
+    def keep_cos_sin(self, c: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Record ``(c, s)`` as the cosines and sines of the current headings
+        (libm's: the compiled substeps compute them with the new state);
+        ``heading`` is read-only from then on."""
+        self.heading.setflags(write=False)
+        self._cos_sin = (self.heading, c, s)
+        return c, s
 
     def set_center(self, cx: np.ndarray, cy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Record ``(cx, cy)`` as the body centres of the current state (the

@@ -234,8 +234,9 @@ class World:
         self.stats["missed_exits"] += int(missed)
         self._index = None
         # (the state as row views of one array, the events unpacked only when there are some)
-        tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy, cx_before = S
+        tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy, cx_before, ch, sh = S
         cx, cy = tr.set_center(cx, cy)
+        tr.keep_cos_sin(ch, sh)  # (the headings' cos and sin, libm's: the observations' and the expert's)
         if event:
             q = 2 * m_pairs
             i, j, lane = E[:m_pairs], E[m_pairs:q], E[q:q + nv]
@@ -360,6 +361,14 @@ class World:
             n_pm = np.count_nonzero(pm)
             every_plan = n_pm == pm.size and covers
         self._plan_vids = None if every_plan else set(vids[pm].tolist()) if n_pm else set()
+        self._index = None
+
+    def set_policy_driven(self) -> None:
+        """:meth:`set_expert_driven` with no vehicle expert-driven and none
+        carrying the expert's plan (a learned policy drives every vehicle:
+        the batched worlds' usual step), without the masks (stop 51)."""
+        self._expert_vids = set()
+        self._plan_vids = set()
         self._index = None
 
     def classify_collisions(self, i, j, road_rows, new_crash, cx, cy) -> None:

@@ -95,7 +95,7 @@ from icv_envs.sim._kernels.observation import (formation_feature_rows, formation
                                                intersection_feature_rows, intersection_post_rows,
                                                intersection_reward_rows, kinematics_rows, nearest_along_road,
                                                nearest_euclidean, corridor_leaders)
-from icv_envs.sim._kernels.physics import (controls_rows, npy_mod, kinematic_substep, road_check, interval_ends,
+from icv_envs.sim._kernels.physics import (controls_rows, cos_sin_rows, npy_mod, kinematic_substep, road_check, interval_ends,
                                            lanes_available)
 from icv_envs.sim._kernels.stats import (pairwise_sum, motion_record, motion_sums_add, headway_record, pet_transitions,
                                          id_range)
@@ -103,6 +103,7 @@ from icv_envs.sim._kernels.stats import (pairwise_sum, motion_record, motion_sum
 __all__ = [
     "npy_mod",
     "controls_rows",
+    "cos_sin_rows",
     "kinematic_substep",
     "road_check",
     "interval_ends",

@@ -64,9 +64,11 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
 
     Returns ``(k, event, S, time, vehicle_steps, speed_sum, realised,
     commanded, stopped_steps, missed, E, m, n_off, n_end)``: ``k`` substeps
-    ran; ``S (10, n)`` the state and centres after the last substep and the
-    centres before it, by rows ``x, y, heading, speed, accel, steer,
-    stopped_for, cx, cy, cx_before``; the clock and accumulators after the
+    ran; ``S (12, n)`` the state and centres after the last substep, the
+    centres before it and the new headings' ``cos`` and ``sin`` (libm's,
+    from stop 51: :meth:`icv_envs.sim.traffic.Traffic.heading_cos_sin` keeps
+    them), by rows ``x, y, heading, speed, accel, steer, stopped_for, cx,
+    cy, cx_before, cos, sin``; the clock and accumulators after the
     ``k``; the last substep's ``m`` collision pairs and road check packed in
     ``E`` (int64): ``i`` (m), ``j`` (m), ``lane`` (n), ``off`` (n, 0/1),
     ``at_end`` (n). (Two arrays instead of fifteen: numba boxes each
@@ -123,7 +125,19 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
         time += dt
     vehicle_steps, speed_sum, realised, commanded, stopped_steps = motion_sums_add(
         k, n, sums, stopped, dt, vehicle_steps, speed_sum, realised, commanded, stopped_steps)
-    S = _rows10(x, y, heading, speed, acc, st, stopped_for, cx, cy, cx_before)
+    S = np.empty((12, n))
+    S[0] = x
+    S[1] = y
+    S[2] = heading
+    S[3] = speed
+    S[4] = acc
+    S[5] = st
+    S[6] = stopped_for
+    S[7] = cx
+    S[8] = cy
+    S[9] = cx_before
+    S[10] = trig[0]  # (libm's cos and sin of the new headings: the collision test's, kept for the observations)
+    S[11] = trig[1]
     m = i.shape[0]
     E = np.empty(2 * m + 3 * lane.shape[0], dtype=np.int64)
     E[:m] = i

@@ -12,7 +12,7 @@ import numpy as np
 
 from icv_envs.formation._kernels import clip1
 
-__all__ = ["npy_mod", "npy_maximum", "npy_minimum", "lane_of1", "lane_of_rows", "controls_rows", "kinematic_substep", "kinematic_substep_carry", "road_check", "interval_ends",
+__all__ = ["npy_mod", "npy_maximum", "npy_minimum", "lane_of1", "lane_of_rows", "controls_rows", "cos_sin_rows", "kinematic_substep", "kinematic_substep_carry", "road_check", "interval_ends",
            "interval_ends_at", "lanes_available"]
 
 
@@ -48,6 +48,21 @@ def npy_minimum(a, b):
     if a != a or b != b:
         return a + b
     return a if a < b else b
+
+
+@nb.njit(cache=True)
+def cos_sin_rows(h):
+    """``(2, n)``: libm's ``cos`` and ``sin`` of the headings ``h`` by rows
+    (:meth:`icv_envs.sim.traffic.Traffic.heading_cos_sin` when the compiled
+    substeps did not leave them; the same calls as theirs, from stop 51:
+    NumPy's ``cos`` and ``sin`` before, whose AVX-512 loops may round
+    differently, the kernels' rule)."""
+    n = h.shape[0]
+    out = np.empty((2, n))
+    for i in range(n):
+        out[0, i] = math.cos(h[i])
+        out[1, i] = math.sin(h[i])
+    return out
 
 
 @nb.njit(cache=True)
