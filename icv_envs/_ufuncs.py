@@ -1,4 +1,4 @@
-"""NumPy's ``clip`` ufunc, called directly, and ``flatnonzero`` of a 1-D array without its wrapper.
+"""NumPy's ``clip`` ufunc and ``count_nonzero`` called directly, and ``flatnonzero`` of a 1-D array without its wrapper.
 
 Below every layer of the package: the algorithms in ``formation/`` use it,
 as the simulator, the policies and the envs do.
@@ -14,10 +14,17 @@ from __future__ import annotations
 
 try:
     from numpy._core.umath import clip
+    from numpy._core._multiarray_umath import count_nonzero
 except ImportError:  # numpy < 2
     from numpy.core.umath import clip  # type: ignore[no-redef]
+    from numpy.core._multiarray_umath import count_nonzero  # type: ignore[no-redef]
 
-__all__ = ["clip", "flatnonzero"]
+#: ``count_nonzero`` above is what ``numpy.count_nonzero(a)`` (no ``axis``)
+#: calls after its Python wrapper (``numeric.count_nonzero``): the same
+#: count, about 0.1 instead of 0.2 us (a step asks five times or more; from
+#: stop 51). Arrays only.
+
+__all__ = ["clip", "count_nonzero", "flatnonzero"]
 
 
 def flatnonzero(a):

@@ -18,6 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from icv_envs._hooks import hook_table, own_hooks
+from icv_envs._ufuncs import count_nonzero
 from icv_envs.envs._kernels import expert_match_rows
 from icv_envs.envs.actions import ContinuousAction
 from icv_envs.envs.dict_edge import same_ids
@@ -330,7 +331,7 @@ class AgentsStep:
                 truncs[a] = bool(info["left_road"])
                 extra.append((a, info))
         # crashed vehicles leave the road after reporting
-        if np.count_nonzero(crashed_now):
+        if count_nonzero(crashed_now):
             w.remove_crashed_vehicles()
             self._after_removal()
         late = self._spawn_late()
@@ -379,7 +380,7 @@ class AgentsStep:
                 infos[a] = info
             if lab is not None:
                 self._label_rest(infos, lab[1], lab[2], len(agents))
-        if np.count_nonzero(out.terminated) or np.count_nonzero(out.truncated):
+        if count_nonzero(out.terminated) or count_nonzero(out.truncated):
             keep = ~(out.terminated | out.truncated)
             self._last_obs = (out.vid[keep], out.obs[keep])
         else:  # everyone stays (copies, as the selection makes)

@@ -7,6 +7,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils.agent_selector import AgentSelector
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
+from icv_envs._ufuncs import count_nonzero
 from icv_envs.envs._config import check_reset_options
 
 __all__ = ["CoreParallelEnv", "OpenRoadAECWrapper", "module_functions"]
@@ -138,8 +139,11 @@ class CoreParallelEnv(ParallelEnv):
         self._cycles += 1
         if self._cycles_up:
             out = out._replace(truncated=~out.terminated)
-        alive = ~(out.terminated | out.truncated)
-        self._agents, self._agents_vid = None, out.vid[alive]  # the names when asked (``agents``)
+        if count_nonzero(out.terminated) or count_nonzero(out.truncated):
+            live = out.vid[~(out.terminated | out.truncated)]
+        else:  # (everyone stays, most steps: the counts first, a copy as the selection makes; stop 51)
+            live = out.vid.copy()
+        self._agents, self._agents_vid = None, live  # the names when asked (``agents``)
         return out
 
     @property

@@ -64,7 +64,7 @@ from icv_envs.sim._kernels.formation_step import (
     reform_slots,
     update_pass,
 )
-from icv_envs._ufuncs import flatnonzero
+from icv_envs._ufuncs import count_nonzero, flatnonzero
 from icv_envs.sim.formation_views import FormationViews
 from icv_envs.sim.join_plans import JoinPlans
 
@@ -445,7 +445,7 @@ class FormationManager(FormationViews):
                     self._plan(traffic, road, off, cx)
         g_arr = self._gids()
         cnt = self._cnt[g_arr]
-        if np.count_nonzero(cnt) != len(cnt):  # (the count first: most steps nobody's formation empties)
+        if count_nonzero(cnt) != len(cnt):  # (the count first: most steps nobody's formation empties)
             for gid in g_arr[cnt == 0].tolist():  # formations without members dissolve
                 self._A[gid] = np.nan
                 self._lanes.pop(gid, None)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from icv_envs._ufuncs import count_nonzero
 from icv_envs.sim._kernels import kinematic_substep, lane_gap_pass, own_lane_gap_rows, quiet_substeps, road_check
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.metrics import HEADWAY_BIN, STOPPED_SPEED, HeadwayStats, MotionStats
@@ -119,7 +120,7 @@ class World:
         """The reservations of :meth:`_reservations` when some vehicle holds
         one, else None (the two views of :meth:`lane_index` are then one)."""
         res = None if self._plan_vids is not None and not self._plan_vids else self._reservations()
-        return res if res is not None and np.count_nonzero(res >= 0) else None
+        return res if res is not None and count_nonzero(res >= 0) else None
 
     def _reservations(self) -> np.ndarray:
         """Lane-change target lanes that hold a reservation: only those of
@@ -459,7 +460,7 @@ class World:
                 self.headways.record(gap, self.traffic.speed)
         if tr.n:
             long_stop = tr.stopped_for > JAM_STOP_TIME
-            if np.count_nonzero(long_stop):
+            if count_nonzero(long_stop):
                 rows = np.flatnonzero(long_stop)
                 gap = self._own_lane_gaps_kept()[0][rows] if tr.n > 1 else np.full(len(rows), np.inf)
                 cx, cy = tr.center()
