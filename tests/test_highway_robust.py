@@ -198,6 +198,25 @@ def test_jam_metric_counts_a_vehicle_standing_with_free_road_ahead():
     assert env.metrics()["jammed"] == 1
 
 
+def test_jam_metric_counts_with_the_compiled_substeps_count():
+    """Two vehicles (the compiled substeps run: one vehicle takes the single
+    substep): the one braking to a stand with free road ahead is counted
+    once, from the standing count the substeps leave (stop 51) as from the
+    array test before; zero from the count must not hide it."""
+    env = HighwayFormationEnv(config={"scenario": "free", "vehicles_count": 2, "duration": 60.0})
+    env.ma_reset(seed=0)
+    w = env.world
+    brake, cruise = np.array([-1.0, 0.0], dtype=np.float32), np.array([0.0, 0.0], dtype=np.float32)
+    counts = []
+    for _ in range(int((JAM_STOP_TIME + 10.0) * 5)):
+        env.ma_step({"icv_0": brake, "icv_1": cruise})
+        assert w._long_stops is not None and w._long_stops[0] is w.traffic.stopped_for  # (the substeps' count)
+        counts.append(w._long_stops[1])
+        assert w._long_stops[1] == np.count_nonzero(w.traffic.stopped_for > JAM_STOP_TIME)
+    assert max(counts) == 1
+    assert env.metrics()["jammed"] == 1
+
+
 def test_vehicles_on_or_into_the_off_ramp_never_hold_a_formation_target():
     """The ring's first standstill: a vehicle that entered the off-ramp lane
     late (its centre crossed after the diverge segment) joined a formation,

@@ -242,6 +242,8 @@ class HighwayFormationEnv(HighwayRows, IcvAgentsEnv):
         self._sync_render_road(force=True)
 
     def _spawn_due(self) -> list[int]:
+        if not self._pending_spawns:  # (nothing scheduled: most worlds)
+            return []
         w = self.world
         c = self.config
         new = []
@@ -289,6 +291,8 @@ class HighwayFormationEnv(HighwayRows, IcvAgentsEnv):
 
     def _departed(self, events: StepEvents) -> dict:
         # exits are terminal successes, the end of the road is a truncation
+        if not events.exited and not events.left_road:  # (nobody left: most steps)
+            return {}
         return {vid: {"exited": vid in events.exited, "left_road": vid in events.left_road, "crashed": False}
                 for vid in events.exited | events.left_road}
 

@@ -67,6 +67,7 @@ class World:
         self._index = None
         self._gaps = None  # own_lane_gaps of the current state, with the index
         self._no_exit_rows = None  # (n, exit_id, ex_x, de) for a fleet without exits (substeps only reads them)
+        self._long_stops = None  # (stopped_for, how many exceed JAM_STOP_TIME): substeps' count for record_min_gap
         # run metrics (definitions in icv_envs.sim.metrics): event counts here,
         # speed/acceleration every substep in ``motion``, gaps and time
         # headways every policy step in ``headways``
@@ -224,13 +225,13 @@ class World:
         m = self.motion
         # (the clock and the run statistics advance inside, substep by
         # substep as substep() adds them: the same additions of the same doubles)
-        (k, event, S, self.time, *totals, missed, E, m_pairs, n_off, n_end) = quiet_substeps(
+        (k, event, S, self.time, *totals, missed, E, m_pairs, n_off, n_end, n_long) = quiet_substeps(
             int(n), tr.x, tr.y, tr.heading, tr.speed, np.asarray(accel, dtype=np.float64),
             np.asarray(steer, dtype=np.float64), tr.crashed, tr.stopped_for, tr.wheelbase, lat, self.dt, self.v_max,
             road.length if road.periodic else -1.0, tr.vid, tr.length, tr.width, STOPPED_SPEED, *m.moments(),
             road.lane_width, road.n_lanes, road.total_lanes, road.lane_ends, road._ob_lane, road._ob_lo, road._ob_hi,
             road._ramp_iv, EDGE_MARGIN, np.inf if road.periodic else road.length, exit_id, ex_x, de,
-            road.ramp_lane, cx0, float(self.time), *m.totals())
+            road.ramp_lane, cx0, float(self.time), *m.totals(), JAM_STOP_TIME)
         m.set_totals(*totals)
         self.stats["missed_exits"] += int(missed)
         self._index = None
@@ -238,6 +239,7 @@ class World:
         tr.x, tr.y, tr.heading, tr.speed, tr.accel, tr.steer, tr.stopped_for, cx, cy, cx_before, ch, sh = S
         cx, cy = tr.set_center(cx, cy)
         tr.keep_cos_sin(ch, sh)  # (the headings' cos and sin, libm's: the observations' and the expert's)
+        self._long_stops = (tr.stopped_for, n_long)  # (the jam watch's count of this state, record_min_gap)
         if event:
             q = 2 * m_pairs
             i, j, lane = E[:m_pairs], E[m_pairs:q], E[q:q + nv]
@@ -459,8 +461,12 @@ class World:
                 gap, _ = self._own_lane_gaps_kept()
                 self.headways.record(gap, self.traffic.speed)
         if tr.n:
-            long_stop = tr.stopped_for > JAM_STOP_TIME
-            if count_nonzero(long_stop):
+            ls = self._long_stops
+            if ls is not None and ls[0] is tr.stopped_for and not ls[1]:
+                long_stop = None  # (the compiled substeps that left this state counted none: most steps)
+            else:
+                long_stop = tr.stopped_for > JAM_STOP_TIME
+            if long_stop is not None and count_nonzero(long_stop):
                 rows = np.flatnonzero(long_stop)
                 gap = self._own_lane_gaps_kept()[0][rows] if tr.n > 1 else np.full(len(rows), np.inf)
                 cx, cy = tr.center()

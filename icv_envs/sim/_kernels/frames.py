@@ -38,7 +38,7 @@ def _rows10(a0, a1, a2, a3, a4, a5, a6, a7, a8, a9):
 def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase, lat, dt, v_max,
                    period, vid, length, width, stopped_speed, m_count, m_s1, m_s2, lane_width, n_lanes, total_lanes,
                    lane_ends, ob_lane, ob_lo, ob_hi, ramp_iv, edge_margin, road_end, exit_id, ex_x, de, ramp_lane,
-                   cx_before, time, vehicle_steps, speed_sum, realised, commanded, stopped_steps):
+                   cx_before, time, vehicle_steps, speed_sum, realised, commanded, stopped_steps, jam_time):
     """Up to ``n_frames`` substeps of :meth:`icv_envs.sim.world.World.substep`
     with the same controls, each the kernels that method calls in its order
     (:func:`kinematic_substep`, :func:`motion_record`,
@@ -63,7 +63,7 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     substeps only (the world counts the last one with its events).
 
     Returns ``(k, event, S, time, vehicle_steps, speed_sum, realised,
-    commanded, stopped_steps, missed, E, m, n_off, n_end)``: ``k`` substeps
+    commanded, stopped_steps, missed, E, m, n_off, n_end, n_long)``: ``k`` substeps
     ran; ``S (12, n)`` the state and centres after the last substep, the
     centres before it and the new headings' ``cos`` and ``sin`` (libm's,
     from stop 51: :meth:`icv_envs.sim.traffic.Traffic.heading_cos_sin` keeps
@@ -71,7 +71,9 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     cy, cx_before, cos, sin``; the clock and accumulators after the
     ``k``; the last substep's ``m`` collision pairs and road check packed in
     ``E`` (int64): ``i`` (m), ``j`` (m), ``lane`` (n), ``off`` (n, 0/1),
-    ``at_end`` (n). (Two arrays instead of fifteen: numba boxes each
+    ``at_end`` (n); ``n_long`` the vehicles whose standing time after the
+    last substep exceeds ``jam_time`` (``World.record_min_gap``'s jam
+    watch; from stop 51). (Two arrays instead of fifteen: numba boxes each
     returned array for about 0.35 us, a view of a row costs 0.1.)"""
     n = x.shape[0]
     sums = np.zeros((n_frames, 3))
@@ -147,8 +149,12 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
         E[q + r] = lane[r]
         E[q + lane.shape[0] + r] = 1 if off[r] else 0
         E[q + 2 * lane.shape[0] + r] = 1 if at_end[r] else 0
+    n_long = 0  # (vehicles standing longer than jam_time: the world's jam watch asks, from stop 51)
+    for q in range(n):
+        if stopped_for[q] > jam_time:
+            n_long += 1
     return (k, event, S, time, vehicle_steps, speed_sum, realised, commanded, stopped_steps, missed, E, m, n_off,
-            n_end)
+            n_end, n_long)
 
 
 @nb.njit(cache=True)
