@@ -120,7 +120,7 @@ class AgentsStep:
         events = self._new_events()
         frames = self._frames()
         acts = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
-        vids = self._vehicles().vid.copy()
+        vids = self._vehicles().vid  # (replaced when vehicles leave, never written in place: no copy, stop 51)
         a, phi = self._controls(acts)
         # without a viewer (nothing to draw between frames), a world that can
         # runs its quiet frames in one call (World.substeps; the same states)
@@ -278,7 +278,9 @@ class AgentsStep:
         then late spawns) and no infos (:meth:`ma_step_rows`)."""
         c = self.config
         w = self.world
-        before = self._vehicles().vid.copy()
+        # (the ids before the physics: the array itself, which a change of the
+        # vehicles replaces and nothing writes in place, from stop 51; a copy before)
+        before = self._vehicles().vid
         acts = np.asarray(acts, dtype=np.float64).reshape(-1, 2)
         self._before_physics(before, acts)
         events = self._advance(acts)
