@@ -113,6 +113,11 @@ class RoadLayout:
         self._merge_iv = np.array([(r.start, r.end) for r in self.on_ramps], dtype=np.float64).reshape(-1, 2)
         self._diverge_iv = np.array([(r.start, r.end) for r in self.off_ramps], dtype=np.float64).reshape(-1, 2)
         self._exit_x = np.array([r.exit_x for r in self.off_ramps], dtype=np.float64)
+        # whether a ramp lane exists, and the lanes with it: read several
+        # times a step, so plain attributes of the layout as built (from
+        # stop 51; properties before, derived from the same fields)
+        self.has_ramp_lane: bool = len(self._ramp_iv) > 0
+        self.total_lanes: int = self.n_lanes + (1 if self.has_ramp_lane else 0)
         if self.periodic:
             # a ring: every stretch must lie inside [0, length) so that no lane
             # feature straddles the seam (place the seam on a plain stretch)
@@ -131,10 +136,6 @@ class RoadLayout:
 
     # ------------------------------------------------------------------ lanes
     @property
-    def has_ramp_lane(self) -> bool:
-        return len(self._ramp_iv) > 0
-
-    @property
     def ramp_lane(self) -> int:
         """Index of the ramp lane (right of the main lanes)."""
         return self.n_lanes
@@ -146,10 +147,6 @@ class RoadLayout:
         (a vehicle further left needs more road for the same manoeuvre)."""
         extra = np.maximum(self.ramp_lane - np.asarray(lane) - 1, 0)
         return base + per_lane * extra
-
-    @property
-    def total_lanes(self) -> int:
-        return self.n_lanes + (1 if self.has_ramp_lane else 0)
 
     def lane_center(self, lane) -> np.ndarray:
         return np.asarray(lane, dtype=np.float64) * self.lane_width

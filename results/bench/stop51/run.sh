@@ -6,7 +6,7 @@ REF=$1; TEST=$2; OUT=$3; S=$(cd "$(dirname "$0")/../../../scripts" && pwd)
 mkdir -p "$OUT" && OUT=$(cd "$OUT" && pwd)
 PIN="X86_V4 AVX512_ICL"
 cd /tmp
-python $S/bench_trees.py $REF $TEST --case batched --reps 4 > $OUT/trees_batched.txt 2>&1
+python $S/bench_trees.py $REF $TEST --case batched --reps 6 > $OUT/trees_batched.txt 2>&1
 NPY_DISABLE_CPU_FEATURES="$PIN" python $S/compare_trees.py $REF $TEST > $OUT/compare_trees_pinned.txt 2>&1
 python $S/compare_trees.py $REF $TEST > $OUT/compare_trees_native.txt 2>&1
 python $S/bench_trees.py $REF $TEST --case batched-expert --reps 4 > $OUT/trees_batched-expert.txt 2>&1
@@ -22,4 +22,5 @@ for t in $REF $TEST; do
 done
 python $S/bench_trees.py $REF $TEST --case intersection-rows --reps 2 > $OUT/trees_intersection-rows.txt 2>&1
 PYTHONPATH=$TEST python $S/bench_dict_layer.py --vehicles 800 > $OUT/dict_layer.txt 2>&1
+PYTHONPATH=$TEST python $(dirname "$0")/pieces.py > $OUT/pieces.txt 2>&1
 echo done > $OUT/DONE
