@@ -270,12 +270,16 @@ class AgentsStep:
         self._last_obs = (veh.vid.copy(), obs)
         return observations, infos
 
-    def _ma_advance(self, acts: np.ndarray, arrays: bool = False):
+    def _ma_advance(self, acts: np.ndarray, arrays: bool = False, owned: bool = False):
         """One policy step of the multi-agent API from normalised action rows
         (see the comment above for the order); returns the five PettingZoo
         dicts, or with ``arrays`` a :class:`StepRows` of the same agents and
         values (the step's agents in vehicle order, then those that left,
-        then late spawns) and no infos (:meth:`ma_step_rows`)."""
+        then late spawns) and no infos (:meth:`ma_step_rows`). ``owned``
+        (with ``arrays``): the caller only reads the returned rows and keeps
+        none of them (:meth:`_ma_step_controls`' batch copies them into its
+        own arrays), so the step keeps its ids and observations for the
+        next step's departures as they are, without copies (stop 51)."""
         c = self.config
         w = self.world
         # (the ids before the physics: the array itself, which a change of the
@@ -385,7 +389,9 @@ class AgentsStep:
         if count_nonzero(out.terminated) or count_nonzero(out.truncated):
             keep = ~(out.terminated | out.truncated)
             self._last_obs = (out.vid[keep], out.obs[keep])
-        else:  # everyone stays (copies, as the selection makes)
+        elif owned:  # everyone stays; nobody else holds the rows (the batch's step)
+            self._last_obs = (out.vid, out.obs)
+        else:  # everyone stays (copies, as the selection makes: the caller gets the rows)
             self._last_obs = (out.vid.copy(), out.obs.copy())
         self._on_step_end(events)
         if self.render_mode == "human":
@@ -451,10 +457,11 @@ class AgentsStep:
         For a caller that checked and clipped a whole batch at once
         (:class:`icv_envs.vector.BatchedWorlds`, from stop 43); the shape is
         checked, the values are not, so it is not public API (``step_rows``
-        checks them)."""
+        checks them). The caller reads the returned rows and keeps none of
+        them (the batch copies them into its own arrays; ``owned``)."""
         if self.world is None:
             raise RuntimeError("call reset() before step()")
         n = self._vehicles().n
         if controls.shape != (n, 2):
             raise ValueError(f"controls have shape {controls.shape}; allowed: ({n}, 2), one row per live agent")
-        return self._ma_advance(controls, arrays=True)
+        return self._ma_advance(controls, arrays=True, owned=True)

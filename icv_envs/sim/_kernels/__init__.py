@@ -36,7 +36,9 @@ Transcendental functions (``sin``, ``cos``, ``tan``, ``atan``; from stop
 49 also ``exp`` in the highway reward, :func:`formation_reward_total`, and
 ``pow`` in the join profiles, :mod:`icv_envs.formation._kernels`; from
 stop 50 ``cbrt`` at the join search's start, :func:`plan_pass`, and the
-experts' IDM power, ``icv_envs.policies._kernels.free_speed_pow``) come from
+experts' IDM power, ``icv_envs.policies._kernels.free_speed_pow``; from
+stop 51 the highway headings' ``cos`` and ``sin`` the observations and the
+expert read, :func:`quiet_substeps` and :func:`cos_sin_rows`) come from
 libm here, as in NumPy's float64 loops up to AVX2 (``X86_V3``), the level
 the reference fingerprints are pinned at: there NumPy's ``exp``,
 ``power``, ``cbrt``, ``sin``, ``cos``, ``tan``, ``arctan``, ``arcsinh``,
