@@ -524,3 +524,26 @@ def test_sb3_adapter_passes_each_worlds_info():
             _same_tree(x, y)
         ended += int(d1.sum())
     assert ended >= 2  # (each world's episode ended: the terminal infos were compared)
+
+
+def test_owned_rows_report_departures_as_step_rows_do():
+    """Stop 51: the batch's step keeps its rows for the next step's
+    departures without copies (``_ma_advance(owned=True)``). Against worlds
+    that step through ``step_rows`` (copies), on HighwayRamps with the
+    expert until an agent exits: the same outputs, bit for bit, the exit's
+    last observation included."""
+    cfg = {"vgr": 0.5, "duration": 120.0, "max_vehicles": 12}
+    fast = BatchedWorlds(2, env="highway_ramps", config=cfg, seed=2, expert=True)
+    slow = BatchedWorlds(2, env="highway_ramps", config=cfg, seed=2, expert=True)
+    fast.reset(), slow.reset()
+    for env in slow.envs:  # (each world checks and clips its own rows: step_rows, which copies)
+        env.core._act_type.controls = type(env.core._act_type).controls.__get__(env.core._act_type)
+    exits = 0
+    for t in range(530):
+        a = fast.step(fast.expert_actions)
+        b = slow.step(slow.expert_actions)
+        for x, y in zip(a[:5], b[:5]):
+            np.testing.assert_array_equal(x, y)
+        exits += int(a[2].sum())
+    assert exits >= 1  # (agents exited: their last observations came from the kept rows)
+    assert sum(env.core.metrics()["exited"] for env in fast.envs) >= 1
