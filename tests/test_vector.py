@@ -547,3 +547,25 @@ def test_owned_rows_report_departures_as_step_rows_do():
         exits += int(a[2].sum())
     assert exits >= 1  # (agents exited: their last observations came from the kept rows)
     assert sum(env.core.metrics()["exited"] for env in fast.envs) >= 1
+
+
+def test_a_replaced_drivers_hook_hears_of_a_learned_step():
+    """With ``expert_driven_check`` off the highway env tells its world that
+    nobody is expert-driven without masks (``_policy_drivers``, stop 51)
+    only while ``_drivers`` is its own: one replaced on the instance still
+    gets the zero masks, as before."""
+    import types
+
+    from icv_envs.envs.highway_formation import HighwayFormationEnv
+
+    env = HighwayFormationEnv(config={"vehicles_count": 3, "expert_driven_check": False})
+    obs, _ = env.ma_reset(seed=0)
+    heard = []
+    own = HighwayFormationEnv._drivers
+    env._drivers = types.MethodType(lambda self, v, e, p: (heard.append((len(v), bool(e.any()), bool(p.any()))),
+                                                           own(self, v, e, p)), env)
+    env.ma_step({a: np.zeros(2, np.float32) for a in obs})
+    assert heard == [(3, False, False)]
+    del env._drivers
+    env.ma_step({a: np.zeros(2, np.float32) for a in obs})
+    assert len(heard) == 1 and env.world._expert_vids == set() and env.world._plan_vids == set()

@@ -176,18 +176,18 @@ class AgentsStep:
         says so (``FormationResidual``). With ``config["expert_driven_check"]``
         False no vehicle is expert-driven and the expert is not computed."""
         if len(vids):
+            carries = bool(getattr(self.action_type, "carries_expert_plan", False))
             if self.config["expert_driven_check"]:
                 ex = self.expert_actions()
                 if ex.shape != acts.shape:  # (one row per vehicle on both sides; the kernel does not check)
                     raise RuntimeError(f"expert actions {ex.shape} and actions {acts.shape} do not align")
                 # (compiled: envs/_kernels.expert_match_rows, np.all(np.abs(acts - ex) <= 1e-6, axis=1))
                 em = expert_match_rows(acts, ex, 1e-6)
+            elif not carries:  # nobody expert-driven or carrying the plan: said without masks (stop 51)
+                self._policy_drivers(vids)
+                return
             else:  # every vehicle policy-driven; the expert is not computed (config docs)
-                if not getattr(self.action_type, "carries_expert_plan", False):
-                    self._policy_drivers(vids)  # (nobody expert-driven or carrying the plan: no masks, stop 51)
-                    return
                 em = np.zeros(len(vids), dtype=bool)
-            carries = bool(getattr(self.action_type, "carries_expert_plan", False))
             # (the plan mask em | carries; em itself when the action type carries no plan)
             self._drivers(vids, em, np.ones(len(em), dtype=bool) if carries else em)
 

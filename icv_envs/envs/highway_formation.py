@@ -19,7 +19,7 @@ import numpy as np
 
 from highway_env.envs.common.abstract import AbstractEnv
 
-from icv_envs._hooks import hook_table
+from icv_envs._hooks import hook_table, own_hooks
 from icv_envs.envs.actions import action_to_controls, controls_to_action  # noqa: F401  (re-exported)
 from icv_envs.envs.base import IcvAgentsEnv
 from icv_envs.envs.highway_config import INFO_KEYS, UNUSED_KEYS, check_config, config_entries
@@ -277,7 +277,7 @@ class HighwayFormationEnv(HighwayRows, IcvAgentsEnv):
         self.world.set_expert_driven(vids, expert_mask, plan_mask)
 
     def _policy_drivers(self, vids) -> None:
-        if type(self)._drivers is HighwayFormationEnv._drivers:  # (a subclass's own _drivers hears of it as before)
+        if own_hooks(self, self._drivers_hook):  # (a replaced _drivers, on a subclass or the instance, hears of it)
             self.world.set_policy_driven()
         else:
             super()._policy_drivers(vids)
@@ -381,3 +381,5 @@ class HighwayFormationEnv(HighwayRows, IcvAgentsEnv):
 
 # the hooks HighwayRows._post_rows stands for (icv_envs._hooks.own_hooks)
 HighwayFormationEnv._post_hooks = hook_table(HighwayFormationEnv, *POST_HOOK_NAMES)
+# the hook HighwayFormationEnv._policy_drivers stands for
+HighwayFormationEnv._drivers_hook = hook_table(HighwayFormationEnv, "_drivers")
