@@ -271,6 +271,14 @@ def test_slot_lookup_names_only_the_vehicles_without_a_slot():
     assert "[-1]" in str(e.value)
 
 
+def _through_step_rows(bw: BatchedWorlds) -> None:
+    """Send every world of ``bw`` through its own ``step_rows`` (each checks
+    and clips its own rows) instead of the batch's one clip: its action
+    type's ``controls`` replaced on the instance by the class's own."""
+    for env in bw.envs:
+        env.core._act_type.controls = type(env.core._act_type).controls.__get__(env.core._act_type)
+
+
 @pytest.mark.parametrize("env_name, config", [
     ("highway_formation", {"vehicles_count": 8, "initial_position": None, "duration": 4.0}),
     ("highway_ramps", {"vgr": 0.5, "duration": 20.0, "max_vehicles": 8}),
@@ -286,8 +294,7 @@ def test_batched_worlds_clip_once_for_the_batch(env_name, config):
     fast = BatchedWorlds(2, env=env_name, config=config, seed=2)
     slow = BatchedWorlds(2, env=env_name, config=config, seed=2)
     fast.reset(), slow.reset()
-    for env in slow.envs:  # (each world checks and clips its own rows: step_rows)
-        env.core._act_type.controls = type(env.core._act_type).controls.__get__(env.core._act_type)
+    _through_step_rows(slow)
     taken = []
     real = type(fast.envs[0])._step_controls
     for t in range(15):
@@ -536,8 +543,7 @@ def test_owned_rows_report_departures_as_step_rows_do():
     fast = BatchedWorlds(2, env="highway_ramps", config=cfg, seed=2, expert=True)
     slow = BatchedWorlds(2, env="highway_ramps", config=cfg, seed=2, expert=True)
     fast.reset(), slow.reset()
-    for env in slow.envs:  # (each world checks and clips its own rows: step_rows, which copies)
-        env.core._act_type.controls = type(env.core._act_type).controls.__get__(env.core._act_type)
+    _through_step_rows(slow)  # (step_rows copies the rows it keeps)
     exits = 0
     for t in range(530):
         a = fast.step(fast.expert_actions)
