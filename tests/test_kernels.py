@@ -420,6 +420,35 @@ def test_kinematic_substep_carry_equals_kinematic_substep(n, frames, periodic, l
         s1, s2 = w, g
 
 
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(1, 60), lat=st.sampled_from([0.0, 1.0, 4.9, 9.0]), seed=st.integers(0, 2**31))
+def test_steering_limit_skips_atan_only_where_it_cannot_bind(n, lat, seed):
+    """Stop 52: the substep calls ``atan(z)`` (``z = lat L / max(v^2,
+    1e-9)``) only when the steering angle is not below ``0.99 z / (1 + z)``,
+    a lower bound of ``atan(z)``; the angle it keeps equals
+    ``min(max(s, -atan(z)), atan(z))`` with libm's ``atan`` bit for bit
+    (signed zeros too) for angles drawn around that bound and around
+    ``atan(z)`` itself, at speeds from standing to 40 m/s."""
+    import math
+
+    from icv_envs.sim._kernels import kinematic_substep
+
+    rng = np.random.default_rng(seed)
+    v = np.where(rng.random(n) < 0.1, 0.0, rng.uniform(0.0, 40.0, n))
+    z = lat * 2.8 / np.maximum(v * v, 1e-9)
+    pm = np.array([math.atan(q) for q in z])
+    lb = 0.99 * z / (1.0 + z)
+    base = np.choose(rng.integers(0, 4, n), [pm, lb, rng.uniform(0.0, 0.6, n), np.zeros(n)])
+    s = base * rng.choice([1.0 - 1e-15, 1.0, 1.0 + 1e-15, 0.999, 1.001], n) * rng.choice([1.0, -1.0], n)
+    s = np.where(rng.random(n) < 0.05, -0.0, s)
+    zeros = np.zeros(n)
+    got = kinematic_substep(zeros, zeros, zeros, v, zeros, s, np.zeros(n, dtype=bool), zeros, 2.8, lat, 0.04, 60.0,
+                            -1.0)[5]
+    want = np.array([min(max(a, -p), p) for a, p in zip(s.tolist(), pm.tolist())])
+    np.testing.assert_array_equal(got, want)
+    assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
 def _libm(a, name):
     """``math.cos``/``math.sin`` of each value (libm's, as the kernels call it)."""
     import math

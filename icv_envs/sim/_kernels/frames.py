@@ -9,7 +9,7 @@ import numpy as np
 from icv_envs.sim._kernels.formation import _wrap1
 from icv_envs.sim._kernels.intersection import arc_s1, box_pairs_ordered, intersection_events
 from icv_envs.sim._kernels.neighbours import collision_pairs_kept
-from icv_envs.sim._kernels.physics import kinematic_substep_carry, road_check
+from icv_envs.sim._kernels.physics import kinematic_substep_into, road_check
 from icv_envs.sim._kernels.stats import motion_record, motion_sums_add, pet_transitions
 
 __all__ = ["quiet_substeps", "intersection_frames"]
@@ -96,11 +96,17 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     # (the collision sweep's order along x and the ring's ghost rows, kept from frame to frame)
     order = np.zeros(0, dtype=np.int64)
     ghosts = np.zeros(0, dtype=np.int64)
+    # (two sets of the nine state arrays, written in turn: frame f reads the
+    # set frame f - 1 wrote (the inputs at f = 0) and writes the other; the
+    # centres before a frame, read until the next, are in the set it read)
+    buf = np.empty((2, 9, n))
     for f in range(n_frames):
         cx_before = cx
         v_before = speed
-        x, y, heading, speed, acc, st, stopped_for, cx, cy = kinematic_substep_carry(
-            x, y, heading, speed, accel, steer, crashed, stopped_for, wheelbase, lat, dt, v_max, period, trig, f == 0)
+        o = buf[f % 2]
+        kinematic_substep_into(o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7], o[8], x, y, heading, speed, accel,
+                               steer, crashed, stopped_for, wheelbase, lat, dt, v_max, period, trig, f == 0)
+        x, y, heading, speed, acc, st, stopped_for, cx, cy = o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7], o[8]
         sv, sdv, sa, ns, _ = motion_record(vid, v_before, speed, acc, stopped_speed, m_count, m_s1, m_s2)
         sums[f, 0] = sv
         sums[f, 1] = sdv
@@ -244,10 +250,13 @@ def intersection_frames(n_frames, x, y, heading, speed, accel, steer, crashed, d
     jam_all = np.empty(n, dtype=np.int64)
     trig = np.empty((4, n))  # (cos, sin of the heading, steering, its tan: kinematic_substep_carry)
     order = np.zeros(0, dtype=np.int64)  # (the rows along x, sorted from frame to frame: box_pairs_ordered)
+    buf = np.empty((2, 9, n))  # (the state's two sets of arrays, written in turn: quiet_substeps)
     for fr in range(n_frames):
         v_before = speed
-        x, y, heading, speed, acc, st, _, cx, cy = kinematic_substep_carry(
-            x, y, heading, speed, accel, steer, crashed, dummy, wheelbase, -1.0, dt, v_max, -1.0, trig, fr == 0)
+        o = buf[fr % 2]
+        kinematic_substep_into(o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7], o[8], x, y, heading, speed, accel,
+                               steer, crashed, dummy, wheelbase, -1.0, dt, v_max, -1.0, trig, fr == 0)
+        x, y, heading, speed, acc, st, cx, cy = o[0], o[1], o[2], o[3], o[4], o[5], o[7], o[8]
         t = t + dt
         times[fr] = t
         sv, sdv, sa, ns, _ = motion_record(vid, v_before, speed, acc, stopped_speed, m_count, m_s1, m_s2)

@@ -12,7 +12,7 @@ import numpy as np
 
 from icv_envs.formation._kernels import clip1
 
-__all__ = ["npy_mod", "npy_maximum", "npy_minimum", "lane_of1", "lane_of_rows", "controls_rows", "cos_sin_rows", "kinematic_substep", "kinematic_substep_carry", "road_check", "interval_ends",
+__all__ = ["npy_mod", "npy_maximum", "npy_minimum", "lane_of1", "lane_of_rows", "controls_rows", "cos_sin_rows", "kinematic_substep", "kinematic_substep_carry", "kinematic_substep_into", "road_check", "interval_ends",
            "interval_ends_at", "lanes_available"]
 
 
@@ -120,17 +120,26 @@ def kinematic_substep_carry(x, y, heading, speed, accel, steer, crashed, stopped
     only when ``s`` changed (bit for bit: the sign of a zero counts). So the
     same numbers as :func:`kinematic_substep`, with two or three sines,
     cosines and tangents fewer per vehicle and frame. On return ``trig``
-    holds the new headings' cosines and sines (the collision test's)."""
+    holds the new headings' cosines and sines (the collision test's).
+    Returns nine new arrays (:func:`kinematic_substep_into` writes them)."""
     n = x.shape[0]
-    nx = np.empty(n)
-    ny = np.empty(n)
-    nh = np.empty(n)
-    nv = np.empty(n)
-    na = np.empty(n)
-    ns = np.empty(n)
-    nst = np.empty(n)
-    cx = np.empty(n)
-    cy = np.empty(n)
+    out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+           np.empty(n))
+    kinematic_substep_into(out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7], out[8], x, y, heading,
+                           speed, accel, steer, crashed, stopped_for, wheelbase, lat_accel_max, dt, v_max, period,
+                           trig, first)
+    return out
+
+
+@nb.njit(cache=True)
+def kinematic_substep_into(nx, ny, nh, nv, na, ns, nst, cx, cy, x, y, heading, speed, accel, steer, crashed,
+                           stopped_for, wheelbase, lat_accel_max, dt, v_max, period, trig, first):
+    """:func:`kinematic_substep_carry` writing the new ``x, y, heading,
+    speed, accel, steer, stopped_for, cx, cy`` into the arrays given first
+    (from stop 52: the frames of one compiled call write into two sets of
+    arrays in turn instead of nine new ones per frame; none of them may be
+    an input)."""
+    n = x.shape[0]
     lat_wb = lat_accel_max * wheelbase
     half = 0.5 * wheelbase
     for i in range(n):
@@ -142,8 +151,15 @@ def kinematic_substep_carry(x, y, heading, speed, accel, steer, crashed, stopped
         v = speed[i]
         if lat_accel_max >= 0.0:
             v2 = max(v * v, 1e-9)
-            pm = math.atan(lat_wb / v2)
-            s = min(max(s, -pm), pm)
+            z = lat_wb / v2
+            # (the limit pm = atan(z) binds only for |s| >= pm; atan(z) >= z /
+            # (1 + z) for z >= 0, so below 0.99 of that bound, far above the
+            # roundings of both sides, the clip leaves s as it is and atan is
+            # not called: the same s, bit for bit, without libm's atan for
+            # almost every vehicle and frame; from stop 52)
+            if not abs(s) <= 0.99 * z / (1.0 + z):
+                pm = math.atan(z)
+                s = min(max(s, -pm), pm)
         h = heading[i]
         if first:
             ch = math.cos(h)
@@ -181,7 +197,6 @@ def kinematic_substep_carry(x, y, heading, speed, accel, steer, crashed, stopped
         trig[1, i] = shi
         trig[2, i] = s
         trig[3, i] = ts
-    return nx, ny, nh, nv, na, ns, nst, cx, cy
 
 
 @nb.njit(cache=True)
