@@ -23,7 +23,10 @@ fresh process (``PYTHONPATH=<tree>``), and times ``--steps`` policy steps
   :class:`icv_envs.vector.BatchedWorlds`, 16 HighwayFormation worlds of 20
   agents (``--worlds``, ``--vehicles``, ``--seed``: another setting, from
   stop 50), zero actions / the expert's action for every agent (as the batched
-  part of ``icv-envs bench train``); agent-steps per CPU s of the second
+  part of ``icv-envs bench train``) / ``batched-noisy`` (from stop 52): a
+  stochastic policy's actions, N(0, 0.3) clipped to [-1, 1], drawn from
+  ``--seed`` before the run (the steering then often meets the lateral
+  acceleration limit, where zero actions never do); agent-steps per CPU s of the second
   of two identical runs (the first loads the kernels from numba's cache:
   before stop 38 the only run was timed, and the load at the first
   collision, step 102 of 103, fell inside it).
@@ -96,7 +99,7 @@ BATCHED = """
 import json, sys, time
 import numpy as np
 from icv_envs.vector import BatchedWorlds
-steps, expert = int(sys.argv[1]), sys.argv[2] == "1"
+steps, expert, noisy = int(sys.argv[1]), sys.argv[2] == "1", sys.argv[2] == "noisy"
 B, N, seed = (int(x) for x in sys.argv[3:6])
 # the same run twice, the second timed: the first loads every kernel the run
 # reaches from numba's cache (at the first step, and at the first collision)
@@ -104,12 +107,16 @@ for timed in (False, True):
     bw = BatchedWorlds(B, config={"vehicles_count": N, "initial_position": None}, seed=seed, expert=expert)
     bw.reset()
     acts = np.zeros((B, bw.K, 2), dtype=np.float32)
+    rng = np.random.default_rng(seed)
+    noise = [np.clip(rng.normal(0.0, 0.3, acts.shape), -1.0, 1.0).astype(np.float32) for _ in range(steps)] if noisy else None
     for _ in range(3):
         bw.step(bw.expert_actions if expert else acts)
     c0, n = time.process_time(), 0
-    for _ in range(steps):
+    for k in range(steps):
         if expert:
             acts = bw.expert_actions
+        elif noisy:
+            acts = noise[k]
         n += int(bw.mask.sum())
         bw.step(acts)
     cpu = time.process_time() - c0
@@ -123,6 +130,7 @@ CASES = {
     "ring": (RING, 500, "vehicle-steps", ()),
     "batched": (BATCHED, 100, "agent-steps", ("0", "{worlds}", "{vehicles}", "{seed}")),
     "batched-expert": (BATCHED, 100, "agent-steps", ("1", "{worlds}", "{vehicles}", "{seed}")),
+    "batched-noisy": (BATCHED, 100, "agent-steps", ("noisy", "{worlds}", "{vehicles}", "{seed}")),
 }
 
 

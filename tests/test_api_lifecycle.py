@@ -584,3 +584,27 @@ def test_a_config_edited_in_place_is_validated_at_reset():
     env.unwrapped.config["lanes_count"] = 3
     env.reset(seed=0)
     assert env.unwrapped.config["lanes_count"] == 3
+
+
+@pytest.mark.parametrize("make", [highway_formation_v0.parallel_env, highway_ramps_v0.parallel_env,
+                                  intersection_v0.parallel_env])
+def test_highway_env_road_and_ego_are_built_when_read_after_a_reset(make):
+    """Stop 52: a reset no longer builds highway-env's road and vehicle
+    views (a quarter of a reset's time, paid by training's many resets
+    without rendering); reading ``road``, ``controlled_vehicles`` or
+    ``vehicle`` after a reset builds them for the new world, with one view
+    per vehicle at its current place."""
+    env = make()
+    env.reset(seed=3)
+    core = env.core
+    assert core.__dict__.get("_road") is None  # not built by the reset
+    road = core.road
+    assert road is not None and len(road.vehicles) == core._vehicles().n
+    cx = core.world.route().cx if hasattr(core.world, "route") else core.world.traffic.center()[0]
+    assert sorted(float(v.position[0]) for v in road.vehicles) == sorted(np.asarray(cx).tolist())
+    assert core.controlled_vehicles and core.vehicle is core.controlled_vehicles[0]
+    env.reset(seed=4)  # a new world: a new road when read
+    assert core.road is not road
+    gym_env = gym.make("icv_envs/HighwayFormation-v0")
+    gym_env.reset(seed=0)
+    assert gym_env.unwrapped.vehicle is not None

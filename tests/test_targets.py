@@ -228,3 +228,23 @@ def test_unknown_geometry(fn, geometry):
         fn(3, 3, 20.0, geometry=geometry)
     assert repr(geometry) in str(info.value)
     assert "interlaced" in str(info.value) and "parallel" in str(info.value)
+
+
+def test_formation_managers_share_read_only_targets():
+    """Stop 52: the targets a formation manager re-forms to are memoised for
+    the process (each reset's new manager started an empty memo before):
+    equal to formation_targets, read-only, shared between managers of one
+    spacing and geometry, not between different ones."""
+    from icv_envs.formation.targets import formation_targets
+    from icv_envs.sim.formations import FormationManager
+
+    a, b = FormationManager(spacing=20.0), FormationManager(spacing=20.0)
+    c = FormationManager(spacing=25.0, geometry="parallel")
+    for n, lanes in ((1, 1), (7, 3), (12, 4), (0, 2)):
+        ta, tb, tc = a.targets(n, lanes), b.targets(n, lanes), c.targets(n, lanes)
+        for got, want in zip(ta, formation_targets(n, lanes, 20.0)):
+            np.testing.assert_array_equal(got, want)
+            assert got.dtype == want.dtype and not got.flags.writeable
+        assert all(x is y for x, y in zip(ta, tb))
+        for got, want in zip(tc, formation_targets(n, lanes, 25.0, "parallel")):
+            np.testing.assert_array_equal(got, want)

@@ -44,7 +44,8 @@ class DictEdge:
         # the fast path takes real numpy arrays only: np.array() of a mixed
         # list would silently upcast one agent's bool / int-list action
         # (the test runs in C: one map over the types, one over the dtype kinds)
-        if set(map(type, values)) == _NDARRAY_ONLY and set(map(_DTYPE_KIND, values)) <= _REAL_KINDS:
+        # (the distinct dtypes, then their kinds: a third less than one kind per value)
+        if set(map(type, values)) == _NDARRAY_ONLY and {d.kind for d in set(map(_DTYPE, values))} <= _REAL_KINDS:
             try:
                 arr = np.array(values)
             except (ValueError, TypeError, OverflowError):
@@ -163,7 +164,7 @@ class DictEdge:
 
 _NDARRAY_ONLY = {np.ndarray}
 _REAL_KINDS = {"f", "i", "u"}
-_DTYPE_KIND = operator.attrgetter("dtype.kind")
+_DTYPE = operator.attrgetter("dtype")
 
 
 @functools.lru_cache(maxsize=64)

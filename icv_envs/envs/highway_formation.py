@@ -26,7 +26,7 @@ from icv_envs.envs.highway_config import INFO_KEYS, UNUSED_KEYS, check_config, c
 from icv_envs.envs.highway_rows import OBS_FEATURES, POST_HOOK_NAMES, STATE_FEATURES, HighwayRows
 from icv_envs.envs.observations import merge_observation_config
 from icv_envs.envs.scenarios import SCENARIOS, scenario_config
-from icv_envs.formation.targets import formation_length, formation_targets
+from icv_envs.formation.targets import formation_length
 from icv_envs.policies.formation_expert import ExpertParams, FormationExpert
 from icv_envs.sim.formations import FormationManager
 from icv_envs.sim.road import Obstacle, OffRamp, OnRamp, RoadLayout
@@ -220,7 +220,7 @@ class HighwayFormationEnv(HighwayRows, IcvAgentsEnv):
         h = 0.5 * c["wheelbase"]
         idx = 0
         for count, anchor, lanes in self._placement():
-            tx, tl = formation_targets(count, len(lanes), f["spacing"], f["geometry"])
+            tx, tl = manager.targets(count, len(lanes))  # (formation_targets of its spacing and geometry, memoised)
             lane_arr = np.asarray(lanes)[tl - 1]
             cx = anchor - tx + rng.uniform(-1, 1, count) * c["initial_jitter"]
             speed = f["speed"] + rng.uniform(-1, 1, count) * c["initial_speed_jitter"]
@@ -239,7 +239,7 @@ class HighwayFormationEnv(HighwayRows, IcvAgentsEnv):
         self._expert_cache = None
         self._ego_vid = int(c["ego_vehicle"])
         self._ego_done = False
-        self._sync_render_road(force=True)
+        self._render_road_due()
 
     def _spawn_due(self) -> list[int]:
         if not self._pending_spawns:  # (nothing scheduled: most worlds)

@@ -336,7 +336,7 @@ class HighwayRampsEnv(HighwayFormationEnv):
         self._ego_vid = int(c["ego_vehicle"])
         self._ego_done = False
         self._record()
-        self._sync_render_road(force=True)
+        self._render_road_due()
 
     # ---------------------------------------------------------------- arrivals
     def _spawn_due(self) -> list[int]:

@@ -258,7 +258,7 @@ class IntersectionEnv(IntersectionRows, IntersectionReport, IntersectionRenderin
         self.expert.update(world)
         if c["warmup"] > 0:
             self._warm_up(float(c["warmup"]))
-        self._sync_render_road(force=True)
+        self._render_road_due()
 
     def _warm_up(self, seconds: float) -> None:
         """Run the expert for ``seconds`` before the episode starts, then restart

@@ -111,7 +111,10 @@ class CoreParallelEnv(ParallelEnv):
         self._cycles += 1
         if self._cycles_up:
             trunc = {a: not term[a] for a in obs}
-        self.agents = [a for a in obs if not (term[a] or trunc[a])]
+        if any(term.values()) or any(trunc.values()):
+            self.agents = [a for a in obs if not (term[a] or trunc[a])]
+        else:  # nobody done (most steps): every key, in order (two C-level scans, a third of the loop's time)
+            self.agents = list(obs)
         return obs, rew, term, trunc, infos
 
     def step_rows(self, actions):

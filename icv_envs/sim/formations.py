@@ -45,6 +45,8 @@ Decisions the paper leaves open (docs/decisions.md), each a config value:
 
 from __future__ import annotations
 
+import functools
+
 
 import numpy as np
 
@@ -79,6 +81,18 @@ def _obstacles(road) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return (np.asarray(road._ob_lane, dtype=np.int64), np.asarray(road._ob_lo, dtype=np.float64),
             np.asarray(road._ob_hi, dtype=np.float64))
 
+
+
+@functools.lru_cache(maxsize=1024)
+def _targets_of(n: int, n_lanes: int, spacing: float, geometry: str) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~icv_envs.formation.targets.formation_targets`, memoised for
+    the process (a pure function of its arguments; the arrays are
+    read-only). Shared by every manager from stop 52: a manager's own memo
+    started empty at each reset, and training resets often."""
+    out = formation_targets(n, n_lanes, spacing, geometry)
+    for arr in out:
+        arr.flags.writeable = False
+    return out
 
 class FormationManager(FormationViews):
     """The formation layer (module docstring); its read-only views of the
@@ -153,7 +167,6 @@ class FormationManager(FormationViews):
         self._refs_cache = None  # (key, references): see references
         self._bits_memo: dict[tuple, int] = {}  # lane set -> bit set (_lane_bitset)
         self._lanes_memo: dict[int, tuple] = {}  # bit set -> lane set (_lane_set)
-        self._targets_memo: dict[tuple, tuple] = {}  # (members, lanes) -> targets (_targets)
         self._allowed_memo: dict[int, np.ndarray] = {}  # lane count -> allowed-lane mask (_allowed)
         self._road_c = None  # (road, the update's arguments that depend on the road only): _road_args
         self._lane_arrays: dict[tuple, tuple] = {}  # lane set -> (float64, int64) arrays (_lane_arrays_of)
@@ -250,18 +263,10 @@ class FormationManager(FormationViews):
             self._lane_arrays[lanes] = out
         return out
 
-    def _targets(self, n: int, n_lanes: int) -> tuple[np.ndarray, np.ndarray]:
+    def targets(self, n: int, n_lanes: int) -> tuple[np.ndarray, np.ndarray]:
         """:func:`~icv_envs.formation.targets.formation_targets` of this
-        manager's spacing and geometry, memoised (a pure function of the
-        member and lane counts; the arrays are read-only)."""
-        key = (n, n_lanes)
-        out = self._targets_memo.get(key)
-        if out is None:
-            out = formation_targets(n, n_lanes, self.spacing, self.geometry)
-            for arr in out:
-                arr.flags.writeable = False
-            self._targets_memo[key] = out
-        return out
+        manager's spacing and geometry, memoised (:func:`_targets_of`)."""
+        return _targets_of(n, n_lanes, float(self.spacing), self.geometry)
 
     def _slot_x(self, traffic, rows) -> np.ndarray:
         # each row's front target minus its place behind it, through a lookup
@@ -349,13 +354,13 @@ class FormationManager(FormationViews):
         if not lanes:
             lanes = (0,)
         for _ in range(2):
-            tx, tl = self._targets(n, len(lanes))
+            tx, tl = self.targets(n, len(lanes))
             length = float(tx.max()) if n else 0.0
             new = self._lane_set(road, anchor, max(length, old_length)) or lanes
             if new == lanes:
                 break
             lanes = new
-        tx, tl = self._targets(n, len(lanes))
+        tx, tl = self.targets(n, len(lanes))
         self._lanes[gid] = lanes
         self._bits[gid] = self._lane_bitset(lanes)
         self._L[gid] = float(tx.max())

@@ -14,6 +14,8 @@ for that slot should have arrived (the stall test's deadline)."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from icv_envs.formation._kernels import plan_search_store, profile_eval
@@ -32,6 +34,18 @@ __all__ = ["JoinPlans", "JOIN_MAX_DURATION"]
 #: cap of the join-plan duration search within the speed band [s]: a plan
 #: that needs longer is infeasible inside the band (see :meth:`JoinPlans.plan`)
 JOIN_MAX_DURATION = 120.0
+
+
+@functools.lru_cache(maxsize=1)
+def _default_plan_ends() -> tuple[float, ...]:
+    """The default plan's (duration 1 s from rest) values at its end and its
+    polynomial's coefficients, ``(fd, fv, fa, c3, c4, c5)``: computed once
+    for the process (from stop 52; at every first :meth:`JoinPlans.grow`,
+    each reset's, before)."""
+    one, zero = np.ones(1), np.zeros(1)
+    fd, fv, fa = join_profile(one, one, zero, zero, zero)
+    c3, c4, c5 = _quintic_coeffs(one, zero, zero, zero)
+    return tuple(float(a[0]) for a in (fd, fv, fa, c3, c4, c5))
 
 
 class JoinPlans:
@@ -72,11 +86,9 @@ class JoinPlans:
             setattr(self, name, np.concatenate([getattr(self, name), np.zeros(pad)]))
         self.T[self._cap:] = 1.0
         # the profile's values once it has ended (t >= T), of the default plan
-        one, zero = np.ones(1), np.zeros(1)
-        fd, fv, fa = join_profile(one, one, zero, zero, zero)
-        self.fd[self._cap:], self.fv[self._cap:], self.fa[self._cap:] = fd[0], fv[0], fa[0]
-        c3, c4, c5 = _quintic_coeffs(one, zero, zero, zero)
-        self.c3[self._cap:], self.c4[self._cap:], self.c5[self._cap:] = c3[0], c4[0], c5[0]
+        fd, fv, fa, c3, c4, c5 = _default_plan_ends()
+        self.fd[self._cap:], self.fv[self._cap:], self.fa[self._cap:] = fd, fv, fa
+        self.c3[self._cap:], self.c4[self._cap:], self.c5[self._cap:] = c3, c4, c5
         self._cap = new
 
     def plan(self, vid: np.ndarray, d0, v0, a0, time: float) -> np.ndarray:
