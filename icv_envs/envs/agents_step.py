@@ -54,7 +54,7 @@ class AgentsStep:
         if self.world is None:
             raise RuntimeError("call reset() before step()")
         veh = self._vehicles()
-        live = self._names(veh.vid.tolist())
+        live = self._names_of(veh.vid)
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
         missing = []
@@ -295,7 +295,8 @@ class AgentsStep:
         crashed_now = veh.crashed.copy()
         self._last_actions = self._realign_rows(before, acts, veh.vid)
         rows = self._all_rows(veh.n)
-        step_vid = veh.vid.copy()
+        vid_now = veh.vid
+        step_vid = vid_now.copy()
         rew, parts, obs = self._post_rows(rows, crashed_now)
         truncated_all = w.time >= float(c["duration"]) - 1e-9
         trunc = self._truncations(truncated_all, crashed_now)
@@ -314,7 +315,7 @@ class AgentsStep:
             if new:
                 rew[np.isin(step_vid, np.asarray(new, dtype=np.int64))] = 0.0
         else:
-            agents = self._names(step_vid.tolist())
+            agents = self._names_of(vid_now)  # (step_vid's ids)
             observations, rewards, terms, truncs = self._agent_dicts(agents, obs, rew, crashed_now, trunc)
             # the agents' info columns now (the state they report), their
             # dicts at the end of the step with the expert's labels, which

@@ -243,6 +243,20 @@ class IcvAgentsEnv(EgoEnv, AgentsStep, DictEdge, AbstractEnv):
             return list(map(pa.__getitem__, vids))
         return [f"icv_{v}" for v in vids]
 
+    def _names_of(self, vid: np.ndarray) -> list:
+        """:meth:`_names` of an id array, kept for that array object (id
+        arrays are replaced when vehicles come or go, never written in
+        place): a step asks for the names of one set of vehicles two or
+        three times (the caller's ``expert_actions()``, the action check,
+        the dicts; from stop 52). The list is shared: read it, do not
+        change it."""
+        kept = self.__dict__.get("_names_kept")
+        if kept is not None and kept[0] is vid and kept[1] is self.possible_agents:
+            return kept[2]
+        names = self._names(vid.tolist())
+        self._names_kept = (vid, self.possible_agents, names)
+        return names
+
     # ------------------------------------------------------------------ expert
     def _expert_key(self) -> tuple:
         """What the expert's actions depend on: the world, its clock and the

@@ -180,7 +180,7 @@ class CoreParallelEnv(ParallelEnv):
         """The expert's (the env method's controller's) action for every live
         agent: rows of a copy, the caller's to change (the env keeps its own)."""
         ex = self.core.expert_actions().copy()
-        return dict(zip(self.core._names(self.core.world.traffic.vid.tolist()), ex))
+        return dict(zip(self.core._names_of(self.core._vehicles().vid), ex))
 
     def metrics(self, **kwargs) -> dict:
         return self.core.metrics(**kwargs)
