@@ -33,6 +33,10 @@ fresh process (``PYTHONPATH=<tree>``), and times ``--steps`` policy steps
 
 Prints each pair's ratio (test / reference) and their median; a shared
 machine moves single figures by 20% or more, the pairs' median much less.
+The pairs run the reference first and the test first in turn (from stop
+52; the reference always ran first before, and on this machine the first
+run of a pair was 3-4% faster on the intersection case, whichever tree it
+was): use an even ``--reps``.
 Both trees must simulate the same amount (the step counts are checked).
 """
 
@@ -174,15 +178,23 @@ def main(argv=None) -> int:
     ratios, rows = [], []
     for i in range(a.reps):
         kw = {"worlds": a.worlds, "vehicles": a.vehicles, "seed": a.seed}
-        r, t = _run(ref, steps, a.throughput, a.case, **kw), _run(test, steps, a.throughput, a.case, **kw)
+        # (the two trees' order alternates from pair to pair, from stop 52: the
+        # first run of a pair was measured 3-4% faster than the second on the
+        # intersection case, whichever tree it was)
+        if i % 2 == 0:
+            r = _run(ref, steps, a.throughput, a.case, **kw)
+            t = _run(test, steps, a.throughput, a.case, **kw)
+        else:
+            t = _run(test, steps, a.throughput, a.case, **kw)
+            r = _run(ref, steps, a.throughput, a.case, **kw)
         if r["agent_steps"] != t["agent_steps"]:
             raise SystemExit(f"the trees simulate different amounts ({r['agent_steps']} vs {t['agent_steps']} "
                              f"{unit}): not a like-for-like comparison")
         sr, st = r["agent_steps"] / r["cpu"], t["agent_steps"] / t["cpu"]
         ratios.append(st / sr)
-        rows.append({"reference": sr, "test": st, "ratio": st / sr})
-        print(f"rep {i + 1}: reference {sr:,.0f}, test {st:,.0f} {unit} per CPU s, ratio {st / sr:.2f}",
-              flush=True)
+        rows.append({"reference": sr, "test": st, "ratio": st / sr, "first": "reference" if i % 2 == 0 else "test"})
+        print(f"rep {i + 1}: reference {sr:,.0f}, test {st:,.0f} {unit} per CPU s, ratio {st / sr:.2f} "
+              f"({'reference' if i % 2 == 0 else 'test'} first)", flush=True)
     res = {"case": a.case, "unit": f"{unit} per CPU s", "median_ratio": statistics.median(ratios), "pairs": rows,
            "steps": steps, "amount": r["agent_steps"], "reference": str(ref), "test": str(test)}
     if a.case.startswith("intersection"):
