@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import functools
 
-
 import numpy as np
 
 from icv_envs.formation.assignment import _check_weight, _solve
@@ -82,7 +81,6 @@ def _obstacles(road) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             np.asarray(road._ob_hi, dtype=np.float64))
 
 
-
 @functools.lru_cache(maxsize=1024)
 def _targets_of(n: int, n_lanes: int, spacing: float, geometry: str) -> tuple[np.ndarray, np.ndarray]:
     """:func:`~icv_envs.formation.targets.formation_targets`, memoised for
@@ -93,6 +91,7 @@ def _targets_of(n: int, n_lanes: int, spacing: float, geometry: str) -> tuple[np
     for arr in out:
         arr.flags.writeable = False
     return out
+
 
 class FormationManager(FormationViews):
     """The formation layer (module docstring); its read-only views of the
