@@ -26,7 +26,9 @@ fresh process (``PYTHONPATH=<tree>``), and times ``--steps`` policy steps
   part of ``icv-envs bench train``) / ``batched-noisy`` (from stop 52): a
   stochastic policy's actions, N(0, 0.3) clipped to [-1, 1], drawn from
   ``--seed`` before the run (the steering then often meets the lateral
-  acceleration limit, where zero actions never do); agent-steps per CPU s of the second
+  acceleration limit, where zero actions never do; a policy part-way
+  through training: SB3's PPO starts at a standard deviation of 1);
+  agent-steps per CPU s of the second
   of two identical runs (the first loads the kernels from numba's cache:
   before stop 38 the only run was timed, and the load at the first
   collision, step 102 of 103, fell inside it).
