@@ -1,6 +1,6 @@
 """What the Python <-> numba boundary costs in a step (issue 10, stop 44).
 
-    PYTHONPATH=$PWD python scripts/bench_kernel_boundary.py [--case intersection|batched|both] [--expert]
+    PYTHONPATH=$PWD python scripts/bench_kernel_boundary.py [--case intersection|batched|ring|both] [--expert]
         [--seed 0] [--top 8] [--out FILE]
 
 Every compiled kernel call pays for its dispatch (a fixed part, then each
@@ -28,7 +28,15 @@ returns (boxed into a new ``ndarray``). This script
    kernels took no time (kernels and their boundary; the rest of the step
    is that Python).
 
-Cases (``--seed``, default 0): ``intersection``: multi-vp at 2200 veh/h, every vehicle an
+Each kernel's calls are also replayed on their own (the same copies) and
+timed per kernel: the listing's ``replayed`` column (from stop 52; stop
+49's ``results/bench/stop49/replay_per_kernel.py`` did this for the
+batched case alone). Replayed copies are read from memory the step had in
+cache: read a kernel's figure as an upper bound of its share.
+
+Cases (``--seed``, default 0): ``ring`` (from stop 52): the paper's ring,
+HighwayRamps at VGR 1/3 under the formation expert through PettingZoo's
+dicts, 300 s of warm-up then 100 policy steps; ``intersection``: multi-vp at 2200 veh/h, every vehicle an
 agent with the expert's action from the infos, 100 s of warm-up then 150 s
 (as ``icv-envs bench intersection``); ``batched``: 16 HighwayFormation
 worlds of 20 agents with zero actions (``--expert``: the expert's action
@@ -121,6 +129,27 @@ def _intersection(seed: int = 0):
     return window
 
 
+def _ring(seed: int = 0):
+    from icv_envs.envs import highway_ramps_v0
+
+    env = highway_ramps_v0.parallel_env(vgr=1 / 3, duration=400.0)
+    env.reset(seed=seed)
+
+    def step():
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+
+    for _ in range(1500):  # 300 s: about 440 vehicles
+        step()
+
+    def window():
+        for _ in range(100):
+            step()
+        return 100
+
+    return window
+
+
 def _batched(expert: bool = False, seed: int = 0):
     from icv_envs.vector import BatchedWorlds
 
@@ -199,6 +228,14 @@ def _counter(kernel, counts, own, calls):
     return counted
 
 
+def _replay_by_kernel(calls: list) -> dict:
+    """:func:`_replay` of each kernel's calls alone: CPU seconds by kernel name."""
+    by = collections.defaultdict(list)
+    for call in calls:
+        by[call[0].py_func.__name__].append(call)
+    return {name: _replay(cl) for name, cl in by.items()}
+
+
 def _replay(calls: list) -> float:
     """The recorded kernel calls again, back to back with no Python in
     between but the loop: CPU seconds of the second of two passes (the
@@ -221,7 +258,8 @@ def _estimate(c: dict, n: int, unit: dict) -> dict:
 
 
 def run_case(case: str, unit: dict, expert: bool = False, seed: int = 0) -> dict:
-    make = (lambda: _intersection(seed)) if case == "intersection" else lambda: _batched(expert, seed)
+    make = {"intersection": lambda: _intersection(seed), "ring": lambda: _ring(seed),
+            "batched": lambda: _batched(expert, seed)}[case]
     window = make()
     window()  # (the first window loads what the warm-up did not: the second is timed)
     c0 = time.process_time()
@@ -239,10 +277,12 @@ def run_case(case: str, unit: dict, expert: bool = False, seed: int = 0) -> dict
         for mod, name, obj in undo:
             setattr(mod, name, obj)
     replay_us = _replay(calls) / n2 * 1e6
+    replayed = {k: v / n2 * 1e6 for k, v in _replay_by_kernel(calls).items()}
     per = {k: counts[k] / n2 for k in ("calls", "arrays", "others", "returned_arrays")}
     parts = _estimate(counts, n2, unit)
     est = sum(parts.values())
-    kernels = sorted(({"kernel": k, **{f: c[f] / n2 for f in per}, "estimate_us": sum(_estimate(c, n2, unit).values())}
+    kernels = sorted(({"kernel": k, **{f: c[f] / n2 for f in per}, "estimate_us": sum(_estimate(c, n2, unit).values()),
+                       "replayed_us": replayed.get(k, 0.0)}
                       for k, c in per_kernel.items()), key=lambda r: -r["estimate_us"])
     return {"case": case, "expert": bool(expert), "seed": int(seed), "step_us": step_us, "per_step": per, "estimate_us": est,
             "estimate_parts_us": parts, "share_of_step": est / step_us, "replay_us": replay_us,
@@ -251,7 +291,7 @@ def run_case(case: str, unit: dict, expert: bool = False, seed: int = 0) -> dict
 
 def main() -> None:
     p = argparse.ArgumentParser()
-    p.add_argument("--case", choices=("intersection", "batched", "both"), default="both")
+    p.add_argument("--case", choices=("intersection", "batched", "ring", "both"), default="both")
     p.add_argument("--expert", action="store_true", help="batched case: the expert's action for every agent")
     p.add_argument("--seed", type=int, default=0, help="the run's seed (both cases)")
     p.add_argument("--top", type=int, default=8, help="kernels listed per case (largest estimate first)")
@@ -279,7 +319,8 @@ def main() -> None:
               f"{r['step_us'] - r['replay_us']:.0f} us, is the Python around them")
         for k in r["kernels"][:a.top]:
             print(f"    {k['kernel']:30s} {k['calls']:5.2f} calls, {k['arrays']:5.1f} arrays, {k['others']:5.1f} others, "
-                  f"{k['returned_arrays']:4.1f} returned: about {k['estimate_us']:.2f} us")
+                  f"{k['returned_arrays']:4.1f} returned: about {k['estimate_us']:.2f} us; replayed "
+                  f"{k['replayed_us']:.2f} us")
     line = json.dumps(res)
     if a.out:
         with open(a.out, "w") as fh:
