@@ -43,8 +43,8 @@ class DictEdge:
         arr = None
         # the fast path takes real numpy arrays only: np.array() of a mixed
         # list would silently upcast one agent's bool / int-list action
-        # (the test runs in C: one map over the types, one over the dtypes)
-        # (the distinct dtypes, then their kinds: a third less than one kind per value)
+        # (the test runs in C: one map over the types, one over the dtypes, whose
+        # distinct ones give their kinds: a third less than one kind per value)
         if set(map(type, values)) == _NDARRAY_ONLY and {d.kind for d in set(map(_DTYPE, values))} <= _REAL_KINDS:
             try:
                 arr = np.array(values)
