@@ -183,20 +183,18 @@ def main(argv=None) -> int:
         # (the two trees' order alternates from pair to pair, from stop 52: the
         # first run of a pair was measured 3-4% faster than the second on the
         # intersection case, whichever tree it was)
-        if i % 2 == 0:
-            r = _run(ref, steps, a.throughput, a.case, **kw)
-            t = _run(test, steps, a.throughput, a.case, **kw)
-        else:
-            t = _run(test, steps, a.throughput, a.case, **kw)
-            r = _run(ref, steps, a.throughput, a.case, **kw)
+        first = "reference" if i % 2 == 0 else "test"
+        order = (("reference", ref), ("test", test)) if first == "reference" else (("test", test), ("reference", ref))
+        got = {name: _run(tree, steps, a.throughput, a.case, **kw) for name, tree in order}
+        r, t = got["reference"], got["test"]
         if r["agent_steps"] != t["agent_steps"]:
             raise SystemExit(f"the trees simulate different amounts ({r['agent_steps']} vs {t['agent_steps']} "
                              f"{unit}): not a like-for-like comparison")
         sr, st = r["agent_steps"] / r["cpu"], t["agent_steps"] / t["cpu"]
         ratios.append(st / sr)
-        rows.append({"reference": sr, "test": st, "ratio": st / sr, "first": "reference" if i % 2 == 0 else "test"})
+        rows.append({"reference": sr, "test": st, "ratio": st / sr, "first": first})
         print(f"rep {i + 1}: reference {sr:,.0f}, test {st:,.0f} {unit} per CPU s, ratio {st / sr:.2f} "
-              f"({'reference' if i % 2 == 0 else 'test'} first)", flush=True)
+              f"({first} first)", flush=True)
     res = {"case": a.case, "unit": f"{unit} per CPU s", "median_ratio": statistics.median(ratios), "pairs": rows,
            "steps": steps, "amount": r["agent_steps"], "reference": str(ref), "test": str(test)}
     if a.case.startswith("intersection"):
