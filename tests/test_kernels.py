@@ -976,6 +976,9 @@ def test_profile_eval_equals_quintic(n, seed):
     ("highway_formation_v0", {"scenario": "off-ramp"}, 2, 250, 0.0),  # exits on a straight road
     ("highway_ramps_v0", {"vgr": 0.5, "duration": 150.0, "method": "lane-lp"}, 2, 700, 0.0),  # ring: exits, missed
     ("highway_formation_v0", {"vehicles_count": 8, "obstacle": {"lane": 1, "position": 300.0}}, 3, 100, 0.3),
+    # (from stop 53, the frames crash vehicles off the road themselves: with exits, and on the ring)
+    ("highway_formation_v0", {"scenario": "off-ramp"}, 4, 150, 0.3),
+    ("highway_ramps_v0", {"vgr": 0.5, "duration": 60.0, "method": "lane-lp"}, 5, 200, 0.3),
 ])
 def test_fused_substeps_equal_one_substep_at_a_time(module, config, seed, steps, random_share):
     """World.substeps (quiet frames compiled in one call) leaves the same
@@ -1015,6 +1018,40 @@ def test_fused_substeps_equal_one_substep_at_a_time(module, config, seed, steps,
     fused, plain = run(True), run(False)
     assert fused[1] == plain[1] and fused[2] == plain[2] and fused[3] == plain[3] and fused[4] == plain[4]
     assert fused[0] == plain[0]
+
+
+def test_frames_crash_a_vehicle_off_the_road_without_stopping():
+    """A vehicle that leaves the road in a frame where nothing else happens
+    is crashed inside the compiled frames (from stop 53): ``World.substeps``
+    runs every frame it was asked for, the vehicle is crashed, and the
+    collision, its ``road`` fault and the crashed id are counted once; with
+    the vehicle crashed and off the road, the frames after it are no event
+    either (``substep``'s Python path is never taken)."""
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+    from icv_envs.sim.world import StepEvents, World
+
+    env = parallel_env(vehicles_count=6, initial_position=None)
+    env.reset(seed=0)
+    w = env.core.world
+    tr = w.traffic
+    w.set_expert_driven(tr.vid, np.zeros(tr.n, dtype=bool))
+    # the outermost vehicle steered hard off the road's edge (the others go straight on)
+    r = int(np.argmin(tr.y))
+    steer = np.zeros(tr.n)
+    steer[r] = -0.6
+    calls = []
+    real = World._substep_events
+    World._substep_events = lambda self, *a, **k: (calls.append(1), real(self, *a, **k))[1]
+    try:
+        events = StepEvents()
+        ran = w.substeps(np.zeros(tr.n), steer, 40, events)
+    finally:
+        World._substep_events = real
+    assert ran == 40 and not calls
+    assert tr.crashed[r] and int(np.count_nonzero(tr.crashed)) == 1
+    assert events.crashed == {int(tr.vid[r])}
+    assert w.stats["collisions"] == 1
+    assert w.stats["collisions_by_fault"]["road"] == {"expert": 0, "policy": 1}
 
 
 def _numpy_intersection_events(lay, cx, cy, f, t):

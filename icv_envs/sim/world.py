@@ -203,15 +203,19 @@ class World:
     def substeps(self, accel: np.ndarray, steer: np.ndarray, n: int, events: StepEvents) -> int:
         """Up to ``n`` calls of :meth:`substep` with the same controls, the
         quiet ones in one compiled pass (:func:`icv_envs.sim._kernels.quiet_substeps`),
-        stopping after the first substep with a collision, a vehicle leaving
-        the road or the road's end, or an exit (handled here as
-        :meth:`substep` does). Returns how many substeps ran; the state,
-        statistics and events are those of as many :meth:`substep` calls,
-        bit for bit. Roads with obstacles take :meth:`substep` one at a time.
-        (From stop 52 a single frame is compiled too: the frame left after
-        an event at the policy step's last but one, which a noisy policy's
-        crashes make common, took :meth:`substep`'s Python path before, about
-        four times the cost.)"""
+        stopping after the first substep with a collision, a vehicle at the
+        road's end, or an exit (handled here as :meth:`substep` does).
+        Returns how many substeps ran; the state, statistics and events are
+        those of as many :meth:`substep` calls, bit for bit. Roads with
+        obstacles take :meth:`substep` one at a time. (From stop 52 a single
+        frame is compiled too: the frame left after an event at the policy
+        step's last but one, which a noisy policy's crashes make common, took
+        :meth:`substep`'s Python path before, about four times the cost. From
+        stop 53 a vehicle leaving the road, a noisy policy's most common
+        event, is crashed inside the frames when nothing else happens in its
+        frame, and its counts are added here (:meth:`_road_crashes`); a
+        crashed vehicle off the road is no event: until then every frame
+        after it went back to Python.)"""
         tr = self.traffic
         road = self.road
         if n < 1 or not tr.n or road.obstacles:
@@ -229,7 +233,7 @@ class World:
         m = self.motion
         # (the clock and the run statistics advance inside, substep by
         # substep as substep() adds them: the same additions of the same doubles)
-        (k, event, S, self.time, *totals, missed, E, m_pairs, n_off, n_end, n_long) = quiet_substeps(
+        (k, event, S, self.time, *totals, missed, E, m_pairs, n_off, n_end, n_long, n_road) = quiet_substeps(
             int(n), tr.x, tr.y, tr.heading, tr.speed, np.asarray(accel, dtype=np.float64),
             np.asarray(steer, dtype=np.float64), tr.crashed, tr.stopped_for, tr.wheelbase, lat, self.dt, self.v_max,
             road.length if road.periodic else -1.0, tr.vid, tr.length, tr.width, STOPPED_SPEED, *m.moments(),
@@ -244,6 +248,8 @@ class World:
         cx, cy = tr.set_center(cx, cy)
         tr.keep_cos_sin(ch, sh)  # (the headings' cos and sin, libm's: the observations' and the expert's)
         self._long_stops = (tr.stopped_for, n_long)  # (the jam watch's count of this state, record_min_gap)
+        if n_road:  # (vehicles the frames crashed off the road, in frames with nothing else to handle: E's tail)
+            self._road_crashes(events, E[len(E) - n_road:])
         if event:
             q = 2 * m_pairs
             i, j, lane = E[:m_pairs], E[m_pairs:q], E[q:q + nv]
@@ -378,6 +384,26 @@ class World:
         self._plan_vids = set()
         self._index = None
 
+    def _road_crashes(self, events: StepEvents, rows: np.ndarray) -> None:
+        """The counts of vehicles the compiled frames crashed off the road
+        (:meth:`substeps`, rows ``rows``, already marked crashed there), as
+        :meth:`_substep_events` counts a crash off the road: the collision
+        count, the crashed ids, one ``road`` fault each
+        (:meth:`classify_collisions`)."""
+        tr = self.traffic
+        self._count_road_faults(rows.tolist())
+        events.crashed.update(tr.vid[rows].tolist())
+        self.stats["collisions"] += len(rows)
+
+    def _count_road_faults(self, rows: list) -> None:
+        """One ``road`` fault in ``stats["collisions_by_fault"]`` per row, by
+        who drove it (:meth:`set_expert_driven`)."""
+        out = self.stats["collisions_by_fault"]["road"]
+        ev = self._expert_vids
+        vid = self.traffic.vid
+        for r in rows:
+            out["expert" if ev is None or int(vid[r]) in ev else "policy"] += 1
+
     def classify_collisions(self, i, j, road_rows, new_crash, cx, cy) -> None:
         """Count this substep's new collisions in
         ``stats["collisions_by_fault"][kind][driver]``, one per colliding pair
@@ -399,8 +425,7 @@ class World:
         def driver(row):
             return "expert" if ev is None or int(tr.vid[row]) in ev else "policy"
 
-        for r in np.flatnonzero(road_rows):
-            out["road"][driver(r)] += 1
+        self._count_road_faults(np.flatnonzero(road_rows).tolist())
         vy = tr.speed * np.sin(tr.heading)
         for a, b in zip(np.asarray(i).tolist(), np.asarray(j).tolist()):
             if not (new_crash[a] or new_crash[b]):
