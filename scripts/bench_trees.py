@@ -27,7 +27,9 @@ fresh process (``PYTHONPATH=<tree>``), and times ``--steps`` policy steps
   stochastic policy's actions, N(0, 0.3) clipped to [-1, 1], drawn from
   ``--seed`` before the run (the steering then often meets the lateral
   acceleration limit, where zero actions never do; a policy part-way
-  through training: SB3's PPO starts at a standard deviation of 1);
+  through training: SB3's PPO starts at a standard deviation of 1) /
+  ``batched-uniform`` (from stop 53): uniform in [-1, 1], an untrained
+  policy (``icv-envs bench train``'s ``uniform`` actions);
   agent-steps per CPU s of the second
   of two identical runs (the first loads the kernels from numba's cache:
   before stop 38 the only run was timed, and the load at the first
@@ -105,7 +107,8 @@ BATCHED = """
 import json, sys, time
 import numpy as np
 from icv_envs.vector import BatchedWorlds
-steps, expert, noisy = int(sys.argv[1]), sys.argv[2] == "1", sys.argv[2] == "noisy"
+steps, expert, kind = int(sys.argv[1]), sys.argv[2] == "1", sys.argv[2]
+noisy = kind in ("noisy", "uniform")
 B, N, seed = (int(x) for x in sys.argv[3:6])
 # the same run twice, the second timed: the first loads every kernel the run
 # reaches from numba's cache (at the first step, and at the first collision)
@@ -114,7 +117,8 @@ for timed in (False, True):
     bw.reset()
     acts = np.zeros((B, bw.K, 2), dtype=np.float32)
     rng = np.random.default_rng(seed)
-    noise = [np.clip(rng.normal(0.0, 0.3, acts.shape), -1.0, 1.0).astype(np.float32) for _ in range(steps)] if noisy else None
+    draw = (lambda: rng.uniform(-1.0, 1.0, acts.shape)) if kind == "uniform" else (lambda: np.clip(rng.normal(0.0, 0.3, acts.shape), -1.0, 1.0))
+    noise = [draw().astype(np.float32) for _ in range(steps)] if noisy else None
     for _ in range(3):
         bw.step(bw.expert_actions if expert else acts)
     c0, n = time.process_time(), 0
@@ -137,6 +141,7 @@ CASES = {
     "batched": (BATCHED, 100, "agent-steps", ("0", "{worlds}", "{vehicles}", "{seed}")),
     "batched-expert": (BATCHED, 100, "agent-steps", ("1", "{worlds}", "{vehicles}", "{seed}")),
     "batched-noisy": (BATCHED, 100, "agent-steps", ("noisy", "{worlds}", "{vehicles}", "{seed}")),
+    "batched-uniform": (BATCHED, 100, "agent-steps", ("uniform", "{worlds}", "{vehicles}", "{seed}")),
 }
 
 
