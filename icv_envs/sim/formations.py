@@ -93,6 +93,14 @@ def _targets_of(n: int, n_lanes: int, spacing: float, geometry: str) -> tuple[np
     return out
 
 
+@functools.lru_cache(maxsize=4096)
+def _length_of(n: int, n_lanes: int, spacing: float, geometry: str) -> float:
+    """The formation's length: the largest of :func:`_targets_of`'s
+    distances behind the front target (``0.0`` for no member), memoised
+    with them (a re-forming asked for it twice a call; from stop 53)."""
+    return float(_targets_of(n, n_lanes, spacing, geometry)[0].max()) if n else 0.0
+
+
 class FormationManager(FormationViews):
     """The formation layer (module docstring); its read-only views of the
     formations' state are :class:`~icv_envs.sim.formation_views.FormationViews`."""
@@ -267,6 +275,10 @@ class FormationManager(FormationViews):
         manager's spacing and geometry, memoised (:func:`_targets_of`)."""
         return _targets_of(n, n_lanes, float(self.spacing), self.geometry)
 
+    def _target_length(self, n: int, n_lanes: int) -> float:
+        """The length of :meth:`targets` ``(n, n_lanes)``: ``tx.max()``, 0 for none (memoised, :func:`_length_of`)."""
+        return _length_of(n, n_lanes, float(self.spacing), self.geometry)
+
     def _slot_x(self, traffic, rows) -> np.ndarray:
         # each row's front target minus its place behind it, through a lookup
         # table over the formation ids (nan where none; one entry per id ever
@@ -330,7 +342,7 @@ class FormationManager(FormationViews):
                             float(self.w2), float(road.length) if road.periodic else -1.0)
         slot = _solve(cost)
         jp = self._plans
-        jp.grow(int(traffic.vid[rows].max()) + 1)
+        jp.grow(int(traffic.vid[rows[-1]]) + 1)  # (the largest id: rows ascend, and so do the ids by row)
         r = reform_slots(rows, slot, tx, tl, lanes_i, gid, traffic.vid, traffic.tgt_behind, traffic.tgt_lane,
                          jp.slot_gid, jp.slot_behind)
         self.reforms += 1
@@ -353,16 +365,19 @@ class FormationManager(FormationViews):
         if not lanes:
             lanes = (0,)
         for _ in range(2):
-            tx, tl = self.targets(n, len(lanes))
-            length = float(tx.max()) if n else 0.0
-            new = self._lane_set(road, anchor, max(length, old_length)) or lanes
+            length = self._target_length(n, len(lanes))
+            if length <= old_length:
+                # (the window is the one just asked about: the same lanes; the
+                # call was made and gave them until stop 53)
+                break
+            new = self._lane_set(road, anchor, length) or lanes
             if new == lanes:
                 break
             lanes = new
         tx, tl = self.targets(n, len(lanes))
         self._lanes[gid] = lanes
         self._bits[gid] = self._lane_bitset(lanes)
-        self._L[gid] = float(tx.max())
+        self._L[gid] = self._target_length(n, len(lanes))
         return lanes, tx, tl
 
     # ----------------------------------------------------------------- update
