@@ -524,3 +524,68 @@ def test_the_updates_kept_answers_are_the_fresh_ones(case):
     assert kept > 50, kept  # (the update's kept answers were read, not recomputed)
     if case == "learned":
         assert inside > 20, inside  # (re-plans made inside the one call, then the references)
+
+
+def _old_reform_lanes(self, road, gid, n):
+    """``FormationManager._reform_lanes`` as it was until stop 53, frozen (the
+    second window asked for even when it is the first; ``tx.max()`` twice)."""
+    anchor = float(self._A[gid])
+    old_length = float(self._L[gid])
+    lanes = self._lane_set(road, anchor, old_length)
+    if not lanes:
+        lanes = (0,)
+    for _ in range(2):
+        tx, tl = self.targets(n, len(lanes))
+        length = float(tx.max()) if n else 0.0
+        new = self._lane_set(road, anchor, max(length, old_length)) or lanes
+        if new == lanes:
+            break
+        lanes = new
+    tx, tl = self.targets(n, len(lanes))
+    self._lanes[gid] = lanes
+    self._bits[gid] = self._lane_bitset(lanes)
+    self._L[gid] = float(tx.max())
+    return lanes, tx, tl
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_reform_lanes_equal_the_two_window_search(seed):
+    """The re-forming's lane set, targets and recorded length (stop 53: the
+    second window asked for only when the formation grew, the length
+    memoised) against the frozen search, on roads whose drivable lanes
+    change along them (lane ends, an obstacle, a ring), for formations that
+    shrank, kept their size and grew, anchors near the changes, and
+    managers restricted to some lanes."""
+    from icv_envs.sim.road import Obstacle, RoadLayout
+
+    rng = np.random.default_rng(seed)
+    n_lanes = int(rng.integers(1, 6))
+    periodic = bool(rng.random() < 0.3)
+    length = float(rng.choice([1000.0, 2400.0]))
+    ends = np.where(rng.random(n_lanes) < 0.5, rng.uniform(200.0, length, n_lanes), np.inf)
+    if periodic:
+        ends[:] = np.inf
+    obstacles = [Obstacle(lane=int(rng.integers(0, n_lanes)), x=float(rng.uniform(100.0, length - 300.0)), length=30.0)
+                 ] if rng.random() < 0.6 else []
+    road = RoadLayout(n_lanes=n_lanes, length=length, lane_ends=ends, periodic=periodic, obstacles=obstacles)
+    allowed = None if rng.random() < 0.6 else sorted(rng.choice(n_lanes, size=int(rng.integers(1, n_lanes + 1)),
+                                                                replace=False).tolist())
+    kw = {"allowed_lanes": allowed} if allowed is not None else {}
+    new, old = FormationManager(**kw), FormationManager(**kw)
+    for _ in range(6):
+        # (anchors at random, near lane ends, and ahead of the obstacle by less than a grown formation's
+        # length: the window that grows back over it loses that lane)
+        anchor = float(rng.choice([rng.uniform(0.0, length), *(e + rng.uniform(-60.0, 60.0) for e in ends
+                                                                if np.isfinite(e)),
+                                   *(ob.x + rng.uniform(0.0, 150.0) for ob in obstacles)]))
+        old_n = int(rng.integers(1, 16))
+        n = int(max(1, old_n + rng.integers(-4, 13)))
+        g1, g2 = new._new_gid(anchor), old._new_gid(anchor)
+        for m, g in ((new, g1), (old, g2)):
+            m._L[g] = m._target_length(old_n, int(rng.integers(1, n_lanes + 1))) if rng.random() < 0.8 else 0.0
+        old._L[g2] = new._L[g1]
+        got = new._reform_lanes(road, g1, n)
+        want = _old_reform_lanes(old, road, g2, n)
+        assert got[0] == want[0]
+        assert got[1].tobytes() == want[1].tobytes() and got[2].tobytes() == want[2].tobytes()
+        assert new._L[g1] == old._L[g2] and new._bits[g1] == old._bits[g2] and new._lanes[g1] == old._lanes[g2]

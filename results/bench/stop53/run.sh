@@ -16,6 +16,13 @@ python $S/bench_trees.py $REF $TEST --case batched-noisy --reps 4 --worlds 10 --
 python $S/bench_trees.py $REF $TEST --case batched-uniform --reps 4 --out $OUT/trees_batched-uniform.txt \
   > $OUT/trees_batched-uniform.log 2>&1
 python $S/bench_trees.py $REF $TEST --case batched --reps 4 --out $OUT/trees_batched.txt > $OUT/trees_batched.log 2>&1
+for t in $REF $TEST $REF $TEST; do echo "$t $(PYTHONPATH=$t python $H/reform_cost.py noisy)" >> $OUT/reform_cost_noisy.txt; done
+for t in $REF $TEST $TEST $REF; do echo "$t $(PYTHONPATH=$t python $H/reform_cost.py ring)" >> $OUT/reform_cost_ring.txt; done
+python $S/bench_trees.py $REF $TEST --case batched-noisy --reps 8 --steps 300 --out $OUT/trees_batched-noisy_300_c.txt > $OUT/trees_batched-noisy_300_c.log 2>&1
+python $S/bench_trees.py $REF $TEST --case batched-uniform --reps 8 --steps 300 --worlds 12 --vehicles 25 --seed 21 --out $OUT/trees_batched-uniform_12x25_s21_300_c.txt > /dev/null 2>&1
+python $S/bench_trees.py $REF $TEST --case batched --reps 6 --steps 300 --out $OUT/trees_batched_300_c.txt > /dev/null 2>&1
+python $H/instr_count.py $REF $TEST > $OUT/instr_count.txt 2>&1
+python $H/instr_count.py $TEST $TEST --kinds noisy > $OUT/instr_count_same_tree.txt 2>&1
 PYTHONPATH=$REF python $H/event_kinds.py > $OUT/event_kinds_stop52.txt 2>&1
 PYTHONPATH=$TEST python $H/event_kinds.py > $OUT/event_kinds_stop53.txt 2>&1
 PYTHONPATH=$REF python $S/new_seed_hashes.py $REF > $OUT/new_seed_hashes_native_stop52.txt 2>&1
