@@ -9,6 +9,11 @@ just before them and off just after (the child waits for a file between; its pol
 instructions). PYTHONHASHSEED is fixed.
 
     python results/bench/stop53/instr_count.py REF_TREE TEST_TREE [--kinds noisy,uniform,zero] [--steps 100]
+    python results/bench/stop53/instr_count.py REF_TREE TEST_TREE --kinds ring --warm 2500 --steps 50
+    python results/bench/stop53/instr_count.py REF_TREE TEST_TREE --kinds intersection --steps 200
+
+Kinds ``ring`` and ``intersection`` (per policy step): the loops of the ring's and the intersection's benches
+(``scripts/bench_trees.py --case ring`` / ``intersection``), ``--warm`` policy steps of the ring uncounted first.
 
 About two minutes a process, two at a time. Prints a line per kind and a JSON line.
 """
@@ -24,17 +29,47 @@ from concurrent.futures import ThreadPoolExecutor
 CHILD = """
 import os, sys, time
 import numpy as np
-from icv_envs.vector import BatchedWorlds
 kind, steps, warm, d = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+def wait(name):
+    while not os.path.exists(os.path.join(d, name)):
+        time.sleep(0.01)
+if kind == "ring":
+    # the paper's ring, HighwayRamps VGR 1/3, the formation expert through PettingZoo's dicts (the ring bench's
+    # loop): ``warm`` policy steps, then ``steps`` counted
+    from icv_envs.envs.highway_ramps_v0 import parallel_env
+    env = parallel_env(vgr=1.0 / 3.0, duration=600.0, method="formation")
+    env.reset(seed=0)
+    for k in range(warm + steps):
+        if k == warm:
+            print("READY", flush=True)
+            wait("GO")
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+    print("DONE", flush=True)
+    wait("END")
+    sys.exit(0)
+if kind == "intersection":
+    # multi-vp at 2200 veh/h through PettingZoo's dicts, every vehicle an agent with the expert's action from
+    # its info (the intersection bench's loop): the zones filled to 60 vehicles, then ``steps`` counted
+    from icv_envs.envs.intersection_v0 import parallel_env
+    env = parallel_env(method="multi-vp", throughput=2200.0, duration=300.0 + steps / 5.0 + 10.0)
+    obs, infos = env.reset(seed=0)
+    while len(env.agents) < 60 and env.core.world.time < 300:
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    print("READY", flush=True)
+    wait("GO")
+    for _ in range(steps):
+        obs, rew, term, trunc, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    print("DONE", flush=True)
+    wait("END")
+    sys.exit(0)
+from icv_envs.vector import BatchedWorlds
 def actions(rng, shape):
     if kind == "noisy":
         return np.clip(rng.normal(0.0, 0.3, shape), -1.0, 1.0).astype(np.float32)
     if kind == "uniform":
         return rng.uniform(-1.0, 1.0, shape).astype(np.float32)
     return np.zeros(shape, dtype=np.float32)
-def wait(name):
-    while not os.path.exists(os.path.join(d, name)):
-        time.sleep(0.01)
 for timed, n in ((False, warm), (True, steps)):
     bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0)
     bw.reset()
@@ -84,17 +119,22 @@ def main() -> int:
     p.add_argument("test")
     p.add_argument("--kinds", default="noisy,uniform,zero")
     p.add_argument("--steps", type=int, default=100)
-    p.add_argument("--warm", type=int, default=100)
+    p.add_argument("--warm", type=int, default=100, help="batched kinds: the first batch's steps; ring: policy "
+                   "steps before the counted ones (2500: the ring bench's 500 s)")
     a = p.parse_args()
     kinds = a.kinds.split(",")
     jobs = [(t, k) for k in kinds for t in (a.reference, a.test)]
-    res = {"steps": a.steps, "warm": a.warm, "worlds": 16, "vehicles": 20, "kinds": {}}
+    res = {"steps": a.steps, "warm": a.warm, "kinds": {}}
+    if set(kinds) - {"ring", "intersection"}:
+        res.update(worlds=16, vehicles=20)  # (the batched kinds')
     with ThreadPoolExecutor(2) as ex:
         got = dict(zip(jobs, ex.map(lambda j: count(j[0], j[1], a.steps, a.warm), jobs)))
     for k in kinds:
-        per = {name: got[(t, k)] / (16 * a.steps) for name, t in (("reference", a.reference), ("test", a.test))}
-        res["kinds"][k] = {**per, "ratio": per["reference"] / per["test"]}
-        print(f"{k:8s} instructions per world-step: reference {per['reference']:,.0f}, test {per['test']:,.0f}, "
+        unit = "policy step" if k in ("ring", "intersection") else "world-step"
+        div = a.steps if k in ("ring", "intersection") else 16 * a.steps
+        per = {name: got[(t, k)] / div for name, t in (("reference", a.reference), ("test", a.test))}
+        res["kinds"][k] = {**per, "unit": f"instructions per {unit}", "ratio": per["reference"] / per["test"]}
+        print(f"{k:12s} instructions per {unit}: reference {per['reference']:,.0f}, test {per['test']:,.0f}, "
               f"reference / test {per['reference'] / per['test']:.3f}", flush=True)
     print(json.dumps(res))
     return 0
