@@ -25,6 +25,8 @@ python $H/instr_count.py $REF $TEST > $OUT/instr_count.txt 2>&1
 python $H/instr_count.py $TEST $TEST --kinds noisy > $OUT/instr_count_same_tree.txt 2>&1
 python $H/instr_count.py $REF $TEST --kinds ring --warm 2500 --steps 50 > $OUT/instr_count_ring.txt 2>&1
 python $H/instr_count.py $REF $TEST --kinds intersection --steps 200 > $OUT/instr_count_intersection.txt 2>&1
+python $H/instr_split.py $TEST --kind zero > $OUT/instr_split_zero.txt 2>&1
+for t in $REF $TEST; do python $H/instr_split.py $t --kind noisy > $OUT/instr_split_noisy_$(basename $t).txt 2>&1; done
 PYTHONPATH=$REF python $H/event_kinds.py > $OUT/event_kinds_stop52.txt 2>&1
 PYTHONPATH=$TEST python $H/event_kinds.py > $OUT/event_kinds_stop53.txt 2>&1
 PYTHONPATH=$REF python $S/new_seed_hashes.py $REF > $OUT/new_seed_hashes_native_stop52.txt 2>&1
