@@ -92,24 +92,33 @@ def _until(proc, word: str) -> None:
     raise SystemExit(f"the child ended before {word}: {proc.stderr.read()[-2000:]}")
 
 
+def run_counted(tree: str, kind: str, steps: int, warm: int, d: str) -> str:
+    """Run the child for ``tree`` and ``kind`` under callgrind in directory ``d``, its counted steps alone
+    instrumented; the profile is ``d/cg.out``. Returns valgrind's report (stderr)."""
+    env = dict(os.environ, PYTHONPATH=tree, PYTHONHASHSEED="0")
+    proc = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                             f"--callgrind-out-file={os.path.join(d, 'cg.out')}", sys.executable, "-c", CHILD,
+                             kind, str(steps), str(warm), d], env=env, cwd=d, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    _until(proc, "READY")
+    subprocess.run(["callgrind_control", "-i", "on", str(proc.pid)], check=True, capture_output=True)
+    open(os.path.join(d, "GO"), "w").close()
+    _until(proc, "DONE")
+    subprocess.run(["callgrind_control", "-i", "off", str(proc.pid)], check=True, capture_output=True)
+    open(os.path.join(d, "END"), "w").close()
+    err = proc.stderr.read()
+    proc.wait()
+    if proc.returncode:
+        raise SystemExit(f"valgrind failed ({tree}, {kind}):\n{err[-2000:]}")
+    return err
+
+
 def count(tree: str, kind: str, steps: int, warm: int) -> int:
     with tempfile.TemporaryDirectory() as d:
-        env = dict(os.environ, PYTHONPATH=tree, PYTHONHASHSEED="0")
-        proc = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
-                                 f"--callgrind-out-file={os.path.join(d, 'cg.out')}", sys.executable, "-c", CHILD,
-                                 kind, str(steps), str(warm), d], env=env, cwd=d, stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
-        _until(proc, "READY")
-        subprocess.run(["callgrind_control", "-i", "on", str(proc.pid)], check=True, capture_output=True)
-        open(os.path.join(d, "GO"), "w").close()
-        _until(proc, "DONE")
-        subprocess.run(["callgrind_control", "-i", "off", str(proc.pid)], check=True, capture_output=True)
-        open(os.path.join(d, "END"), "w").close()
-        err = proc.stderr.read()
-        proc.wait()
+        err = run_counted(tree, kind, steps, warm, d)
         m = re.search(r"Collected\s*:\s*(\d+)", err)
-        if proc.returncode or m is None:
-            raise SystemExit(f"valgrind failed ({tree}, {kind}):\n{err[-2000:]}")
+        if m is None:
+            raise SystemExit(f"no count in valgrind's report ({tree}, {kind}):\n{err[-2000:]}")
         return int(m.group(1))
 
 

@@ -11,13 +11,12 @@ import argparse
 import json
 import os
 import re
-import subprocess
 import sys
 import tempfile
 from collections import Counter
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from instr_count import CHILD, _until  # noqa: E402  (the same child and handshake)
+from instr_count import run_counted  # noqa: E402  (the same child and handshake)
 
 
 def split(path: str) -> Counter:
@@ -81,20 +80,8 @@ def main() -> int:
     p.add_argument("--warm", type=int, default=100)
     a = p.parse_args()
     with tempfile.TemporaryDirectory() as d:
-        cg = os.path.join(d, "cg.out")
-        env = dict(os.environ, PYTHONPATH=a.tree, PYTHONHASHSEED="0")
-        proc = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={cg}",
-                                 sys.executable, "-c", CHILD, a.kind, str(a.steps), str(a.warm), d], env=env, cwd=d,
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        _until(proc, "READY")
-        subprocess.run(["callgrind_control", "-i", "on", str(proc.pid)], check=True, capture_output=True)
-        open(os.path.join(d, "GO"), "w").close()
-        _until(proc, "DONE")
-        subprocess.run(["callgrind_control", "-i", "off", str(proc.pid)], check=True, capture_output=True)
-        open(os.path.join(d, "END"), "w").close()
-        proc.stderr.read()
-        proc.wait()
-        by_obj = split(cg)
+        run_counted(a.tree, a.kind, a.steps, a.warm, d)
+        by_obj = split(os.path.join(d, "cg.out"))
     groups = Counter()
     for obj, n in by_obj.items():
         groups[group(obj)] += n
