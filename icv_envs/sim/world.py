@@ -397,12 +397,16 @@ class World:
 
     def _count_road_faults(self, rows: list) -> None:
         """One ``road`` fault in ``stats["collisions_by_fault"]`` per row, by
-        who drove it (:meth:`set_expert_driven`)."""
+        who drove it (:meth:`_driver`)."""
         out = self.stats["collisions_by_fault"]["road"]
-        ev = self._expert_vids
-        vid = self.traffic.vid
         for r in rows:
-            out["expert" if ev is None or int(vid[r]) in ev else "policy"] += 1
+            out[self._driver(r)] += 1
+
+    def _driver(self, row: int) -> str:
+        """``"expert"`` or ``"policy"``: who drove the vehicle at ``row`` this
+        step (:meth:`set_expert_driven`)."""
+        ev = self._expert_vids
+        return "expert" if ev is None or int(self.traffic.vid[row]) in ev else "policy"
 
     def classify_collisions(self, i, j, road_rows, new_crash, cx, cy) -> None:
         """Count this substep's new collisions in
@@ -420,11 +424,7 @@ class World:
         (:meth:`set_expert_driven`)."""
         tr = self.traffic
         out = self.stats["collisions_by_fault"]
-        ev = self._expert_vids
-
-        def driver(row):
-            return "expert" if ev is None or int(tr.vid[row]) in ev else "policy"
-
+        driver = self._driver
         self._count_road_faults(np.flatnonzero(road_rows).tolist())
         vy = tr.speed * np.sin(tr.heading)
         for a, b in zip(np.asarray(i).tolist(), np.asarray(j).tolist()):
