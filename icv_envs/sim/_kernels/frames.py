@@ -98,7 +98,8 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
     n_end = 0
     k = n_frames
     event = False
-    road_rows = np.empty(n, dtype=np.int64)  # (rows crashed off the road here, in order: each at most once)
+    road_rows = np.empty(0, dtype=np.int64)  # (rows crashed off the road here, in order, each at most once:
+    # room for every row made at the first such frame)
     n_road = 0
     trig = np.empty((4, n))  # (cos, sin of the heading, steering, its tan: kinematic_substep_carry)
     # (the collision sweep's order along x and the ring's ghost rows, kept from frame to frame)
@@ -142,6 +143,8 @@ def quiet_substeps(n_frames, x, y, heading, speed, accel, steer, crashed, stoppe
         # frame after a vehicle left the road went back to Python: a noisy
         # policy's most common event.)
         if n_off > 0 and not event:
+            if road_rows.shape[0] == 0:
+                road_rows = np.empty(n, dtype=np.int64)
             for q in range(n):
                 if off[q] and not crashed[q]:
                     crashed[q] = True
