@@ -1,7 +1,7 @@
 """Instructions per batched world-step, counted by valgrind's callgrind: a measure this host's noise does not move
 (stop 53; the host has no hardware counters, and its CPU time moved 2x between repetitions of one run).
 
-One process per (tree, kind): 16 HighwayFormation worlds of 20 agents, seed 0; a first batch runs ``--warm`` steps of
+One process per (tree, kind): 16 HighwayFormation worlds of 20 agents, seed 0 (``--worlds``, ``--vehicles``, ``--seed``); a first batch runs ``--warm`` steps of
 the kind's actions (it loads every compiled kernel those steps reach from numba's cache), then a second batch, reset,
 runs ``--steps`` steps of the same actions, and only those are counted: the process runs under ``valgrind
 --tool=callgrind --instr-atstart=no`` and this script switches the instrumentation on (``callgrind_control -i on``)
@@ -30,6 +30,7 @@ CHILD = """
 import os, sys, time
 import numpy as np
 kind, steps, warm, d = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+B, N, seed = (int(v) for v in sys.argv[5:8])
 def wait(name):
     while not os.path.exists(os.path.join(d, name)):
         time.sleep(0.01)
@@ -71,10 +72,10 @@ def actions(rng, shape):
         return rng.uniform(-1.0, 1.0, shape).astype(np.float32)
     return np.zeros(shape, dtype=np.float32)
 for timed, n in ((False, warm), (True, steps)):
-    bw = BatchedWorlds(16, config={"vehicles_count": 20, "initial_position": None}, seed=0)
+    bw = BatchedWorlds(B, config={"vehicles_count": N, "initial_position": None}, seed=seed)
     bw.reset()
-    rng = np.random.default_rng(0)
-    acts = [actions(rng, (16, bw.K, 2)) for _ in range(n)]
+    rng = np.random.default_rng(seed)
+    acts = [actions(rng, (B, bw.K, 2)) for _ in range(n)]
     if timed:
         print("READY", flush=True)
         wait("GO")
@@ -92,13 +93,14 @@ def _until(proc, word: str) -> None:
     raise SystemExit(f"the child ended before {word}: {proc.stderr.read()[-2000:]}")
 
 
-def run_counted(tree: str, kind: str, steps: int, warm: int, d: str) -> str:
+def run_counted(tree: str, kind: str, steps: int, warm: int, d: str, worlds: int = 16, vehicles: int = 20,
+                seed: int = 0) -> str:
     """Run the child for ``tree`` and ``kind`` under callgrind in directory ``d``, its counted steps alone
     instrumented; the profile is ``d/cg.out``. Returns valgrind's report (stderr)."""
     env = dict(os.environ, PYTHONPATH=tree, PYTHONHASHSEED="0")
     proc = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
                              f"--callgrind-out-file={os.path.join(d, 'cg.out')}", sys.executable, "-c", CHILD,
-                             kind, str(steps), str(warm), d], env=env, cwd=d, stdout=subprocess.PIPE,
+                             kind, str(steps), str(warm), d, str(worlds), str(vehicles), str(seed)], env=env, cwd=d, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     _until(proc, "READY")
     subprocess.run(["callgrind_control", "-i", "on", str(proc.pid)], check=True, capture_output=True)
@@ -113,9 +115,9 @@ def run_counted(tree: str, kind: str, steps: int, warm: int, d: str) -> str:
     return err
 
 
-def count(tree: str, kind: str, steps: int, warm: int) -> int:
+def count(tree: str, kind: str, steps: int, warm: int, worlds: int = 16, vehicles: int = 20, seed: int = 0) -> int:
     with tempfile.TemporaryDirectory() as d:
-        err = run_counted(tree, kind, steps, warm, d)
+        err = run_counted(tree, kind, steps, warm, d, worlds, vehicles, seed)
         m = re.search(r"Collected\s*:\s*(\d+)", err)
         if m is None:
             raise SystemExit(f"no count in valgrind's report ({tree}, {kind}):\n{err[-2000:]}")
@@ -130,17 +132,21 @@ def main() -> int:
     p.add_argument("--steps", type=int, default=100)
     p.add_argument("--warm", type=int, default=100, help="batched kinds: the first batch's steps; ring: policy "
                    "steps before the counted ones (2500: the ring bench's 500 s)")
+    p.add_argument("--worlds", type=int, default=16, help="batched kinds: worlds")
+    p.add_argument("--vehicles", type=int, default=20, help="batched kinds: agents per world")
+    p.add_argument("--seed", type=int, default=0, help="batched kinds: the batch's and the actions' seed")
     a = p.parse_args()
     kinds = a.kinds.split(",")
     jobs = [(t, k) for k in kinds for t in (a.reference, a.test)]
     res = {"steps": a.steps, "warm": a.warm, "kinds": {}}
     if set(kinds) - {"ring", "intersection"}:
-        res.update(worlds=16, vehicles=20)  # (the batched kinds')
+        res.update(worlds=a.worlds, vehicles=a.vehicles, seed=a.seed)  # (the batched kinds')
     with ThreadPoolExecutor(2) as ex:
-        got = dict(zip(jobs, ex.map(lambda j: count(j[0], j[1], a.steps, a.warm), jobs)))
+        got = dict(zip(jobs, ex.map(lambda j: count(j[0], j[1], a.steps, a.warm, a.worlds, a.vehicles, a.seed),
+                                    jobs)))
     for k in kinds:
         unit = "policy step" if k in ("ring", "intersection") else "world-step"
-        div = a.steps if k in ("ring", "intersection") else 16 * a.steps
+        div = a.steps if k in ("ring", "intersection") else a.worlds * a.steps
         per = {name: got[(t, k)] / div for name, t in (("reference", a.reference), ("test", a.test))}
         res["kinds"][k] = {**per, "unit": f"instructions per {unit}", "ratio": per["reference"] / per["test"]}
         print(f"{k:12s} instructions per {unit}: reference {per['reference']:,.0f}, test {per['test']:,.0f}, "

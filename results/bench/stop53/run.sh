@@ -23,6 +23,7 @@ python $S/bench_trees.py $REF $TEST --case batched-uniform --reps 8 --steps 300 
 python $S/bench_trees.py $REF $TEST --case batched --reps 6 --steps 300 --out $OUT/trees_batched_300_c.txt > /dev/null 2>&1
 python $H/instr_count.py $REF $TEST > $OUT/instr_count.txt 2>&1
 python $H/instr_count.py $TEST $TEST --kinds noisy > $OUT/instr_count_same_tree.txt 2>&1
+python $H/instr_count.py $REF $TEST --kinds noisy,uniform --worlds 10 --vehicles 24 --seed 33 > $OUT/instr_count_10x24_s33.txt 2>&1
 python $H/instr_count.py $REF $TEST --kinds ring --warm 2500 --steps 50 > $OUT/instr_count_ring.txt 2>&1
 python $H/instr_count.py $REF $TEST --kinds intersection --steps 200 > $OUT/instr_count_intersection.txt 2>&1
 python $H/instr_split.py $TEST --kind zero > $OUT/instr_split_zero.txt 2>&1
