@@ -12,7 +12,12 @@ per wall second: the sum over timed steps of the live agents),
 loaded, shared machine still measures fairly) and ``env_steps_per_s``, over
 all seeds together and per seed, next to the reference measured for this
 project: MetaDrive's multi-agent intersection at about 67 env steps/s with
-about 20 agents, i.e. about 1,430 agent-steps/s.
+about 20 agents, i.e. about 1,430 agent-steps/s. Time numba spends in
+its compiler inside a window (a first run on a machine: the virtual
+platoon's kernels are first called when the first node forms, about 55 s
+into a run) is excluded from both clocks and reported
+(``jit_seconds_excluded``, ``jit_compiles``; :mod:`icv_envs._jit_clock`,
+from stop 54).
 
 ``api`` (``--api``, from stop 47; as ``bench highway-ramps --vs-sumo``'s):
 ``dicts`` (the default: PettingZoo's dicts, every info key, the expert's
@@ -45,6 +50,7 @@ import time
 
 import numpy as np
 
+from icv_envs._jit_clock import JitClock
 from icv_envs.experiments.bench import APIS  # (how the agents are stepped, ``--api``: module docstring)
 
 __all__ = ["bench_intersection", "METADRIVE_AGENT_STEPS_PER_S", "APIS"]
@@ -87,23 +93,24 @@ def _one_seed(seed: int, seconds: float, warmup: float, throughput: float, metho
     t_start = env.core.world.time
     agent_steps = steps = 0
     counts = []
-    t0 = time.perf_counter()
-    c0 = time.process_time()
-    while env.core.world.time < t_start + seconds - 1e-9:
-        n = env.num_agents
-        step()
-        agent_steps += n
-        counts.append(n)
-        steps += 1
-    wall = time.perf_counter() - t0
-    cpu = time.process_time() - c0
+    with JitClock() as jit:  # numba's compiler inside the window, excluded (icv_envs/_jit_clock.py)
+        t0 = time.perf_counter()
+        c0 = time.process_time()
+        while env.core.world.time < t_start + seconds - 1e-9:
+            n = env.num_agents
+            step()
+            agent_steps += n
+            counts.append(n)
+            steps += 1
+        wall = time.perf_counter() - t0 - jit.seconds
+        cpu = time.process_time() - c0 - jit.seconds
     m = env.metrics()
     env.close()
     return {"seed": int(seed), "env_steps": steps, "agent_steps": agent_steps, "wall_seconds": wall,
             "cpu_seconds": cpu, "mean_agents": float(np.mean(counts)) if counts else 0.0,
             "min_agents": int(min(counts)) if counts else 0, "max_agents": int(max(counts)) if counts else 0,
             "agent_steps_per_cpu_s": agent_steps / cpu if cpu > 0 else None,
-            "collisions": m["collisions"], "lost": m["lost"]}
+            "collisions": m["collisions"], "lost": m["lost"], **jit.as_dict()}
 
 
 def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, method: str = "multi-vp",
@@ -150,6 +157,8 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
         "ratio_vs_metadrive": (agent_steps / wall) / METADRIVE_AGENT_STEPS_PER_S if wall > 0 else None,
         "collisions": sum(p["collisions"] for p in per),
         "lost": sum(p["lost"] for p in per),
+        "jit_seconds_excluded": sum(p["jit_seconds_excluded"] for p in per),
+        "jit_compiles": sum(p["jit_compiles"] for p in per),
         "per_seed": per,
         "python": f"{platform.python_implementation()} {platform.python_version()} numpy {np.__version__}",
     }
@@ -162,6 +171,9 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
          f"{res['agent_steps_per_s']:.0f} agent-steps/s (x{res['ratio_vs_metadrive']:.1f} MetaDrive's "
          f"~{METADRIVE_AGENT_STEPS_PER_S:.0f}), x{res['real_time_factor']:.1f} real time; "
          f"{res['agent_steps_per_cpu_s']:.0f} agent-steps per CPU second")
+    if res["jit_seconds_excluded"] > 0:
+        echo(f"  (numba compiled {res['jit_compiles']} kernel(s) and spent {res['jit_seconds_excluded']:.2f} s in its "
+             f"compiler inside the timed windows: a first run on this machine, or kernels changed; excluded above)")
     return res
 
 

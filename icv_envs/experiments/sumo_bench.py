@@ -17,7 +17,9 @@ info key, the default and the issue's bar), ``lean`` (PettingZoo's dicts,
 
 Time base: process CPU time (libsumo runs in this process and thread, so
 both are charged the same way; on a shared machine wall time also counts
-the other processes' time slices). Wall time is reported too.
+the other processes' time slices). Wall time is reported too. Time numba
+spends in its compiler inside our timed slices (a first run on a machine)
+is excluded from both and reported (:mod:`icv_envs._jit_clock`, stop 54).
 
 ``scaling`` -- ms of CPU per simulated second against the vehicle count,
 HighwayFormation (straight road, formations of 12, expert, PettingZoo API)
@@ -39,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from icv_envs._jit_clock import JitClock
 from icv_envs.experiments.bench import APIS  # (how the ring's agents are stepped, ``--api``)
 
 __all__ = ["ramps_vs_sumo", "scaling", "time_icv_formation", "time_sumo"]
@@ -70,11 +73,15 @@ def _icv_steps(env, policy_steps: int, api: str = "dicts") -> None:
 
 
 def _icv_chunk(env, policy_steps: int, api: str = "dicts") -> dict:
+    """``policy_steps`` timed steps: CPU and wall seconds without the time
+    numba spent in its compiler (:mod:`icv_envs._jit_clock`), which is
+    reported as ``jit_seconds_excluded`` / ``jit_compiles``."""
     vs0 = _vehicle_steps(env)
-    c0, t0 = time.process_time(), time.perf_counter()
-    _icv_steps(env, policy_steps, api)
-    return {"cpu": time.process_time() - c0, "wall": time.perf_counter() - t0,
-            "vehicle_steps": _vehicle_steps(env) - vs0}
+    with JitClock() as jit:
+        c0, t0 = time.process_time(), time.perf_counter()
+        _icv_steps(env, policy_steps, api)
+        cpu, wall = time.process_time() - c0 - jit.seconds, time.perf_counter() - t0 - jit.seconds
+    return {"cpu": cpu, "wall": wall, "vehicle_steps": _vehicle_steps(env) - vs0, **jit.as_dict()}
 
 
 def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1.0 / 3.0, seed: int = 0,
@@ -106,7 +113,7 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
     ring = SumoRing(max(n, 1), seed=seed)
     ring.step(int(round(sumo_warmup / ring.dt)))
     per_chunk = int(round(measure * pf / chunks))
-    ours = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0}
+    ours = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0, "jit_seconds_excluded": 0.0, "jit_compiles": 0}
     theirs = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0}
     counts = []
     for _ in tqdm(range(chunks), desc="alternating slices", file=sys.stderr):
@@ -133,6 +140,7 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
         "ratio_wall": (ours["vehicle_steps"] / ours["wall"]) / (theirs["vehicle_steps"] / theirs["wall"]),
         "icv_warmup_cpu_s": warm_cpu, "peak_rss_mb_icv_run": rss_icv, "peak_rss_mb_with_sumo": _rss_mb(),
         "collisions": m["collisions"], "lost": m["lost"], "bar_ratio": 4.0,
+        "jit_seconds_excluded": ours["jit_seconds_excluded"], "jit_compiles": ours["jit_compiles"],
         "sumo": "SUMO 1.28 libsumo, Krauss + LC2013, dt 0.04 s",
         "python": f"{platform.python_implementation()} {platform.python_version()} numpy {np.__version__}",
     }
@@ -140,6 +148,9 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
          f"({res['icv_vehicles'][0]}-{res['icv_vehicles'][1]} vehicles), SUMO {s_cpu:,.0f} veh-steps/s "
          f"({sumo_vehicles} vehicles): x{res['ratio_cpu']:.2f} (CPU time; wall x{res['ratio_wall']:.2f}); "
          f"peak RSS {rss_icv:.0f} MB")
+    if ours["jit_seconds_excluded"] > 0:
+        echo(f"  (numba compiled {ours['jit_compiles']} kernel(s) and spent {ours['jit_seconds_excluded']:.2f} s in "
+             f"its compiler inside the timed slices; excluded above)")
     return res
 
 

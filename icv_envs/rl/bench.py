@@ -20,6 +20,12 @@ Episode resets are included in the timings. Reported per env:
 * ``env_sim_seconds_per_second``: simulated seconds per wall second, env
   alone (``env_sps / policy_frequency``).
 
+Time numba spends in its compiler inside a timed window (a first run on a
+machine: the env's kernels compile at their first call) is excluded from
+it and reported (``env_jit_seconds_excluded`` / ``ppo_jit_seconds_excluded``
+and the compile counts; :mod:`icv_envs._jit_clock`, from stop 54; the
+batched worlds run twice and time the second run).
+
 Beside them, the batched worlds of :mod:`icv_envs.vector` (16
 HighwayFormation worlds of ``vehicles`` agents in this process,
 :func:`batched_sps`): agent-steps per CPU second and per wall second with
@@ -51,6 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from icv_envs._args import check_config, check_flag, check_int
+from icv_envs._jit_clock import JitClock
 from icv_envs.rl.models import platform_info
 
 __all__ = ["bench_train", "env_sps", "ppo_sps", "main"]
@@ -87,18 +94,20 @@ def env_sps(env_id: str, vehicles: int = 20, steps: int = 2000, seed: int = 0) -
     action = _idle_action(env)
     env.reset(seed=seed)
     episodes = 1
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        _, _, term, trunc, _ = env.step(action)
-        if term or trunc:
-            env.reset()
-            episodes += 1
-    wall = time.perf_counter() - t0
+    with JitClock() as jit:  # numba's compiler inside the window, excluded (icv_envs/_jit_clock.py)
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            _, _, term, trunc, _ = env.step(action)
+            if term or trunc:
+                env.reset()
+                episodes += 1
+        wall = time.perf_counter() - t0 - jit.seconds
     cfg = env.unwrapped.config
     env.close()
     return {"env_sps": steps / wall, "env_sim_seconds_per_second": steps / wall / cfg["policy_frequency"],
             "steps": steps, "episodes": episodes,
-            "policy_frequency": cfg["policy_frequency"], "simulation_frequency": cfg["simulation_frequency"]}
+            "policy_frequency": cfg["policy_frequency"], "simulation_frequency": cfg["simulation_frequency"],
+            "env_jit_seconds_excluded": jit.seconds, "env_jit_compiles": jit.compiles}
 
 
 def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -> dict:
@@ -131,13 +140,14 @@ def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -
     venv = DummyVecEnv([lambda: _make(env_id, vehicles)])
     model = PPO("MlpPolicy", venv, n_steps=512, batch_size=64, n_epochs=10, seed=seed, device="cpu", verbose=0)
     timer = RolloutTimer()
-    t0 = time.perf_counter()
-    model.learn(total_timesteps=steps, callback=timer)
-    wall = time.perf_counter() - t0
+    with JitClock() as jit:  # (the env's kernels, first called in the first rollout: excluded from both clocks)
+        t0 = time.perf_counter()
+        model.learn(total_timesteps=steps, callback=timer)
+        wall = time.perf_counter() - t0 - jit.seconds
     n = model.num_timesteps
     venv.close()
-    return {"ppo_sps": n / wall, "ppo_rollout_sps": n / timer.rollout_seconds, "ppo_steps": n,
-            "ppo_wall_seconds": wall}
+    return {"ppo_sps": n / wall, "ppo_rollout_sps": n / (timer.rollout_seconds - jit.seconds), "ppo_steps": n,
+            "ppo_wall_seconds": wall, "ppo_jit_seconds_excluded": jit.seconds, "ppo_jit_compiles": jit.compiles}
 
 
 #: ``batched_sps``' kinds of external actions: zeros (coasting straight: nothing crashes, the worlds stay
@@ -252,6 +262,9 @@ def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096
         if echo is not None:
             echo(f"{env_id:32s} env {row['env_sps']:8.1f} steps/s   PPO {row['ppo_sps']:7.1f} steps/s "
                  f"(rollouts {row['ppo_rollout_sps']:7.1f} steps/s)")
+            jit_s = row.get("env_jit_seconds_excluded", 0.0) + row.get("ppo_jit_seconds_excluded", 0.0)
+            if jit_s > 0:
+                echo(f"{'':32s} (numba spent {jit_s:.2f} s in its compiler inside these timed windows; excluded)")
     icv = rows[ICV_ID]
     res = {"bench": "rl-train", "vehicles": int(vehicles), "icv_envs": icv}
     if batched:

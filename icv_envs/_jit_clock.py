@@ -1,0 +1,98 @@
+"""Time spent in numba's compiler inside a benchmark's timed window.
+
+The kernels are ``@njit(cache=True)``: the first process on a machine (or
+after a kernel's source changed) compiles each one at its first call and
+writes it to numba's on-disk cache; later processes load it from there
+(about a millisecond each). Either happens at the first call, which a
+benchmark's warm-up usually covers, but not always: the intersection's
+virtual-platoon kernels are first called when the first node forms, more
+than 50 s into a run, and the single-agent env's bench times from the
+first step. On a fresh machine ``icv-envs bench intersection --warmup 50``
+then timed about 4.4 s of compilation with 0.3 s of stepping and reported
+5,850 agent-steps per CPU second instead of about 83,500 (stop 54).
+
+:class:`JitClock` measures that time: while it is active it adds up the
+time numba spends holding its global compiler lock (the event
+``numba:compiler_lock``, which covers a cache load, a compilation and the
+cache write after it, each exactly once however deep the nesting) and
+counts the compilations (the outermost events ``numba:compile``, fired
+only on a cache miss: the kernels called, not the functions compiled
+inside them). A benchmark subtracts :attr:`JitClock.seconds` from its
+timed window, CPU time and wall time alike (numba compiles in the calling
+thread), and reports both numbers, so what it prints is the simulator's
+steady rate and says how much was taken out. A warm process holds the
+lock at no step: both stay 0 (``tests/test_jit_clock.py``).
+
+Decision (stop 54), as the engineers of a JIT-compiled simulator would:
+the compiler's one-off cost is not the simulator's speed; it is excluded
+and reported, never silently included. Re-running the window instead
+would be exact but doubles the bench's time on every first run.
+"""
+
+from __future__ import annotations
+
+from numba.core import event
+
+__all__ = ["JitClock"]
+
+
+class JitClock(event.Listener):
+    """Seconds in numba's compiler and compilations while active (module
+    docstring). A context manager; may be entered again to add more
+    windows (``seconds`` and ``compiles`` accumulate)."""
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+        self.compiles = 0
+        self._depth = 0
+        self._t0 = 0.0
+        self._compile = _CompileCounter(self)
+
+    # -- numba's listener protocol (the compiler lock is re-entrant: only the outermost pair counts)
+    def on_start(self, ev) -> None:
+        if self._depth == 0:
+            self._t0 = event.timer()
+        self._depth += 1
+
+    def on_end(self, ev) -> None:
+        self._depth -= 1
+        if self._depth == 0:
+            self.seconds += event.timer() - self._t0
+
+    def __enter__(self) -> "JitClock":
+        event.register("numba:compiler_lock", self)
+        event.register("numba:compile", self._compile)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        event.unregister("numba:compile", self._compile)
+        event.unregister("numba:compiler_lock", self)
+
+    def as_dict(self) -> dict:
+        """The JSON fields a bench reports: ``jit_seconds_excluded``, ``jit_compiles``."""
+        return {"jit_seconds_excluded": float(self.seconds), "jit_compiles": int(self.compiles)}
+
+    def note(self) -> str:
+        """A line for the bench's output when anything was compiled or
+        loaded inside the timed window; empty otherwise."""
+        if self.seconds <= 0.0:
+            return ""
+        return (f"(numba compiled {self.compiles} kernel(s) and spent {self.seconds:.2f} s in its compiler inside "
+                f"the timed window: a first run on this machine, or kernels changed; excluded from the figures)")
+
+
+class _CompileCounter(event.Listener):
+    """Counts ``numba:compile`` events (cache misses) for its clock."""
+
+    def __init__(self, clock: JitClock) -> None:
+        self._clock = clock
+        self._depth = 0
+
+    def on_start(self, ev) -> None:
+        # (only the outermost: compiling a kernel compiles the functions it calls inside the same event)
+        if self._depth == 0:
+            self._clock.compiles += 1
+        self._depth += 1
+
+    def on_end(self, ev) -> None:
+        self._depth -= 1

@@ -1,0 +1,106 @@
+"""The benches' clock of numba's compiler (icv_envs/_jit_clock.py, stop 54):
+it sees a compilation, sees nothing in a warm process, and the benches take
+what it saw out of their timed windows and say so."""
+
+from __future__ import annotations
+
+import argparse
+
+import numba
+import numpy as np
+
+from icv_envs._jit_clock import JitClock
+
+
+def _fresh_kernel():
+    """A kernel numba has never compiled (not cached: a new function object each call)."""
+
+    @numba.njit
+    def k(x):
+        return x.sum() + 1.0
+
+    return k
+
+
+def test_clock_sees_a_compilation_and_nothing_once_warm():
+    k = _fresh_kernel()
+    with JitClock() as c:
+        k(np.ones(3))
+    assert c.compiles == 1 and c.seconds > 0.0  # one kernel called (its inner sum is not counted apart)
+    assert "excluded" in c.note()
+    with JitClock() as warm:
+        k(np.ones(5))  # same types: the compiled code
+    assert warm.as_dict() == {"jit_seconds_excluded": 0.0, "jit_compiles": 0} and warm.note() == ""
+    with JitClock() as new_types:
+        k(np.ones(3, dtype=np.int64))
+    assert new_types.compiles == 1 and new_types.seconds > 0.0
+    # entered again, it adds up; after leaving, it hears nothing
+    with c:
+        _fresh_kernel()(np.ones(2))
+    assert c.compiles == 2
+    s = c.seconds
+    _fresh_kernel()(np.ones(2))
+    assert c.seconds == s and c.compiles == 2
+
+
+def _steps(make, seed, n):
+    env = make()
+    env.reset(seed=seed)
+    for _ in range(n):
+        ex = env.expert_actions()
+        env.step({a: ex[a] for a in env.agents})
+    return env
+
+
+def test_the_same_steps_again_compile_nothing():
+    """A run repeated in one process holds numba's compiler lock at no step
+    (what the benches' warm-ups rely on, and a kernel whose argument types
+    changed from call to call would break): the second run of the same
+    seed, under the clock, sees nothing."""
+    from icv_envs.envs.highway_formation_v0 import parallel_env as highway
+    from icv_envs.envs.intersection_v0 import parallel_env as intersection
+
+    makers = [lambda: highway(vehicles_count=12, initial_position=None),
+              lambda: intersection(method="multi-vp", throughput=2200.0, duration=40.0)]
+    for make in makers:
+        _steps(make, 4, 30)
+        with JitClock() as c:
+            _steps(make, 4, 30)
+        assert (c.compiles, c.seconds) == (0, 0.0)
+
+
+def test_benches_take_the_compiler_out_of_their_windows(monkeypatch):
+    """A compilation inside the timed window (here a fresh kernel called by
+    the stepper: on a fresh machine, the virtual platoon's kernels) is
+    reported and excluded: the intersection bench and the ring's chunks."""
+    from icv_envs.experiments import intersection_bench, sumo_bench
+
+    real = intersection_bench._stepper
+
+    def stepper(env, api):
+        step = real(env, api)
+
+        def wrapped():
+            _fresh_kernel()(np.ones(2))  # a new kernel every step: a compilation every step
+            step()
+
+        return wrapped
+
+    monkeypatch.setattr(intersection_bench, "_stepper", stepper)
+    out = []
+    res = intersection_bench.run_cli(argparse.Namespace(seconds=1.0, warmup=2.0, seeds=1, throughput=None,
+                                                        method=None, api="rows"), echo=out.append)
+    assert res["jit_compiles"] == res["env_steps"] == 5 and res["jit_seconds_excluded"] > 0
+    assert res["per_seed"][0]["jit_compiles"] == 5
+    assert 0 < res["cpu_seconds"] and any("excluded" in line for line in out)
+
+    from icv_envs.envs.highway_formation_v0 import parallel_env
+
+    env = parallel_env(vehicles_count=8, initial_position=None)
+    env.reset(seed=0)
+    sumo_bench._icv_chunk(env, 2)
+    r = sumo_bench._icv_chunk(env, 2)
+    assert r["jit_compiles"] == 0 and r["jit_seconds_excluded"] == 0.0 and r["cpu"] > 0
+    monkeypatch.setattr(sumo_bench, "_icv_steps", lambda env, n, api="dicts": _fresh_kernel()(np.ones(2)))
+    r = sumo_bench._icv_chunk(env, 2)
+    assert r["jit_compiles"] == 1 and r["jit_seconds_excluded"] > 0
