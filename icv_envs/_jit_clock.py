@@ -33,7 +33,7 @@ from __future__ import annotations
 
 from numba.core import event
 
-__all__ = ["JitClock"]
+__all__ = ["JitClock", "jit_note"]
 
 
 class JitClock(event.Listener):
@@ -72,13 +72,24 @@ class JitClock(event.Listener):
         """The JSON fields a bench reports: ``jit_seconds_excluded``, ``jit_compiles``."""
         return {"jit_seconds_excluded": float(self.seconds), "jit_compiles": int(self.compiles)}
 
-    def note(self) -> str:
-        """A line for the bench's output when anything was compiled or
-        loaded inside the timed window; empty otherwise."""
-        if self.seconds <= 0.0:
-            return ""
-        return (f"(numba compiled {self.compiles} kernel(s) and spent {self.seconds:.2f} s in its compiler inside "
-                f"the timed window: a first run on this machine, or kernels changed; excluded from the figures)")
+    def note(self, where: str = "the timed window") -> str:
+        """A line for the bench's output when numba held its compiler lock
+        inside ``where``; empty otherwise (:func:`jit_note`)."""
+        return jit_note(self.seconds, self.compiles, where)
+
+
+def jit_note(seconds: float, compiles: int, where: str = "the timed window") -> str:
+    """What a bench prints about the compiler time it excluded: ``seconds``
+    in numba's compiler lock, ``compiles`` kernels compiled (not loaded
+    from the cache); empty when ``seconds`` is 0."""
+    if seconds <= 0.0:
+        return ""
+    if compiles:
+        return (f"(numba compiled {compiles} kernel(s) inside {where} (a first run on this machine, or kernels "
+                f"changed) and spent {seconds:.2f} s in its compiler, cache loads included: excluded from the figures "
+                f"above; the first run still runs slower than the next, run it again for the steady figure)")
+    return (f"(numba spent {seconds:.2f} s loading compiled kernels from its cache inside {where}: excluded from "
+            f"the figures above)")
 
 
 class _CompileCounter(event.Listener):

@@ -27,7 +27,7 @@ def test_clock_sees_a_compilation_and_nothing_once_warm():
     with JitClock() as c:
         k(np.ones(3))
     assert c.compiles == 1 and c.seconds > 0.0  # one kernel called (its inner sum is not counted apart)
-    assert "excluded" in c.note()
+    assert "compiled 1 kernel" in c.note() and "excluded" in c.note()
     with JitClock() as warm:
         k(np.ones(5))  # same types: the compiled code
     assert warm.as_dict() == {"jit_seconds_excluded": 0.0, "jit_compiles": 0} and warm.note() == ""
@@ -104,3 +104,12 @@ def test_benches_take_the_compiler_out_of_their_windows(monkeypatch):
     monkeypatch.setattr(sumo_bench, "_icv_steps", lambda env, n, api="dicts": _fresh_kernel()(np.ones(2)))
     r = sumo_bench._icv_chunk(env, 2)
     assert r["jit_compiles"] == 1 and r["jit_seconds_excluded"] > 0
+
+
+def test_notes_tell_a_compilation_from_a_cache_load():
+    from icv_envs._jit_clock import jit_note
+
+    assert jit_note(0.0, 0) == ""
+    assert "loading compiled kernels from its cache" in jit_note(0.02, 0) and "first run" not in jit_note(0.02, 0)
+    first = jit_note(4.0, 3, "the timed windows")
+    assert "compiled 3 kernel(s) inside the timed windows" in first and "run it again" in first

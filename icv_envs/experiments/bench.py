@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from icv_envs._jit_clock import JitClock
+from icv_envs._jit_clock import JitClock, jit_note
 
 __all__ = ["bench_highway_formation", "time_icv", "time_highway_v0", "APIS"]
 
@@ -113,8 +113,7 @@ def bench_highway_formation(sizes=(50, 200, 800), seconds: float = 10.0, stock_s
             f"speedup x{ratio:8.1f}"
         )
         if ours["jit_seconds_excluded"] > 0:
-            echo(f"        (numba compiled {ours['jit_compiles']} kernel(s) and spent "
-                 f"{ours['jit_seconds_excluded']:.2f} s in its compiler inside the timed window; excluded)")
+            echo("        " + jit_note(ours["jit_seconds_excluded"], ours["jit_compiles"]))
     at200 = [r["speedup"] for r in rows if r["vehicles"] == 200]
     return {"bench": "highway-formation", "results": rows, "speedup_at_200": at200[0] if at200 else None,
             "python": _platform()}

@@ -50,7 +50,7 @@ import time
 
 import numpy as np
 
-from icv_envs._jit_clock import JitClock
+from icv_envs._jit_clock import JitClock, jit_note
 from icv_envs.experiments.bench import APIS  # (how the agents are stepped, ``--api``: module docstring)
 
 __all__ = ["bench_intersection", "METADRIVE_AGENT_STEPS_PER_S", "APIS"]
@@ -172,8 +172,7 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
          f"~{METADRIVE_AGENT_STEPS_PER_S:.0f}), x{res['real_time_factor']:.1f} real time; "
          f"{res['agent_steps_per_cpu_s']:.0f} agent-steps per CPU second")
     if res["jit_seconds_excluded"] > 0:
-        echo(f"  (numba compiled {res['jit_compiles']} kernel(s) and spent {res['jit_seconds_excluded']:.2f} s in its "
-             f"compiler inside the timed windows: a first run on this machine, or kernels changed; excluded above)")
+        echo("  " + jit_note(res["jit_seconds_excluded"], res["jit_compiles"], "the timed windows"))
     return res
 
 

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from icv_envs._jit_clock import JitClock
+from icv_envs._jit_clock import JitClock, jit_note
 from icv_envs.experiments.bench import APIS  # (how the ring's agents are stepped, ``--api``)
 
 __all__ = ["ramps_vs_sumo", "scaling", "time_icv_formation", "time_sumo"]
@@ -149,8 +149,7 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
          f"({sumo_vehicles} vehicles): x{res['ratio_cpu']:.2f} (CPU time; wall x{res['ratio_wall']:.2f}); "
          f"peak RSS {rss_icv:.0f} MB")
     if ours["jit_seconds_excluded"] > 0:
-        echo(f"  (numba compiled {ours['jit_compiles']} kernel(s) and spent {ours['jit_seconds_excluded']:.2f} s in "
-             f"its compiler inside the timed slices; excluded above)")
+        echo("  " + jit_note(ours["jit_seconds_excluded"], ours["jit_compiles"], "our timed slices"))
     return res
 
 

@@ -57,7 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from icv_envs._args import check_config, check_flag, check_int
-from icv_envs._jit_clock import JitClock
+from icv_envs._jit_clock import JitClock, jit_note
 from icv_envs.rl.models import platform_info
 
 __all__ = ["bench_train", "env_sps", "ppo_sps", "main"]
@@ -264,7 +264,8 @@ def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096
                  f"(rollouts {row['ppo_rollout_sps']:7.1f} steps/s)")
             jit_s = row.get("env_jit_seconds_excluded", 0.0) + row.get("ppo_jit_seconds_excluded", 0.0)
             if jit_s > 0:
-                echo(f"{'':32s} (numba spent {jit_s:.2f} s in its compiler inside these timed windows; excluded)")
+                jit_n = row.get("env_jit_compiles", 0) + row.get("ppo_jit_compiles", 0)
+                echo(f"{'':32s} " + jit_note(jit_s, jit_n, "these timed windows"))
     icv = rows[ICV_ID]
     res = {"bench": "rl-train", "vehicles": int(vehicles), "icv_envs": icv}
     if batched:
