@@ -38,14 +38,15 @@ __all__ = ["JitClock", "jit_note"]
 
 class JitClock(event.Listener):
     """Seconds in numba's compiler and compilations while active (module
-    docstring). A context manager; may be entered again to add more
-    windows (``seconds`` and ``compiles`` accumulate)."""
+    docstring). A re-entrant context manager; entered again after it was
+    left, it adds more windows (``seconds`` and ``compiles`` accumulate)."""
 
     def __init__(self) -> None:
         self.seconds = 0.0
         self.compiles = 0
         self._depth = 0
         self._t0 = 0.0
+        self._entered = 0
         self._compile = _CompileCounter(self)
 
     # -- numba's listener protocol (the compiler lock is re-entrant: only the outermost pair counts)
@@ -60,13 +61,20 @@ class JitClock(event.Listener):
             self.seconds += event.timer() - self._t0
 
     def __enter__(self) -> "JitClock":
-        event.register("numba:compiler_lock", self)
-        event.register("numba:compile", self._compile)
+        # (re-entrant: it listens from the outermost entry to the matching exit)
+        if self._entered == 0:
+            event.register("numba:compiler_lock", self)
+            event.register("numba:compile", self._compile)
+        self._entered += 1
         return self
 
     def __exit__(self, *exc) -> None:
-        event.unregister("numba:compile", self._compile)
-        event.unregister("numba:compiler_lock", self)
+        if self._entered == 0:  # (leaving a clock not entered changes nothing)
+            return
+        self._entered -= 1
+        if self._entered == 0:
+            event.unregister("numba:compile", self._compile)
+            event.unregister("numba:compiler_lock", self)
 
     def as_dict(self) -> dict:
         """The JSON fields a bench reports: ``jit_seconds_excluded``, ``jit_compiles``."""

@@ -113,3 +113,15 @@ def test_notes_tell_a_compilation_from_a_cache_load():
     assert "loading compiled kernels from its cache" in jit_note(0.02, 0) and "first run" not in jit_note(0.02, 0)
     first = jit_note(4.0, 3, "the timed windows")
     assert "compiled 3 kernel(s) inside the timed windows" in first and "run it again" in first
+
+
+def test_clock_is_reentrant_and_leaving_it_twice_changes_nothing():
+    c = JitClock()
+    with c:
+        with c:
+            _fresh_kernel()(np.ones(2))
+        _fresh_kernel()(np.ones(2))  # still inside the outer entry: counted
+    _fresh_kernel()(np.ones(2))  # left: not counted
+    c.__exit__(None, None, None)  # left again: nothing
+    _fresh_kernel()(np.ones(2))
+    assert c.compiles == 2

@@ -123,16 +123,23 @@ def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -
     torch.set_num_threads(1)
 
     class RolloutTimer(BaseCallback):
+        """Wall seconds of the rollout phases, without numba's compiler
+        inside them (its own clock: a compilation at the reset before the
+        first rollout is in ``learn``'s window, not in a rollout's)."""
+
         def __init__(self):
             super().__init__()
             self.rollout_seconds = 0.0
             self._t = 0.0
+            self.jit = JitClock()
 
         def _on_rollout_start(self) -> None:
+            self.jit.__enter__()
             self._t = time.perf_counter()
 
         def _on_rollout_end(self) -> None:
             self.rollout_seconds += time.perf_counter() - self._t
+            self.jit.__exit__(None, None, None)
 
         def _on_step(self) -> bool:
             return True
@@ -142,11 +149,14 @@ def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -
     timer = RolloutTimer()
     with JitClock() as jit:  # (the env's kernels, first called in the first rollout: excluded from both clocks)
         t0 = time.perf_counter()
-        model.learn(total_timesteps=steps, callback=timer)
+        try:
+            model.learn(total_timesteps=steps, callback=timer)
+        finally:
+            timer.jit.__exit__(None, None, None)  # (a rollout left by an exception)
         wall = time.perf_counter() - t0 - jit.seconds
     n = model.num_timesteps
     venv.close()
-    return {"ppo_sps": n / wall, "ppo_rollout_sps": n / (timer.rollout_seconds - jit.seconds), "ppo_steps": n,
+    return {"ppo_sps": n / wall, "ppo_rollout_sps": n / (timer.rollout_seconds - timer.jit.seconds), "ppo_steps": n,
             "ppo_wall_seconds": wall, "ppo_jit_seconds_excluded": jit.seconds, "ppo_jit_compiles": jit.compiles}
 
 
