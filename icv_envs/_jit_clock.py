@@ -8,8 +8,9 @@ benchmark's warm-up usually covers, but not always: the intersection's
 virtual-platoon kernels are first called when the first node forms, more
 than 50 s into a run, and the single-agent env's bench times from the
 first step. On a fresh machine ``icv-envs bench intersection --warmup 50``
-then timed about 4.4 s of compilation with 0.3 s of stepping and reported
-5,850 agent-steps per CPU second instead of about 83,500 (stop 54).
+then timed about 4-5 s of compilation with 0.3 s of stepping and reported
+5,629-6,000 agent-steps per CPU second instead of 75k-87k (stop 54,
+``results/bench/stop54/``).
 
 :class:`JitClock` measures that time: while it is active it adds up the
 time numba spends holding its global compiler lock (the event
@@ -20,8 +21,11 @@ only on a cache miss: the kernels called, not the functions compiled
 inside them). A benchmark subtracts :attr:`JitClock.seconds` from its
 timed window, CPU time and wall time alike (numba compiles in the calling
 thread), and reports both numbers, so what it prints is the simulator's
-steady rate and says how much was taken out. A warm process holds the
-lock at no step: both stay 0 (``tests/test_jit_clock.py``).
+steady rate and says how much was taken out. Steps a process has run
+before hold the lock at none of their calls (``tests/test_jit_clock.py``);
+a new process loads each kernel from the cache at its first call (0.02 s
+in all on the intersection's window after its warm-up, 0.17 s in the
+single-agent env's first steps: measured at stop 54).
 
 Decision (stop 54), as the engineers of a JIT-compiled simulator would:
 the compiler's one-off cost is not the simulator's speed; it is excluded

@@ -168,6 +168,7 @@ def test_cli_run_and_bench(capsys, tmp_path):
     b = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     for k in ("real_time_factor", "vehicles", "vehicle_steps_per_s", "peak_rss_mb"):
         assert b[k] > 0
+    assert b["jit_seconds_excluded"] >= 0.0 and b["jit_compiles"] >= 0  # (from stop 54)
 
 
 # the LP alone: tests/test_lane_lp.py

@@ -128,12 +128,15 @@ def _platform() -> str:
 def bench_highway_ramps(seconds: float = 600.0, vgr: float = 1.0 / 3.0, seed: int = 0, echo=print) -> dict:
     """600 simulated seconds of HighwayRamps at VGR 1/3 under the formation
     expert, in this process (one core): real-time factor, vehicles on the road
-    at the end, vehicle-steps per wall second and peak resident memory."""
+    at the end, vehicle-steps per wall second and peak resident memory
+    (the time numba spends in its compiler inside the run excluded and
+    reported, from stop 54)."""
     import resource
 
     from icv_envs.experiments.compare import run_ramps
 
-    m = run_ramps("formation", vgr, seed, seconds)
+    jit = JitClock()  # numba's compiler inside the run's loop, excluded (icv_envs/_jit_clock.py)
+    m = run_ramps("formation", vgr, seed, seconds, jit=jit)
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     steps = m["vehicle_steps"] if "vehicle_steps" in m else None
     res = {
@@ -148,7 +151,10 @@ def bench_highway_ramps(seconds: float = 600.0, vgr: float = 1.0 / 3.0, seed: in
         "peak_rss_mb": peak_mb,
         "collisions": m["collisions"],
         "lost": m["lost"],
+        **jit.as_dict(),
     }
     echo(f"highway-ramps: {seconds:g} s at VGR {vgr:.3g} in {m['wall_seconds']:.1f} s wall "
          f"(x{res['real_time_factor']:.1f} real time), {res['vehicles']} vehicles at the end, peak RSS {peak_mb:.0f} MB")
+    if jit.seconds > 0:
+        echo("  " + jit.note("the run"))
     return res
