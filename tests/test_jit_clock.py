@@ -160,3 +160,27 @@ def test_the_ramps_bench_takes_the_compiler_out_of_its_run(monkeypatch):
     res = bench.bench_highway_ramps(seconds=2.0, echo=out.append)
     assert res["jit_compiles"] == 10 and res["jit_seconds_excluded"] > 0  # 2 s at 5 Hz
     assert "compiled 10 kernel(s) inside the run" in out[-1]
+
+
+def test_gc_clock_times_collections_by_generation():
+    import gc
+
+    from icv_envs._gc_clock import GcClock
+
+    with GcClock() as c:
+        a = []
+        a.append(a)  # a cycle
+        del a
+        gc.collect()
+    assert c.collections[2] >= 1 and c.seconds[2] > 0.0 and c.total >= c.seconds[2]
+    assert c.as_dict("icv_") == {"icv_gc_seconds": c.total, "icv_gc_full_collections": c.collections[2]}
+    n = c.collections[2]
+    gc.collect()  # left: not counted
+    assert c.collections[2] == n and c._callback not in gc.callbacks
+
+
+def test_time_icv_formation_reports_the_collector():
+    from icv_envs.experiments.sumo_bench import time_icv_formation
+
+    r = time_icv_formation(12, seconds=0.4, warmup=0.2)
+    assert 0.0 <= r["gc_ms_per_sim_s"] <= r["ms_per_sim_s"] and r["gc_full_collections"] >= 0

@@ -51,6 +51,10 @@ def test_ramps_vs_sumo_runs_end_to_end():
     assert res["bench"] == "highway-ramps-vs-sumo"
     assert res["icv_vehicle_steps_per_cpu_s"] > 0 and res["sumo_vehicle_steps_per_cpu_s"] > 0
     assert res["ratio_cpu"] == pytest.approx(res["icv_vehicle_steps_per_cpu_s"] / res["sumo_vehicle_steps_per_cpu_s"])
+    # each pair of slices' own ratio (from stop 54): one per pair
+    ch = res["ratio_cpu_chunks"]
+    assert len(ch) == 2 and all(r > 0 for r in ch)
+    assert res["ratio_cpu_chunks_median"] == pytest.approx(sum(ch) / 2)
 
 
 def test_time_icv_formation_counts_vehicle_steps():

@@ -17,7 +17,9 @@ info key, the default and the issue's bar), ``lean`` (PettingZoo's dicts,
 
 Time base: process CPU time (libsumo runs in this process and thread, so
 both are charged the same way; on a shared machine wall time also counts
-the other processes' time slices). Wall time is reported too. Time numba
+the other processes' time slices). Wall time is reported too, and each
+pair of slices' own ratio (``ratio_cpu_chunks``, from stop 54: how much
+the run's ratio could move on this host at the slices' scale). Time numba
 spends in its compiler inside our timed slices (a first run on a machine)
 is excluded from both and reported (:mod:`icv_envs._jit_clock`, stop 54).
 
@@ -41,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from icv_envs._gc_clock import GcClock
 from icv_envs._jit_clock import JitClock, jit_note
 from icv_envs.experiments.bench import APIS  # (how the ring's agents are stepped, ``--api``)
 
@@ -75,13 +78,15 @@ def _icv_steps(env, policy_steps: int, api: str = "dicts") -> None:
 def _icv_chunk(env, policy_steps: int, api: str = "dicts") -> dict:
     """``policy_steps`` timed steps: CPU and wall seconds without the time
     numba spent in its compiler (:mod:`icv_envs._jit_clock`), which is
-    reported as ``jit_seconds_excluded`` / ``jit_compiles``."""
+    reported as ``jit_seconds_excluded`` / ``jit_compiles``; the garbage
+    collector's time inside them, included, as ``gc_seconds`` /
+    ``gc_full_collections`` (:mod:`icv_envs._gc_clock`, from stop 54)."""
     vs0 = _vehicle_steps(env)
-    with JitClock() as jit:
+    with JitClock() as jit, GcClock() as gcc:
         c0, t0 = time.process_time(), time.perf_counter()
         _icv_steps(env, policy_steps, api)
         cpu, wall = time.process_time() - c0 - jit.seconds, time.perf_counter() - t0 - jit.seconds
-    return {"cpu": cpu, "wall": wall, "vehicle_steps": _vehicle_steps(env) - vs0, **jit.as_dict()}
+    return {"cpu": cpu, "wall": wall, "vehicle_steps": _vehicle_steps(env) - vs0, **jit.as_dict(), **gcc.as_dict()}
 
 
 def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1.0 / 3.0, seed: int = 0,
@@ -113,17 +118,21 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
     ring = SumoRing(max(n, 1), seed=seed)
     ring.step(int(round(sumo_warmup / ring.dt)))
     per_chunk = int(round(measure * pf / chunks))
-    ours = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0, "jit_seconds_excluded": 0.0, "jit_compiles": 0}
+    ours = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0, "jit_seconds_excluded": 0.0, "jit_compiles": 0,
+            "gc_seconds": 0.0, "gc_full_collections": 0}
     theirs = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0}
     counts = []
+    chunk_ratios = []  # each slice pair's own ratio: the spread of the run's ratio on this host
     for _ in tqdm(range(chunks), desc="alternating slices", file=sys.stderr):
         counts.append(len(env.agents))
         r = _icv_chunk(env, per_chunk, api)
         for k in ours:
             ours[k] += r[k]
-        r = ring.step(per_chunk * frames)
+        q = ring.step(per_chunk * frames)
         for k in theirs:
-            theirs[k] += r[k]
+            theirs[k] += q[k]
+        if r["cpu"] > 0 and q["cpu"] > 0 and q["vehicle_steps"]:
+            chunk_ratios.append((r["vehicle_steps"] / r["cpu"]) / (q["vehicle_steps"] / q["cpu"]))
     sumo_vehicles = ring.traci.vehicle.getIDCount()
     ring.close()
     m = env.metrics()
@@ -141,6 +150,10 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
         "icv_warmup_cpu_s": warm_cpu, "peak_rss_mb_icv_run": rss_icv, "peak_rss_mb_with_sumo": _rss_mb(),
         "collisions": m["collisions"], "lost": m["lost"], "bar_ratio": 4.0,
         "jit_seconds_excluded": ours["jit_seconds_excluded"], "jit_compiles": ours["jit_compiles"],
+        "icv_gc_share": ours["gc_seconds"] / ours["cpu"] if ours["cpu"] > 0 else None,
+        "icv_gc_full_collections": ours["gc_full_collections"],
+        "ratio_cpu_chunks": chunk_ratios,
+        "ratio_cpu_chunks_median": float(np.median(chunk_ratios)) if chunk_ratios else None,
         "sumo": "SUMO 1.28 libsumo, Krauss + LC2013, dt 0.04 s",
         "python": f"{platform.python_implementation()} {platform.python_version()} numpy {np.__version__}",
     }
@@ -148,6 +161,11 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
          f"({res['icv_vehicles'][0]}-{res['icv_vehicles'][1]} vehicles), SUMO {s_cpu:,.0f} veh-steps/s "
          f"({sumo_vehicles} vehicles): x{res['ratio_cpu']:.2f} (CPU time; wall x{res['ratio_wall']:.2f}); "
          f"peak RSS {rss_icv:.0f} MB")
+    echo(f"  garbage collection {res['icv_gc_share']:.1%} of our CPU time ({ours['gc_full_collections']} full "
+         f"collections; included above)")
+    if chunk_ratios:
+        echo(f"  each pair of slices on its own: median x{np.median(chunk_ratios):.2f}, x{min(chunk_ratios):.2f}-"
+             f"x{max(chunk_ratios):.2f} over {len(chunk_ratios)} pairs (this host's noise at the slices' scale)")
     if ours["jit_seconds_excluded"] > 0:
         echo("  " + jit_note(ours["jit_seconds_excluded"], ours["jit_compiles"], "our timed slices"))
     return res
@@ -167,7 +185,8 @@ def time_icv_formation(n: int, seconds: float = 5.0, warmup: float = 1.0, seed: 
     _icv_chunk(env, int(round(warmup * pf)))
     r = _icv_chunk(env, int(round(seconds * pf)))
     env.close()
-    return {"ms_per_sim_s": 1e3 * r["cpu"] / seconds, "vehicle_steps_per_s": r["vehicle_steps"] / r["cpu"]}
+    return {"ms_per_sim_s": 1e3 * r["cpu"] / seconds, "vehicle_steps_per_s": r["vehicle_steps"] / r["cpu"],
+            "gc_ms_per_sim_s": 1e3 * r["gc_seconds"] / seconds, "gc_full_collections": r["gc_full_collections"]}
 
 
 def time_sumo(n: int, seconds: float = 5.0, warmup: float = 1.0, seed: int = 0) -> dict:
@@ -181,8 +200,15 @@ def time_sumo(n: int, seconds: float = 5.0, warmup: float = 1.0, seed: int = 0) 
             "vehicles": r["vehicles"]}
 
 
-def scaling(sizes=(50, 100, 200, 400, 800, 1600, 3200), seconds: float = 5.0, out: str | None = None,
+def scaling(sizes=(50, 100, 200, 400, 800, 1600, 3200), seconds: float = 20.0, out: str | None = None,
             echo=print) -> dict:
+    """The scaling curve (module docstring): per size, ``seconds`` simulated
+    seconds timed on each side after 1 s not timed. Default 20 s (5 s until
+    stop 54): at 3200 agents the garbage collector's full collections come
+    about every 40 policy steps (5 in 200, 85 ms each), so a 5 s window (25
+    steps) held none or one, and the point moved between 37 and 60 ms per
+    simulated second with the process's history (``results/bench/stop54/
+    seq3200.txt``); 20 s (100 steps) holds two or three."""
     from tqdm import tqdm
 
     from icv_envs.experiments.sumo_ring import sumo_available
@@ -194,9 +220,11 @@ def scaling(sizes=(50, 100, 200, 400, 800, 1600, 3200), seconds: float = 5.0, ou
         row = {"vehicles": int(n), "icv_ms_per_sim_s": o["ms_per_sim_s"], "sumo_ms_per_sim_s": s["ms_per_sim_s"],
                "icv_vehicle_steps_per_s": o["vehicle_steps_per_s"],
                "sumo_vehicle_steps_per_s": s["vehicle_steps_per_s"],
-               "ratio": (s["ms_per_sim_s"] / o["ms_per_sim_s"]) if s["ms_per_sim_s"] else None}
+               "ratio": (s["ms_per_sim_s"] / o["ms_per_sim_s"]) if s["ms_per_sim_s"] else None,
+               "icv_gc_ms_per_sim_s": o["gc_ms_per_sim_s"], "icv_gc_full_collections": o["gc_full_collections"]}
         rows.append(row)
-        echo(f"{n:5d} vehicles: icv_envs {o['ms_per_sim_s']:8.1f} ms/sim-s   SUMO "
+        echo(f"{n:5d} vehicles: icv_envs {o['ms_per_sim_s']:8.1f} ms/sim-s (garbage collection "
+             f"{o['gc_ms_per_sim_s']:.1f} of it, {o['gc_full_collections']} full)   SUMO "
              f"{s['ms_per_sim_s'] or float('nan'):8.1f} ms/sim-s   x{row['ratio'] or float('nan'):.2f}")
     res = {"bench": "scaling", "seconds": seconds, "time": "process CPU time", "results": rows}
     if out:
@@ -232,7 +260,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m icv_envs.experiments.sumo_bench")
     p.add_argument("what", choices=["scaling", "ramps"])
     p.add_argument("--sizes", default="50,100,200,400,800,1600,3200")
-    p.add_argument("--seconds", type=float, default=5.0)
+    p.add_argument("--seconds", type=float, default=20.0)
     p.add_argument("--out", default=None)
     a = p.parse_args(argv)
     if a.what == "scaling":
