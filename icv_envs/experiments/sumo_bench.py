@@ -208,7 +208,8 @@ def scaling(sizes=(50, 100, 200, 400, 800, 1600, 3200), seconds: float = 20.0, o
     about every 40 policy steps (5 in 200, 85 ms each), so a 5 s window (25
     steps) held none or one, and the point moved between 37 and 60 ms per
     simulated second with the process's history (``results/bench/stop54/
-    seq3200.txt``); 20 s (100 steps) holds two or three."""
+    seq3200.txt``, ``seq3200_gc.txt``); 20 s (100 steps) held one or two
+    in three runs."""
     from tqdm import tqdm
 
     from icv_envs.experiments.sumo_ring import sumo_available
