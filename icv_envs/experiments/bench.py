@@ -130,7 +130,10 @@ def bench_highway_ramps(seconds: float = 600.0, vgr: float = 1.0 / 3.0, seed: in
     expert, in this process (one core): real-time factor, vehicles on the road
     at the end, vehicle-steps per wall second and peak resident memory
     (the time numba spends in its compiler inside the run excluded and
-    reported, from stop 54)."""
+    reported, from stop 54; the peak memory cannot exclude the compiler's,
+    ``peak_rss_includes_compiler`` says when a first run's compilation is
+    in it: 643 MB against 326 MB on the next run at stop 54,
+    ``results/bench/stop54/cold_vs_warm/``)."""
     import resource
 
     from icv_envs.experiments.compare import run_ramps
@@ -152,9 +155,13 @@ def bench_highway_ramps(seconds: float = 600.0, vgr: float = 1.0 / 3.0, seed: in
         "collisions": m["collisions"],
         "lost": m["lost"],
         **jit.as_dict(),
+        "peak_rss_includes_compiler": jit.compiles > 0,
     }
     echo(f"highway-ramps: {seconds:g} s at VGR {vgr:.3g} in {m['wall_seconds']:.1f} s wall "
          f"(x{res['real_time_factor']:.1f} real time), {res['vehicles']} vehicles at the end, peak RSS {peak_mb:.0f} MB")
     if jit.seconds > 0:
         echo("  " + jit.note("the run"))
+    if jit.compiles:
+        echo(f"  (the peak RSS includes numba's compiler, which compiled {jit.compiles} kernel(s) in this run: a run "
+             f"with the kernels in its cache peaks lower; stop 54: 643 MB on a first run, 326 MB on the next)")
     return res

@@ -16,7 +16,7 @@ about 20 agents, i.e. about 1,430 agent-steps/s. Time numba spends in
 its compiler inside a window (a first run on a machine: the virtual
 platoon's kernels are first called when the first node forms, about 55 s
 into a run) is excluded from both clocks and reported
-(``jit_seconds_excluded``, ``jit_compiles``; :mod:`icv_envs._jit_clock`,
+(``jit_seconds_excluded``, ``jit_cpu_seconds_excluded``, ``jit_compiles``; :mod:`icv_envs._jit_clock`,
 from stop 54).
 
 ``api`` (``--api``, from stop 47; as ``bench highway-ramps --vs-sumo``'s):
@@ -103,7 +103,7 @@ def _one_seed(seed: int, seconds: float, warmup: float, throughput: float, metho
             counts.append(n)
             steps += 1
         wall = time.perf_counter() - t0 - jit.seconds
-        cpu = time.process_time() - c0 - jit.seconds
+        cpu = time.process_time() - c0 - jit.cpu_seconds
     m = env.metrics()
     env.close()
     return {"seed": int(seed), "env_steps": steps, "agent_steps": agent_steps, "wall_seconds": wall,
@@ -158,6 +158,7 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
         "collisions": sum(p["collisions"] for p in per),
         "lost": sum(p["lost"] for p in per),
         "jit_seconds_excluded": sum(p["jit_seconds_excluded"] for p in per),
+        "jit_cpu_seconds_excluded": sum(p["jit_cpu_seconds_excluded"] for p in per),
         "jit_compiles": sum(p["jit_compiles"] for p in per),
         "per_seed": per,
         "python": f"{platform.python_implementation()} {platform.python_version()} numpy {np.__version__}",
