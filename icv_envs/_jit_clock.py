@@ -110,7 +110,7 @@ def jit_note(seconds: float, compiles: int, where: str = "the timed window") -> 
     if compiles:
         return (f"(numba compiled {compiles} kernel(s) inside {where} (a first run on this machine, or kernels "
                 f"changed) and spent {seconds:.2f} s in its compiler, cache loads included: excluded from the figures "
-                f"above; the first run still runs slower than the next, run it again for the steady figure)")
+                f"above)")
     return (f"(numba spent {seconds:.3f} s loading compiled kernels from its cache inside {where}: excluded from "
             f"the figures above)")
 
