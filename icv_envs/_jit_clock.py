@@ -110,7 +110,7 @@ def jit_note(seconds: float, compiles: int, where: str = "the timed window") -> 
     if compiles:
         return (f"(numba compiled {compiles} kernel(s) inside {where} (a first run on this machine, or kernels "
                 f"changed) and spent {seconds:.2f} s in its compiler, cache loads included: excluded from the figures "
-                f"above)")
+                f"above; a first run can still run lower than the next, so quote a second run)")
     return (f"(numba spent {seconds:.3f} s loading compiled kernels from its cache inside {where}: excluded from "
             f"the figures above)")
 
