@@ -126,3 +126,14 @@ def test_vs_sumo_too_short_names_the_cli_option(capsys):
     pytest.importorskip("sumo")
     assert main(["bench", "highway-ramps", "--vs-sumo", "--seconds", "50"]) == 2
     assert "--seconds must exceed 100" in capsys.readouterr().err
+
+
+def test_scaling_bad_input_names_the_value():
+    from icv_envs.experiments.sumo_bench import scaling
+
+    for bad in (0.0, -1.0, float("nan"), float("inf"), True, "5"):
+        with pytest.raises(ValueError, match=r"seconds = .*allowed: a finite number"):
+            scaling([50], seconds=bad, echo=lambda s: None)
+    for sizes in ([], [0], [50, -3], [2.5], [True]):
+        with pytest.raises(ValueError, match=r"sizes = .*allowed: a non-empty list of vehicle counts"):
+            scaling(sizes, seconds=1.0, echo=lambda s: None)

@@ -224,6 +224,13 @@ def scaling(sizes=(50, 100, 200, 400, 800, 1600, 3200), seconds: float = 20.0, o
 
     from icv_envs.experiments.sumo_ring import sumo_available
 
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 < seconds < float("inf"):
+        raise ValueError(f"seconds = {seconds!r}; allowed: a finite number of simulated seconds > 0")
+    sizes = list(sizes)
+    bad = [n for n in sizes if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1]
+    if not sizes or bad:
+        raise ValueError(f"sizes = {sizes!r}; allowed: a non-empty list of vehicle counts >= 1"
+                         + (f" (bad: {bad})" if bad else ""))
     rows = []
     for n in tqdm(sizes, desc="scaling", file=sys.stderr):
         o = time_icv_formation(n, seconds)
