@@ -1,6 +1,6 @@
 """Time spent in numba's compiler inside a benchmark's timed window.
 
-The kernels are ``@njit(cache=True)``: the first process on a machine (or
+The kernels are compiled with numba's on-disk cache on: the first process on a machine (or
 after a kernel's source changed) compiles each one at its first call and
 writes it to numba's on-disk cache; later processes load it from there
 (about a millisecond each). Either happens at the first call, which a
