@@ -19,11 +19,13 @@ this process's CPU time (the event
 cache write after it, each exactly once however deep the nesting) and
 counts the compilations (the outermost events ``numba:compile``, fired
 only on a cache miss: the kernels called, not the functions compiled
-inside them). A benchmark subtracts :attr:`JitClock.cpu_seconds` from
-its window's CPU time and :attr:`JitClock.seconds` from its wall time
-(numba compiles in the calling thread; on a loaded machine the wall time
-of a compilation exceeds its CPU time, and subtracting it from CPU time
-could leave a negative window), and reports both, so what it prints is the simulator's
+inside them). A benchmark times its window with the clock itself: the
+window's CPU seconds less :attr:`JitClock.cpu_seconds`
+(:attr:`JitClock.cpu`) and its wall seconds less :attr:`JitClock.seconds`
+(:attr:`JitClock.wall`; numba compiles in the calling thread; on a loaded
+machine the wall time of a compilation exceeds its CPU time, and
+subtracting it from CPU time could leave a negative window), and reports
+both, so what it prints is the simulator's
 steady rate and says how much was taken out. Steps a process has run
 before hold the lock at none of their calls (``tests/test_jit_clock.py``);
 a new process loads each kernel from the cache at its first call (0.02 s
@@ -42,13 +44,16 @@ import time
 
 from numba.core import event
 
-__all__ = ["JitClock", "jit_note"]
+__all__ = ["JitClock", "jit_note", "rss_note"]
 
 
 class JitClock(event.Listener):
     """Seconds in numba's compiler and compilations while active (module
-    docstring). A re-entrant context manager; entered again after it was
-    left, it adds more windows (``seconds`` and ``compiles`` accumulate)."""
+    docstring), and the windows it was active in. A re-entrant context
+    manager (a window runs from the outermost entry to its exit); entered
+    again after it was left, it adds more windows (every figure
+    accumulates). A bench times its window with it: :attr:`wall` and
+    :attr:`cpu` are the windows' seconds without the compiler's."""
 
     def __init__(self) -> None:
         self.seconds = 0.0  # wall seconds
@@ -58,6 +63,9 @@ class JitClock(event.Listener):
         self._t0 = 0.0
         self._c0 = 0.0
         self._entered = 0
+        self.window_seconds = 0.0  # the windows' wall seconds, compiler included
+        self.window_cpu_seconds = 0.0  # and their CPU seconds
+        self._w0 = (0.0, 0.0)
         self._compile = _CompileCounter(self)
 
     # -- numba's listener protocol (the compiler lock is re-entrant: only the outermost pair counts)
@@ -78,6 +86,7 @@ class JitClock(event.Listener):
         if self._entered == 0:
             event.register("numba:compiler_lock", self)
             event.register("numba:compile", self._compile)
+            self._w0 = (event.timer(), time.process_time())
         self._entered += 1
         return self
 
@@ -86,8 +95,20 @@ class JitClock(event.Listener):
             return
         self._entered -= 1
         if self._entered == 0:
+            self.window_seconds += event.timer() - self._w0[0]
+            self.window_cpu_seconds += time.process_time() - self._w0[1]
             event.unregister("numba:compile", self._compile)
             event.unregister("numba:compiler_lock", self)
+
+    @property
+    def wall(self) -> float:
+        """The windows' wall seconds without the compiler's (read after the window closed)."""
+        return self.window_seconds - self.seconds
+
+    @property
+    def cpu(self) -> float:
+        """The windows' CPU seconds without the compiler's (read after the window closed)."""
+        return self.window_cpu_seconds - self.cpu_seconds
 
     def as_dict(self) -> dict:
         """The JSON fields a bench reports: ``jit_seconds_excluded`` (wall),
@@ -113,6 +134,13 @@ def jit_note(seconds: float, compiles: int, where: str = "the timed window") -> 
                 f"above; a first run can still run lower than the next, so quote a second run)")
     return (f"(numba spent {seconds:.3f} s loading compiled kernels from its cache inside {where}: excluded from "
             f"the figures above)")
+
+
+def rss_note(compiles: int) -> str:
+    """What a bench prints when its peak memory includes a first run's
+    compilation of ``compiles`` kernels (the peak cannot leave it out)."""
+    return (f"(the peak RSS includes numba's compiler, which compiled {compiles} kernel(s) in this run: a run with "
+            f"the kernels in its cache peaks lower; stop 54, the 600 s ring: 643 MB on a first run, 326 MB on the next)")
 
 
 class _CompileCounter(event.Listener):

@@ -28,6 +28,9 @@ def test_clock_sees_a_compilation_and_nothing_once_warm():
         k(np.ones(3))
     assert c.compiles == 1 and c.seconds > 0.0  # one kernel called (its inner sum is not counted apart)
     assert 0.0 < c.cpu_seconds  # (the CPU time the benches take out of their CPU clocks)
+    # the window it was active in, and that window without the compiler
+    assert c.window_seconds >= c.seconds and c.wall == c.window_seconds - c.seconds >= 0.0
+    assert c.window_cpu_seconds >= c.cpu_seconds and c.cpu == c.window_cpu_seconds - c.cpu_seconds >= 0.0
     assert "compiled 1 kernel" in c.note() and "excluded" in c.note()
     with JitClock() as warm:
         k(np.ones(5))  # same types: the compiled code

@@ -38,13 +38,12 @@ import math
 import platform
 import resource
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
 from icv_envs._gc_clock import GcClock
-from icv_envs._jit_clock import JitClock, jit_note
+from icv_envs._jit_clock import JitClock, jit_note, rss_note
 from icv_envs.experiments.bench import APIS  # (how the ring's agents are stepped, ``--api``)
 
 __all__ = ["ramps_vs_sumo", "scaling", "plot_scaling", "time_icv_formation", "time_sumo"]
@@ -82,11 +81,9 @@ def _icv_chunk(env, policy_steps: int, api: str = "dicts") -> dict:
     collector's time inside them, included, as ``gc_seconds`` /
     ``gc_full_collections`` (:mod:`icv_envs._gc_clock`, from stop 54)."""
     vs0 = _vehicle_steps(env)
-    with JitClock() as jit, GcClock() as gcc:
-        c0, t0 = time.process_time(), time.perf_counter()
+    with GcClock() as gcc, JitClock() as jit:
         _icv_steps(env, policy_steps, api)
-        cpu, wall = time.process_time() - c0 - jit.cpu_seconds, time.perf_counter() - t0 - jit.seconds
-    return {"cpu": cpu, "wall": wall, "vehicle_steps": _vehicle_steps(env) - vs0, **jit.as_dict(), **gcc.as_dict()}
+    return {"cpu": jit.cpu, "wall": jit.wall, "vehicle_steps": _vehicle_steps(env) - vs0, **jit.as_dict(), **gcc.as_dict()}
 
 
 def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1.0 / 3.0, seed: int = 0,
@@ -108,13 +105,12 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
     pf = int(env.core.config["policy_frequency"])
     frames = int(env.core.config["simulation_frequency"]) // pf
     warm_steps = int(round((seconds - measure) * pf))
-    c0 = time.process_time()
     with JitClock() as warm_jit:  # (counted for the peak memory's note: a first run compiles here)
         for _ in tqdm(range(warm_steps // 50), desc="highway-ramps warm-up (x50 steps)", mininterval=5.0,
                       file=sys.stderr):
             _icv_steps(env, 50, api)
         _icv_steps(env, warm_steps % 50, api)
-    warm_cpu = time.process_time() - c0
+    warm_cpu = warm_jit.window_cpu_seconds  # (the compiler's included, as before stop 54)
     rss_icv = _rss_mb()
     n = len(env.agents)
     ring = SumoRing(max(n, 1), seed=seed)
@@ -175,9 +171,7 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
     if ours["jit_seconds_excluded"] > 0:
         echo("  " + jit_note(ours["jit_seconds_excluded"], ours["jit_compiles"], "our timed slices"))
     if res["peak_rss_includes_compiler"]:
-        echo(f"  (the peak RSS includes numba's compiler, which compiled "
-             f"{warm_jit.compiles + ours['jit_compiles']} kernel(s) in this run: a run with the kernels in its cache "
-             f"peaks lower)")
+        echo("  " + rss_note(warm_jit.compiles + ours["jit_compiles"]))
     return res
 
 

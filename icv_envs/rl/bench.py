@@ -94,14 +94,13 @@ def env_sps(env_id: str, vehicles: int = 20, steps: int = 2000, seed: int = 0) -
     action = _idle_action(env)
     env.reset(seed=seed)
     episodes = 1
-    with JitClock() as jit:  # numba's compiler inside the window, excluded (icv_envs/_jit_clock.py)
-        t0 = time.perf_counter()
+    with JitClock() as jit:  # the window, numba's compiler excluded (icv_envs/_jit_clock.py)
         for _ in range(steps):
             _, _, term, trunc, _ = env.step(action)
             if term or trunc:
                 env.reset()
                 episodes += 1
-        wall = time.perf_counter() - t0 - jit.seconds
+    wall = jit.wall
     cfg = env.unwrapped.config
     env.close()
     return {"env_sps": steps / wall, "env_sim_seconds_per_second": steps / wall / cfg["policy_frequency"],
@@ -123,22 +122,19 @@ def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -
     torch.set_num_threads(1)
 
     class RolloutTimer(BaseCallback):
-        """Wall seconds of the rollout phases, without numba's compiler
-        inside them (its own clock: a compilation at the reset before the
-        first rollout is in ``learn``'s window, not in a rollout's)."""
+        """The rollout phases as windows of their own clock (``jit.wall``:
+        their wall seconds without numba's compiler; a compilation at the
+        reset before the first rollout is in ``learn``'s window, not in a
+        rollout's)."""
 
         def __init__(self):
             super().__init__()
-            self.rollout_seconds = 0.0
-            self._t = 0.0
             self.jit = JitClock()
 
         def _on_rollout_start(self) -> None:
             self.jit.__enter__()
-            self._t = time.perf_counter()
 
         def _on_rollout_end(self) -> None:
-            self.rollout_seconds += time.perf_counter() - self._t
             self.jit.__exit__(None, None, None)
 
         def _on_step(self) -> bool:
@@ -148,15 +144,14 @@ def ppo_sps(env_id: str, vehicles: int = 20, steps: int = 4096, seed: int = 0) -
     model = PPO("MlpPolicy", venv, n_steps=512, batch_size=64, n_epochs=10, seed=seed, device="cpu", verbose=0)
     timer = RolloutTimer()
     with JitClock() as jit:  # (the env's kernels, first called in the first rollout: excluded from both clocks)
-        t0 = time.perf_counter()
         try:
             model.learn(total_timesteps=steps, callback=timer)
         finally:
             timer.jit.__exit__(None, None, None)  # (a rollout left by an exception)
-        wall = time.perf_counter() - t0 - jit.seconds
+    wall = jit.wall
     n = model.num_timesteps
     venv.close()
-    return {"ppo_sps": n / wall, "ppo_rollout_sps": n / (timer.rollout_seconds - timer.jit.seconds), "ppo_steps": n,
+    return {"ppo_sps": n / wall, "ppo_rollout_sps": n / timer.jit.wall, "ppo_steps": n,
             "ppo_wall_seconds": wall, "ppo_jit_seconds_excluded": jit.seconds, "ppo_jit_compiles": jit.compiles}
 
 
@@ -272,9 +267,9 @@ def bench_train(vehicles: int = 20, env_steps: int = 2000, ppo_steps: int = 4096
         if echo is not None:
             echo(f"{env_id:32s} env {row['env_sps']:8.1f} steps/s   PPO {row['ppo_sps']:7.1f} steps/s "
                  f"(rollouts {row['ppo_rollout_sps']:7.1f} steps/s)")
-            jit_s = row.get("env_jit_seconds_excluded", 0.0) + row.get("ppo_jit_seconds_excluded", 0.0)
+            jit_s = row["env_jit_seconds_excluded"] + row["ppo_jit_seconds_excluded"]
             if jit_s > 0:
-                jit_n = row.get("env_jit_compiles", 0) + row.get("ppo_jit_compiles", 0)
+                jit_n = row["env_jit_compiles"] + row["ppo_jit_compiles"]
                 echo(f"{'':32s} " + jit_note(jit_s, jit_n, "these timed windows"))
     icv = rows[ICV_ID]
     res = {"bench": "rl-train", "vehicles": int(vehicles), "icv_envs": icv}
