@@ -32,6 +32,7 @@ icv_envs.experiments.sumo_bench scaling --out results/bench``).
 from __future__ import annotations
 
 import argparse
+import collections
 import csv
 import json
 import math
@@ -116,17 +117,14 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
     ring = SumoRing(max(n, 1), seed=seed)
     ring.step(int(round(sumo_warmup / ring.dt)))
     per_chunk = int(round(measure * pf / chunks))
-    ours = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0, "jit_seconds_excluded": 0.0, "jit_cpu_seconds_excluded": 0.0,
-            "jit_compiles": 0,
-            "gc_seconds": 0.0, "gc_full_collections": 0}
+    ours = collections.Counter()  # (every figure a chunk reports, summed over the chunks)
     theirs = {"cpu": 0.0, "wall": 0.0, "vehicle_steps": 0}
     counts = []
     chunk_ratios = []  # each slice pair's own ratio: the spread of the run's ratio on this host
     for _ in tqdm(range(chunks), desc="alternating slices", file=sys.stderr):
         counts.append(len(env.agents))
         r = _icv_chunk(env, per_chunk, api)
-        for k in ours:
-            ours[k] += r[k]
+        ours.update(r)
         q = ring.step(per_chunk * frames)
         for k in theirs:
             theirs[k] += q[k]
