@@ -16,8 +16,8 @@ about 20 agents, i.e. about 1,430 agent-steps/s. Time numba spends in
 its compiler inside a window (a first run on a machine: the virtual
 platoon's kernels are first called when the first node forms, about 55 s
 into a run) is excluded from both clocks and reported
-(``jit_seconds_excluded``, ``jit_cpu_seconds_excluded``, ``jit_compiles``; :mod:`icv_envs._jit_clock`,
-from stop 54).
+(``jit_seconds_excluded``, ``jit_cpu_seconds_excluded``, ``jit_compiles``;
+:mod:`icv_envs._jit_clock`, from stop 54).
 
 ``api`` (``--api``, from stop 47; as ``bench highway-ramps --vs-sumo``'s):
 ``dicts`` (the default: PettingZoo's dicts, every info key, the expert's
