@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["check_int", "check_flag", "check_config"]
+__all__ = ["check_int", "check_float", "check_flag", "check_config"]
 
 
 def check_int(name: str, v, lo: int) -> int:
@@ -17,6 +17,21 @@ def check_int(name: str, v, lo: int) -> int:
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < lo:
         raise ValueError(f"{name} = {v!r}; allowed: an integer >= {lo}")
     return int(v)
+
+
+def check_float(name: str, v, lo: float, *, strict: bool = True, hi: float | None = None, unit: str = "") -> float:
+    """``v`` as a float if it is a finite real number (not a bool, not a
+    string) ``> lo`` (``>= lo`` with ``strict=False``) and ``<= hi`` if
+    given; ``unit`` ends the allowed range in the message (stop 55: the
+    benches checked their seconds by hand, one wording each, and some let a
+    string or None reach a comparison, a NaN reach ``int()``, or a negative
+    window reach the env's config under another name)."""
+    ok = (not isinstance(v, (bool, np.bool_)) and isinstance(v, (int, float, np.integer, np.floating))
+          and np.isfinite(v) and (v > lo if strict else v >= lo) and (hi is None or v <= hi))
+    if not ok:
+        rng = f"{'>' if strict else '>='} {lo:g}" + (f" and <= {hi:g}" if hi is not None else "")
+        raise ValueError(f"{name} = {v!r}; allowed: a finite number {rng}{' ' + unit if unit else ''}")
+    return float(v)
 
 
 def check_flag(name: str, v) -> bool:

@@ -480,7 +480,7 @@ def test_experiment_runners_check_their_arguments(tmp_path, monkeypatch):
         (lambda: run_ramps("formation", 0.3, 1.5, 1.0), r"seed = 1.5; allowed: an integer >= 0"),
         (lambda: run_intersection("multi-vp", 1000.0, 1.5, 1.0), r"seed = 1.5; allowed"),
         (lambda: run_highway_formation("free", seed=1.5, seconds=1.0), r"seed = 1.5; allowed"),
-        (lambda: run_highway_formation("free", seconds=True), r"seconds = True is invalid"),
+        (lambda: run_highway_formation("free", seconds=True), r"seconds = True; allowed: a finite number > 0"),
         (lambda: run_highway_formation("free", seconds=1.0, config={"scenario": "lane-drop"}), r"'scenario' \(set by"),
         (lambda: run_highway_formation("free", seconds=1.0, config=[1]), r"config = \[1\]; allowed: None or a dict"),
         (lambda: run_highway_formation("free", seconds=1.0, video=True), r"video=True needs out"),

@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 
+from icv_envs._args import check_float, check_int
 from icv_envs._jit_clock import JitClock, jit_note, rss_note
 
 __all__ = ["bench_highway_formation", "time_icv", "time_highway_v0", "APIS"]
@@ -37,6 +38,8 @@ def time_icv(n: int, seconds: float = 10.0, seed: int = 0, warmup: float = 1.0) 
     reported (:mod:`icv_envs._jit_clock`, from stop 54)."""
     from icv_envs.envs.highway_formation_v0 import parallel_env
 
+    n, seed = check_int("n", n, 1), check_int("seed", seed, 0)
+    seconds, warmup = check_float("seconds", seconds, 0), check_float("warmup", warmup, 0, strict=False)
     # formations of 12 with 60 m between them, on a road long enough to drive
     # ``warmup + seconds`` at 30 m/s
     span = math.ceil(n / 12) * (6 * 20.0 + 60.0) + 100.0
@@ -68,6 +71,7 @@ def time_highway_v0(n: int, seconds: float = 1.0, seed: int = 0) -> dict:
     import gymnasium as gym
     import highway_env  # noqa: F401  (registers highway-v0)
 
+    n, seed, seconds = check_int("n", n, 1), check_int("seed", seed, 0), check_float("seconds", seconds, 0)
     env = gym.make("highway-v0", config={"vehicles_count": n, "duration": 10_000})
     env.reset(seed=seed)
     cfg = env.unwrapped.config
@@ -89,6 +93,13 @@ def time_highway_v0(n: int, seconds: float = 1.0, seed: int = 0) -> dict:
 
 def bench_highway_formation(sizes=(50, 200, 800), seconds: float = 10.0, stock_seconds: float = 1.0,
                             echo=print) -> dict:
+    sizes = list(sizes) if isinstance(sizes, (list, tuple, range, np.ndarray)) else sizes
+    if not isinstance(sizes, list) or not sizes:
+        raise ValueError(f"sizes = {sizes!r}; allowed: a non-empty list of vehicle counts >= 1")
+    for i, n in enumerate(sizes):
+        check_int(f"sizes[{i}]", n, 1)
+    check_float("seconds", seconds, 0)
+    check_float("stock_seconds", stock_seconds, 0)
     rows = []
     for n in sizes:
         ours = time_icv(n, seconds)
@@ -135,8 +146,11 @@ def bench_highway_ramps(seconds: float = 600.0, vgr: float = 1.0 / 3.0, seed: in
     ``results/bench/stop54/cold_vs_warm/``)."""
     import resource
 
+    from icv_envs.envs.highway_ramps import MAX_VGR
     from icv_envs.experiments.compare import run_ramps
 
+    seconds = check_float("seconds", seconds, 0)
+    vgr = check_float("vgr", vgr, 0, hi=MAX_VGR, unit="vehicles/s per ramp")
     jit = JitClock()  # numba's compiler inside the run's loop, excluded (icv_envs/_jit_clock.py)
     m = run_ramps("formation", vgr, seed, seconds, jit=jit)
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from icv_envs.envs.highway_ramps import MAX_VGR, METHODS
-from icv_envs._args import check_int
+from icv_envs._args import check_float, check_int
 from icv_envs.experiments._checks import check_run_config, check_workers
 
 __all__ = ["run_ramps", "compare_highway_ramps", "run_jobs", "CSV_COLUMNS", "validate_grid"]
@@ -82,8 +82,7 @@ def validate_grid(methods, vgrs, seeds, seconds) -> None:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= MAX_VGR:
             raise ValueError(f"vgr {v!r} is invalid; allowed: 0 < vgr <= {MAX_VGR} vehicles/s per ramp")
     _seed_list(seeds)
-    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds) or seconds <= 0:
-        raise ValueError(f"seconds = {seconds!r}; allowed: a number > 0")
+    check_float("seconds", seconds, 0)
 
 
 def _seed_list(seeds) -> list[int]:

@@ -49,6 +49,7 @@ import platform
 
 import numpy as np
 
+from icv_envs._args import check_float, check_int
 from icv_envs._jit_clock import JitClock, jit_note
 from icv_envs.experiments.bench import APIS  # (how the agents are stepped, ``--api``: module docstring)
 
@@ -116,12 +117,9 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
     (the totals over the seeds, and ``per_seed``)."""
     if not isinstance(api, str) or api not in APIS:
         raise ValueError(f"api = {api!r}; allowed: {list(APIS)}")
-    if not 0 < seconds < float("inf"):  # (NaN fails the comparison too)
-        raise ValueError(f"seconds = {seconds!r}; allowed: a finite number > 0")
-    if not 0 <= warmup < float("inf"):
-        raise ValueError(f"warmup = {warmup!r}; allowed: a finite number >= 0")
-    if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or seeds < 1:
-        raise ValueError(f"seeds = {seeds!r}; allowed: an integer >= 1 (seeds 0 .. seeds-1)")
+    seconds = check_float("seconds", seconds, 0)
+    warmup = check_float("warmup", warmup, 0, strict=False)
+    seeds = check_int("seeds", seeds, 1)  # (seeds 0 .. seeds-1)
     per = [_one_seed(s, float(seconds), float(warmup), float(throughput), method, api) for s in range(int(seeds))]
     agent_steps = sum(p["agent_steps"] for p in per)
     steps = sum(p["env_steps"] for p in per)

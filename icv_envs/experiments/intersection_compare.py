@@ -52,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from icv_envs.envs.intersection import MAX_THROUGHPUT, METHODS, IntersectionEnv
-from icv_envs._args import check_int
+from icv_envs._args import check_float, check_int
 from icv_envs.experiments._checks import check_run_config, check_workers
 from icv_envs.experiments.compare import check_backend, run_jobs
 from icv_envs.experiments.seeds import parse_seeds
@@ -100,8 +100,7 @@ def validate_grid(methods, throughputs, seeds, seconds) -> None:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= MAX_THROUGHPUT:
             raise ValueError(f"throughput {v!r} is invalid; allowed: 0 < throughput <= {MAX_THROUGHPUT:g} vehicles/h")
     parse_seeds(seeds)
-    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds) or seconds <= 0:
-        raise ValueError(f"seconds = {seconds!r}; allowed: a number > 0")
+    check_float("seconds", seconds, 0)
 
 
 #: config keys an intersection run's own arguments set (a config may not set them too)

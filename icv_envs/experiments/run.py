@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import json
 import time
-from numbers import Real
 from pathlib import Path
 
 import numpy as np
 
 from icv_envs.envs.scenarios import SCENARIOS
-from icv_envs._args import check_flag, check_int
+from icv_envs._args import check_flag, check_float, check_int
 from icv_envs.experiments._checks import check_run_config
 from icv_envs.policies import make_policy
 
@@ -56,9 +55,7 @@ def run_highway_formation(
 
     if scenario not in SCENARIOS:
         raise ValueError(f"unknown scenario {scenario!r}; allowed: {sorted(SCENARIOS)}")
-    if isinstance(seconds, (bool, np.bool_)) or not isinstance(seconds, Real) or not np.isfinite(seconds) \
-            or seconds <= 0:
-        raise ValueError(f"seconds = {seconds!r} is invalid; allowed: a number > 0")
+    check_float("seconds", seconds, 0)
     seed = check_int("seed", seed, 0)
     check_flag("video", video)
     if video and out is None:

@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from icv_envs._args import check_float, check_int
 from icv_envs._gc_clock import GcClock
 from icv_envs._jit_clock import JitClock, jit_note, rss_note
 from icv_envs.experiments.bench import APIS  # (how the ring's agents are stepped, ``--api``)
@@ -94,6 +95,12 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
     from icv_envs.envs.highway_ramps_v0 import parallel_env
     from icv_envs.experiments.sumo_ring import SumoRing, sumo_available
 
+    from icv_envs.envs.highway_ramps import MAX_VGR
+
+    seconds, measure = check_float("seconds", seconds, 0), check_float("measure", measure, 0)
+    vgr = check_float("vgr", vgr, 0, hi=MAX_VGR, unit="vehicles/s per ramp")
+    seed, chunks = check_int("seed", seed, 0), check_int("chunks", chunks, 1)
+    sumo_warmup = check_float("sumo_warmup", sumo_warmup, 0, strict=False)
     if not sumo_available():
         raise RuntimeError("--vs-sumo needs SUMO: pip install 'icv-envs[bench]' (eclipse-sumo, libsumo)")
     if not 0 < measure < seconds:
@@ -178,6 +185,8 @@ def time_icv_formation(n: int, seconds: float = 5.0, warmup: float = 1.0, seed: 
     (formations of 12, expert through the PettingZoo API)."""
     from icv_envs.envs.highway_formation_v0 import parallel_env
 
+    n, seed = check_int("n", n, 1), check_int("seed", seed, 0)
+    seconds, warmup = check_float("seconds", seconds, 0), check_float("warmup", warmup, 0, strict=False)
     span = math.ceil(n / 12) * (6 * 20.0 + 60.0) + 100.0
     total = warmup + seconds
     env = parallel_env(vehicles_count=int(n), formation_size=12, initial_position=None,
@@ -194,7 +203,9 @@ def time_icv_formation(n: int, seconds: float = 5.0, warmup: float = 1.0, seed: 
 def time_sumo(n: int, seconds: float = 5.0, warmup: float = 1.0, seed: int = 0) -> dict:
     from icv_envs.experiments.sumo_ring import SumoRing
 
-    ring = SumoRing(int(n), seed=seed)
+    n, seed = check_int("n", n, 1), check_int("seed", seed, 0)
+    seconds, warmup = check_float("seconds", seconds, 0), check_float("warmup", warmup, 0, strict=False)
+    ring = SumoRing(n, seed=seed)
     ring.step(int(round(warmup / ring.dt)))
     r = ring.step(int(round(seconds / ring.dt)))
     ring.close()
@@ -216,8 +227,7 @@ def scaling(sizes=(50, 100, 200, 400, 800, 1600, 3200), seconds: float = 20.0, o
 
     from icv_envs.experiments.sumo_ring import sumo_available
 
-    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 < seconds < float("inf"):
-        raise ValueError(f"seconds = {seconds!r}; allowed: a finite number of simulated seconds > 0")
+    seconds = check_float("seconds", seconds, 0, unit="simulated seconds")
     sizes = list(sizes)
     bad = [n for n in sizes if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1]
     if not sizes or bad:
