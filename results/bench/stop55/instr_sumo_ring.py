@@ -1,0 +1,65 @@
+"""Stop 55: instructions per vehicle-step of SUMO on the bench's ring (libsumo in this process, the ring of
+``icv_envs.experiments.sumo_ring.SumoRing``: 445 vehicles, as the ring bench builds it after our 600 s), counted
+by callgrind with only the counted steps instrumented (the handshake of ``instr_split_ring.py``): the
+noise-free counterpart of ``icv-envs bench highway-ramps --vs-sumo``'s CPU-time ratio.
+
+    python results/bench/stop55/instr_sumo_ring.py TREE [--vehicles 445] [--warm 500] [--steps 500]
+"""
+import argparse, json, os, re, subprocess, sys, tempfile
+from collections import Counter
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "stop53"))
+from instr_split import split  # noqa: E402
+
+CHILD = """
+import os, sys, time
+n, steps, warm, d = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+from icv_envs.experiments.sumo_ring import SumoRing
+def wait(name):
+    while not os.path.exists(os.path.join(d, name)):
+        time.sleep(0.01)
+ring = SumoRing(n, seed=0)
+ring.step(warm)
+print("READY", flush=True); wait("GO")
+r = ring.step(steps)
+print("DONE", flush=True)
+print("VS", r["vehicle_steps"], r["vehicles"], flush=True)
+wait("END")
+ring.close()
+"""
+
+def _until(proc, word):
+    for line in proc.stdout:
+        if line.strip() == word:
+            return
+    raise SystemExit(f"child ended before {word}: {proc.stderr.read()[-2000:]}")
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("tree"); p.add_argument("--vehicles", type=int, default=445)
+    p.add_argument("--warm", type=int, default=500); p.add_argument("--steps", type=int, default=500)
+    a = p.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        env = dict(os.environ, PYTHONPATH=a.tree, PYTHONHASHSEED="0")
+        proc = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                                 f"--callgrind-out-file={os.path.join(d, 'cg.out')}", sys.executable, "-c", CHILD,
+                                 str(a.vehicles), str(a.steps), str(a.warm), d], env=env, cwd=d,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        _until(proc, "READY")
+        subprocess.run(["callgrind_control", "-i", "on", str(proc.pid)], check=True, capture_output=True)
+        open(os.path.join(d, "GO"), "w").close()
+        _until(proc, "DONE")
+        subprocess.run(["callgrind_control", "-i", "off", str(proc.pid)], check=True, capture_output=True)
+        vs_line = proc.stdout.readline().split()
+        open(os.path.join(d, "END"), "w").close()
+        proc.stderr.read(); proc.wait()
+        c = split(os.path.join(d, "cg.out"))
+    total = sum(c.values())
+    vs = int(vs_line[1])
+    print(f"SUMO ring, {a.vehicles} vehicles, {a.steps} steps after {a.warm}: {total / vs:,.0f} instructions a vehicle-step")
+    for k, v in c.most_common(5):
+        print(f"  {os.path.basename(k) or k:45s} {v / total * 100:5.1f}%")
+    print(json.dumps({"vehicles": a.vehicles, "steps": a.steps, "warm": a.warm, "vehicle_steps": vs,
+                      "per_vehicle_step": total / vs}))
+
+if __name__ == "__main__":
+    main()
