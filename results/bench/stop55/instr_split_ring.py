@@ -6,7 +6,7 @@ core gone and the dict layer at its floor, could the ring reach 4x SUMO? (The ke
     python results/bench/stop55/instr_split_ring.py TREE [--api dicts|lean|rows] [--warm 2500] [--steps 50]
     python results/bench/stop55/instr_split_ring.py TREE --env intersection --api dicts --warm 1000 --steps 200
 """
-import argparse, json, os, re, subprocess, sys, tempfile
+import argparse, json, os, shutil, subprocess, sys, tempfile
 from collections import Counter
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "stop53"))
 from instr_split import split, group  # noqa: E402
@@ -52,6 +52,31 @@ def _until(proc, word):
             return
     raise SystemExit(f"child ended before {word}: {proc.stderr.read()[-2000:]}")
 
+def run_counted_child(tree, child, args, keep=None):
+    """Run ``child`` (Python source) for ``tree`` under callgrind, its steps between its READY and DONE lines alone
+    instrumented (``"{dir}"`` in ``args`` is the handshake directory); returns the exclusive instructions per
+    object and the words of the line the child prints after DONE. ``keep``: copy callgrind's output there."""
+    with tempfile.TemporaryDirectory() as d:
+        env = dict(os.environ, PYTHONPATH=tree, PYTHONHASHSEED="0")
+        proc = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                                 f"--callgrind-out-file={os.path.join(d, 'cg.out')}", sys.executable, "-c", child,
+                                 *[x.replace("{dir}", d) for x in args]], env=env, cwd=d, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        _until(proc, "READY")
+        subprocess.run(["callgrind_control", "-i", "on", str(proc.pid)], check=True, capture_output=True)
+        open(os.path.join(d, "GO"), "w").close()
+        _until(proc, "DONE")
+        subprocess.run(["callgrind_control", "-i", "off", str(proc.pid)], check=True, capture_output=True)
+        words = proc.stdout.readline().split()
+        open(os.path.join(d, "END"), "w").close()
+        proc.stderr.read()
+        proc.wait()
+        c = split(os.path.join(d, "cg.out"))
+        if keep:
+            shutil.copy(os.path.join(d, "cg.out"), keep)
+    return c, words
+
+
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("tree"); p.add_argument("--api", default="dicts"); p.add_argument("--warm", type=int, default=2500)
@@ -60,24 +85,7 @@ def main():
                    help="intersection: per agent-step instead of vehicle-step")
     p.add_argument("--keep", default=None, help="copy callgrind's output file here (for callgrind_annotate)")
     a = p.parse_args()
-    with tempfile.TemporaryDirectory() as d:
-        env = dict(os.environ, PYTHONPATH=a.tree, PYTHONHASHSEED="0")
-        proc = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
-                                 f"--callgrind-out-file={os.path.join(d, 'cg.out')}", sys.executable, "-c", CHILD,
-                                 a.api, str(a.steps), str(a.warm), d, a.env], env=env, cwd=d, stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
-        _until(proc, "READY")
-        subprocess.run(["callgrind_control", "-i", "on", str(proc.pid)], check=True, capture_output=True)
-        open(os.path.join(d, "GO"), "w").close()
-        _until(proc, "DONE")
-        subprocess.run(["callgrind_control", "-i", "off", str(proc.pid)], check=True, capture_output=True)
-        vs_line = proc.stdout.readline().split()
-        open(os.path.join(d, "END"), "w").close()
-        proc.stderr.read(); proc.wait()
-        c = split(os.path.join(d, "cg.out"))
-        if a.keep:
-            import shutil
-            shutil.copy(os.path.join(d, "cg.out"), a.keep)
+    c, vs_line = run_counted_child(a.tree, CHILD, [a.api, str(a.steps), str(a.warm), "{dir}", a.env], a.keep)
     g = Counter()
     for obj, v in c.items():
         g[group(obj)] += v

@@ -5,10 +5,9 @@ noise-free counterpart of ``icv-envs bench highway-ramps --vs-sumo``'s CPU-time 
 
     python results/bench/stop55/instr_sumo_ring.py TREE [--vehicles 445] [--warm 500] [--steps 500]
 """
-import argparse, json, os, re, subprocess, sys, tempfile
-from collections import Counter
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "stop53"))
-from instr_split import split  # noqa: E402
+import argparse, json, os, sys
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from instr_split_ring import run_counted_child  # noqa: E402  (the same handshake)
 
 CHILD = """
 import os, sys, time
@@ -27,32 +26,13 @@ wait("END")
 ring.close()
 """
 
-def _until(proc, word):
-    for line in proc.stdout:
-        if line.strip() == word:
-            return
-    raise SystemExit(f"child ended before {word}: {proc.stderr.read()[-2000:]}")
 
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("tree"); p.add_argument("--vehicles", type=int, default=445)
     p.add_argument("--warm", type=int, default=500); p.add_argument("--steps", type=int, default=500)
     a = p.parse_args()
-    with tempfile.TemporaryDirectory() as d:
-        env = dict(os.environ, PYTHONPATH=a.tree, PYTHONHASHSEED="0")
-        proc = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
-                                 f"--callgrind-out-file={os.path.join(d, 'cg.out')}", sys.executable, "-c", CHILD,
-                                 str(a.vehicles), str(a.steps), str(a.warm), d], env=env, cwd=d,
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        _until(proc, "READY")
-        subprocess.run(["callgrind_control", "-i", "on", str(proc.pid)], check=True, capture_output=True)
-        open(os.path.join(d, "GO"), "w").close()
-        _until(proc, "DONE")
-        subprocess.run(["callgrind_control", "-i", "off", str(proc.pid)], check=True, capture_output=True)
-        vs_line = proc.stdout.readline().split()
-        open(os.path.join(d, "END"), "w").close()
-        proc.stderr.read(); proc.wait()
-        c = split(os.path.join(d, "cg.out"))
+    c, vs_line = run_counted_child(a.tree, CHILD, [str(a.vehicles), str(a.steps), str(a.warm), "{dir}"])
     total = sum(c.values())
     vs = int(vs_line[1])
     print(f"SUMO ring, {a.vehicles} vehicles, {a.steps} steps after {a.warm}: {total / vs:,.0f} instructions a vehicle-step")
