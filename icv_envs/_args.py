@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["check_int", "check_float", "check_flag", "check_config"]
+__all__ = ["check_int", "check_int_list", "check_float", "check_flag", "check_config"]
 
 
 def check_int(name: str, v, lo: int) -> int:
@@ -17,6 +17,22 @@ def check_int(name: str, v, lo: int) -> int:
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < lo:
         raise ValueError(f"{name} = {v!r}; allowed: an integer >= {lo}")
     return int(v)
+
+
+def check_int_list(name: str, values, lo: int, what: str = "integers") -> list[int]:
+    """``values`` (a list, tuple, range or 1-D array) as a list of ints if
+    it is non-empty and each is an integer (not a bool, not a float) >=
+    ``lo``; the message names every bad value. (Stop 55: the scaling
+    curve's ``sizes`` and ``bench_highway_formation``'s had a check each,
+    and the first raised a ``TypeError`` for a bare number.)"""
+    allowed = f"allowed: a non-empty list of {what} >= {lo}"
+    if not isinstance(values, (list, tuple, range, np.ndarray)) or not len(values):
+        raise ValueError(f"{name} = {values!r}; {allowed}")
+    values = list(values)
+    bad = [v for v in values if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < lo]
+    if bad:
+        raise ValueError(f"{name} = {values!r}; {allowed} (bad: {bad})")
+    return [int(v) for v in values]
 
 
 def check_float(name: str, v, lo: float, *, strict: bool = True, hi: float | None = None, unit: str = "") -> float:

@@ -76,9 +76,10 @@ def test_bad_seconds_are_named(call, v):
     (lambda: sumo_bench.time_icv_formation(0), r"^n = 0; allowed: an integer >= 1"),
     (lambda: sumo_bench.time_sumo(10, warmup=-1), r"^warmup = -1; allowed: a finite number >= 0"),
     (lambda: bench.time_icv(10.5), r"^n = 10.5; allowed: an integer >= 1"),
-    (lambda: bench.bench_highway_formation(sizes=[10, 0]), r"^sizes\[1\] = 0; allowed: an integer >= 1"),
+    (lambda: bench.bench_highway_formation(sizes=[10, 0]), r"^sizes = \[10, 0\]; allowed: a non-empty list of vehicle counts >= 1 \(bad: \[0\]\)$"),
     (lambda: bench.bench_highway_formation(sizes=[]), r"^sizes = \[\]; allowed: a non-empty list"),
     (lambda: bench.bench_highway_formation(sizes=800), r"^sizes = 800; allowed: a non-empty list"),
+    (lambda: sumo_bench.scaling(sizes=800), r"^sizes = 800; allowed: a non-empty list of vehicle counts >= 1$"),
     (lambda: bench.bench_highway_formation(sizes=[10], stock_seconds=0), r"^stock_seconds = 0; allowed"),
 ])
 def test_bad_bench_arguments_are_named(call, match):

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from icv_envs._args import check_float, check_int
+from icv_envs._args import check_float, check_int, check_int_list
 from icv_envs._jit_clock import JitClock, jit_note, rss_note
 
 __all__ = ["bench_highway_formation", "time_icv", "time_highway_v0", "APIS"]
@@ -93,11 +93,7 @@ def time_highway_v0(n: int, seconds: float = 1.0, seed: int = 0) -> dict:
 
 def bench_highway_formation(sizes=(50, 200, 800), seconds: float = 10.0, stock_seconds: float = 1.0,
                             echo=print) -> dict:
-    sizes = list(sizes) if isinstance(sizes, (list, tuple, range, np.ndarray)) else sizes
-    if not isinstance(sizes, list) or not sizes:
-        raise ValueError(f"sizes = {sizes!r}; allowed: a non-empty list of vehicle counts >= 1")
-    for i, n in enumerate(sizes):
-        check_int(f"sizes[{i}]", n, 1)
+    sizes = check_int_list("sizes", sizes, 1, "vehicle counts")
     check_float("seconds", seconds, 0)
     check_float("stock_seconds", stock_seconds, 0)
     rows = []

@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from icv_envs._args import check_float, check_int
+from icv_envs._args import check_float, check_int, check_int_list
 from icv_envs._gc_clock import GcClock
 from icv_envs._jit_clock import JitClock, jit_note, rss_note
 from icv_envs.experiments.bench import APIS  # (how the ring's agents are stepped, ``--api``)
@@ -92,10 +92,9 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
                   chunks: int = 10, sumo_warmup: float = 20.0, api: str = "dicts", echo=print) -> dict:
     from tqdm import tqdm
 
+    from icv_envs.envs.highway_ramps import MAX_VGR
     from icv_envs.envs.highway_ramps_v0 import parallel_env
     from icv_envs.experiments.sumo_ring import SumoRing, sumo_available
-
-    from icv_envs.envs.highway_ramps import MAX_VGR
 
     seconds, measure = check_float("seconds", seconds, 0), check_float("measure", measure, 0)
     vgr = check_float("vgr", vgr, 0, hi=MAX_VGR, unit="vehicles/s per ramp")
@@ -228,11 +227,7 @@ def scaling(sizes=(50, 100, 200, 400, 800, 1600, 3200), seconds: float = 20.0, o
     from icv_envs.experiments.sumo_ring import sumo_available
 
     seconds = check_float("seconds", seconds, 0, unit="simulated seconds")
-    sizes = list(sizes)
-    bad = [n for n in sizes if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1]
-    if not sizes or bad:
-        raise ValueError(f"sizes = {sizes!r}; allowed: a non-empty list of vehicle counts >= 1"
-                         + (f" (bad: {bad})" if bad else ""))
+    sizes = check_int_list("sizes", sizes, 1, "vehicle counts")
     rows = []
     for n in tqdm(sizes, desc="scaling", file=sys.stderr):
         o = time_icv_formation(n, seconds)
