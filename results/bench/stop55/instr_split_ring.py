@@ -13,7 +13,7 @@ from instr_split import split, group  # noqa: E402
 
 CHILD = """
 import os, sys, time
-api, steps, warm, d, which = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
+api, steps, warm, d, which, seed = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5], int(sys.argv[6])
 from icv_envs.experiments.bench import APIS
 from icv_envs.experiments.sumo_bench import _icv_steps, _vehicle_steps
 def wait(name):
@@ -22,15 +22,15 @@ def wait(name):
 if which == "ring":
     from icv_envs.envs.highway_ramps_v0 import parallel_env
     env = parallel_env(vgr=1.0 / 3.0, duration=600.0, method="formation", **APIS[api])
-    env.reset(seed=0)
+    env.reset(seed=seed)
     run = lambda k: _icv_steps(env, k, api)
     count = lambda: _vehicle_steps(env)
-else:  # the intersection bench's loop (multi-vp, 2200 veh/h, seed 0), ``warm`` policy steps first
+else:  # the intersection bench's loop (multi-vp, 2200 veh/h, --seed), ``warm`` policy steps first
     from icv_envs.envs.intersection_v0 import parallel_env
     from icv_envs.experiments.intersection_bench import _stepper
     env = parallel_env(method="multi-vp", throughput=2200.0, duration=(warm + steps) / 5.0 + 10.0, **APIS[api])
     st = _stepper(env, api)
-    st.infos = env.reset(seed=0)[1]
+    st.infos = env.reset(seed=seed)[1]
     agent_steps = [0]
     def run(k):
         for _ in range(k):
@@ -83,20 +83,21 @@ def main():
     p.add_argument("--steps", type=int, default=50)
     p.add_argument("--env", default="ring", choices=("ring", "intersection"),
                    help="intersection: per agent-step instead of vehicle-step")
+    p.add_argument("--seed", type=int, default=0)
     p.add_argument("--keep", default=None, help="copy callgrind's output file here (for callgrind_annotate)")
     a = p.parse_args()
-    c, vs_line = run_counted_child(a.tree, CHILD, [a.api, str(a.steps), str(a.warm), "{dir}", a.env], a.keep)
+    c, vs_line = run_counted_child(a.tree, CHILD, [a.api, str(a.steps), str(a.warm), "{dir}", a.env, str(a.seed)], a.keep)
     g = Counter()
     for obj, v in c.items():
         g[group(obj)] += v
     total = sum(g.values())
     vs, n0, n1 = int(vs_line[1]), int(vs_line[2]), int(vs_line[3])
     unit = "vehicle-step" if a.env == "ring" else "agent-step"
-    print(f"{a.env} ({a.api}), {a.steps} policy steps after {a.warm}, {n0}-{n1} agents: "
+    print(f"{a.env} ({a.api}, seed {a.seed}), {a.steps} policy steps after {a.warm}, {n0}-{n1} agents: "
           f"{total / a.steps:,.0f} instructions a policy step, {total / vs:,.0f} a {unit}")
     for k, v in g.most_common():
         print(f"  {k:45s} {v / total * 100:5.1f}%  {v / a.steps:12,.0f} a step")
-    print(json.dumps({"env": a.env, "api": a.api, "steps": a.steps, "warm": a.warm, "agents": [n0, n1], "per_step": total / a.steps,
+    print(json.dumps({"env": a.env, "api": a.api, "seed": a.seed, "steps": a.steps, "warm": a.warm, "agents": [n0, n1], "per_step": total / a.steps,
                       "per_vehicle_step": total / vs, "by_object": {k: v / a.steps for k, v in g.items()}}))
 
 if __name__ == "__main__":
