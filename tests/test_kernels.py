@@ -2644,3 +2644,35 @@ def test_node_heads_is_the_stable_sorts_choice(sizes, grid, seed):
     np.testing.assert_array_equal(first, rows[i0])
     np.testing.assert_array_equal(rear_row, rows[i1])
     assert xf.tobytes() == X[i0].tobytes() and rear.tobytes() == X[i1].tobytes()
+
+
+@settings(max_examples=200, deadline=None)
+@given(periodic=st.booleans(), data=st.data())
+def test_ramp_spawns_blocked_is_the_array_test(periodic, data):
+    """``HighwayRampsEnv._spawn_due``'s compiled test of the spawn points
+    (from stop 56) against the NumPy expression it replaced, per ramp:
+    a vehicle in the ramp lane (``lane_of``) strictly within (-10, 25) m of
+    the spawn point along the road (``wrap``), on a ring and on a straight
+    road, with vehicles placed on the bounds and around the seam."""
+    from icv_envs.envs._kernels import ramp_spawns_blocked
+
+    length = 2000.0
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    road = _random_road(rng, ramps=((500.0, 700.0),), periodic=periodic)
+    n_ramps = data.draw(st.integers(1, 5))
+    x0s = np.sort(rng.uniform(0.0, length, n_ramps)).astype(np.float64)
+    n = data.draw(st.integers(0, 30))
+    k = rng.integers(0, n_ramps, n) if n_ramps else np.zeros(n, dtype=np.int64)
+    edge = np.array([-10.0, 25.0, -10.000001, 24.999999, 0.0, length / 2, -length / 2], dtype=np.float64)
+    off = np.where(rng.random(n) < 0.3, edge[rng.integers(0, len(edge), n)], rng.uniform(-60.0, 60.0, n))
+    cx = x0s[k] + off if n else np.zeros(0)
+    ramp_lane = int(road.ramp_lane)
+    cy = rng.integers(0, 5, n).astype(np.float64) * road.lane_width + rng.uniform(-2.0, 2.0, n)
+    want = np.zeros(n_ramps, dtype=bool)
+    for r in range(n_ramps):
+        on_ramp = road.lane_of(cy) == ramp_lane if n else np.zeros(0, dtype=bool)
+        d = road.wrap(cx[on_ramp] - x0s[r]) if on_ramp.any() else np.zeros(0)
+        want[r] = bool(((d > -10.0) & (d < 25.0)).any())
+    got = ramp_spawns_blocked(cx, cy, float(road.lane_width), int(road.total_lanes), ramp_lane, x0s,
+                              length if periodic else -1.0, -10.0, 25.0)
+    assert np.array_equal(got, want)

@@ -1,14 +1,18 @@
 """Compiled loops of the env layer (the rules every kernel follows:
 :mod:`icv_envs.sim._kernels`): which actions are the expert's, and one
 world's step written into the fixed-K slot arrays of
-:class:`icv_envs.vector.BatchedWorlds`."""
+:class:`icv_envs.vector.BatchedWorlds`, and which on-ramp spawn points are
+occupied."""
 
 from __future__ import annotations
 
 import numba as nb
 import numpy as np
 
-__all__ = ["expert_match_rows", "scatter_world_rows", "scatter_expert_rows"]
+from icv_envs.sim._kernels.formation import _wrap1
+from icv_envs.sim._kernels.physics import lane_of1
+
+__all__ = ["expert_match_rows", "scatter_world_rows", "scatter_expert_rows", "ramp_spawns_blocked"]
 
 
 @nb.njit(cache=True)
@@ -64,3 +68,26 @@ def scatter_expert_rows(out, b, k, ex):
     for q in range(k.shape[0]):
         out[b, k[q], 0] = ex[q, 0]
         out[b, k[q], 1] = ex[q, 1]
+
+
+@nb.njit(cache=True)
+def ramp_spawns_blocked(cx, cy, lane_width, total_lanes, ramp_lane, x0, length, lo, hi):
+    """``HighwayRampsEnv._spawn_due``'s test of every on-ramp's spawn point
+    at once (from stop 56; before, one NumPy expression per ramp and step):
+    spawn point ``k`` is occupied when a vehicle in the ramp lane
+    (:meth:`~icv_envs.sim.road.RoadLayout.lane_of` of ``cy``) lies strictly
+    between ``lo`` and ``hi`` metres of ``x0[k]`` along the road
+    (:meth:`~icv_envs.sim.road.RoadLayout.wrap` of ``cx - x0[k]``; ``length
+    < 0`` on a straight road). The same subtraction, wrap and comparisons as
+    the NumPy code, element by element."""
+    m = x0.shape[0]
+    out = np.zeros(m, dtype=np.bool_)
+    for i in range(cx.shape[0]):
+        if lane_of1(cy[i], lane_width, total_lanes) != ramp_lane:
+            continue
+        for k in range(m):
+            if not out[k]:
+                d = _wrap1(cx[i] - x0[k], length)
+                if d > lo and d < hi:
+                    out[k] = True
+    return out

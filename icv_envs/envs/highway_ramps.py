@@ -47,6 +47,7 @@ import math
 
 import numpy as np
 
+from icv_envs.envs._kernels import ramp_spawns_blocked
 from icv_envs.envs._config import MAX_AGENTS, _is_real as _is_number, check_unused, num as _num, speed_range
 from icv_envs.envs.highway_formation import HighwayFormationEnv
 from icv_envs.policies.formation_expert import FormationExpert
@@ -350,28 +351,41 @@ class HighwayRampsEnv(HighwayFormationEnv):
         new = []
         if not any(self._queues):
             return new
-        cx, cy = tr.center()
-        on_ramp = road.lane_of(cy) == road.ramp_lane if tr.n else np.zeros(0, dtype=bool)
+        x0s = self._spawn_points(road)
         h = 0.5 * c["wheelbase"]
+        blocked = None
         for k, q in enumerate(self._queues):
             if not q:
                 continue
-            ramp = road.on_ramps[k]
-            x0 = ramp.start - ramp.approach + 5.0
-            # the spawn point must be free: nobody on the ramp lane within [-10, +25] m
-            if tr.n:
-                d = road.wrap(cx[on_ramp] - x0) if on_ramp.any() else np.zeros(0)
-                if ((d > -10.0) & (d < 25.0)).any():
-                    continue
+            x0 = float(x0s[k])
+            # the spawn point must be free: nobody on the ramp lane within (-10, +25) m
+            # (every ramp's test in one compiled call, again after each spawn: envs/_kernels.ramp_spawns_blocked)
+            if blocked is None:
+                cx, cy = tr.center()
+                blocked = ramp_spawns_blocked(cx, cy, float(road.lane_width), int(road.total_lanes),
+                                              int(road.ramp_lane), x0s,
+                                              float(road.length) if road.periodic else -1.0, -10.0, 25.0)
+            if blocked[k]:
+                continue
             t, e = q.pop(0)
             ids = tr.add(x0 - h, road.ramp_lane * road.lane_width, float(c["ramp_speed"]), exit=e, time=w.time)
             new.extend(int(v) for v in ids)
             self._spawned += 1
-            cx, cy = tr.center()
-            on_ramp = road.lane_of(cy) == road.ramp_lane
+            blocked = None
         if new:
             w.invalidate()
         return new
+
+    def _spawn_points(self, road) -> np.ndarray:
+        """Each on-ramp's spawn point (the vehicle's front, 5 m into the
+        ramp's approach), read-only, kept per road (a reset builds a new one)."""
+        kept = getattr(self, "_spawn_points_kept", None)
+        if kept is not None and kept[0] is road:
+            return kept[1]
+        x0s = np.array([r.start - r.approach + 5.0 for r in road.on_ramps], dtype=np.float64)
+        x0s.setflags(write=False)
+        self._spawn_points_kept = (road, x0s)
+        return x0s
 
     # --------------------------------------------------------------- metrics
     def _on_step_end(self, events) -> None:
