@@ -67,6 +67,7 @@ class World:
         self._index = None
         self._gaps = None  # own_lane_gaps of the current state, with the index
         self._no_exit_rows = None  # (n, exit_id, ex_x, de) for a fleet without exits (substeps only reads them)
+        self._exit_marks_kept = None  # (the exit column, the road, _exit_marks' answer)
         self._long_stops = None  # (stopped_for, how many exceed JAM_STOP_TIME): substeps' count for record_min_gap
         # run metrics (definitions in icv_envs.sim.metrics): event counts here,
         # speed/acceleration every substep in ``motion``, gaps and time
@@ -275,14 +276,25 @@ class World:
         road = self.road
         if not road.n_exits:
             return None
-        has = tr.exit >= 0
+        # (kept while the fleet's exit column is the same array: adding or
+        # removing vehicles replaces it and nothing writes it in place, as
+        # with the ids; the callers only read the answer. From stop 56: two
+        # calls a policy step on the ring, the same answer between spawns)
+        kept = self._exit_marks_kept
+        ex = tr.exit
+        if kept is not None and kept[0] is ex and kept[1] is road:
+            return kept[2]
+        has = ex >= 0
         if not np.count_nonzero(has):
-            return None
-        ex_x = np.full(tr.n, np.inf)
-        ex_x[has] = road.exit_position(tr.exit[has])
-        de = np.full(tr.n, np.inf)
-        de[has] = road.diverge_end(tr.exit[has])
-        return ex_x, de
+            out = None
+        else:
+            ex_x = np.full(tr.n, np.inf)
+            ex_x[has] = road.exit_position(ex[has])
+            de = np.full(tr.n, np.inf)
+            de[has] = road.diverge_end(ex[has])
+            out = (ex_x, de)
+        self._exit_marks_kept = (ex, road, out)
+        return out
 
     def _substep_events(self, events: StepEvents, cx, cy, cx_before, i, j, lane, off, at_end, n_off: int,
                         n_end: int) -> None:
