@@ -2676,3 +2676,32 @@ def test_ramp_spawns_blocked_is_the_array_test(periodic, data):
     got = ramp_spawns_blocked(cx, cy, float(road.lane_width), int(road.total_lanes), ramp_lane, x0s,
                               length if periodic else -1.0, -10.0, 25.0)
     assert np.array_equal(got, want)
+
+
+@settings(max_examples=400, deadline=None)
+@given(n=st.integers(0, 13), kind=st.sampled_from(["uniform", "integers", "constant", "rounded", "signed"]),
+       seed=st.integers(0, 2**32 - 1))
+def test_min_cost_assignment_is_scipys(n, kind, seed):
+    """The compiled assignment of the re-forming (from stop 56) gives SciPy's
+    ``linear_sum_assignment`` answer, the one it replaced, on random,
+    integer-valued (many ties), constant (every assignment ties),
+    rounded-square (ties up to rounding) and signed matrices."""
+    from scipy.optimize import linear_sum_assignment
+
+    from icv_envs.formation._kernels import min_cost_assignment
+
+    rng = np.random.default_rng(seed)
+    if kind == "uniform":
+        c = rng.random((n, n)) * 100.0
+    elif kind == "integers":
+        c = rng.integers(0, 4, (n, n)).astype(np.float64)
+    elif kind == "constant":
+        c = np.full((n, n), float(rng.integers(0, 3)))
+    elif kind == "rounded":
+        c = np.round(rng.normal(size=(n, n)) * 3.0, 1) ** 2
+    else:
+        c = rng.normal(size=(n, n)) * 1e3
+    rows, cols = linear_sum_assignment(c)
+    want = np.empty(n, dtype=np.int64)
+    want[rows] = cols
+    assert np.array_equal(min_cost_assignment(c), want)

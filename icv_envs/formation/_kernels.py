@@ -42,8 +42,8 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["clip1", "join_search", "join_search_banded", "lateral_rows", "plan_rows", "plan_search_store", "profile_eval",
-           "pursuit_rows"]
+__all__ = ["clip1", "join_search", "join_search_banded", "lateral_rows", "min_cost_assignment", "plan_rows",
+           "plan_search_store", "profile_eval", "pursuit_rows"]
 
 
 @nb.njit(cache=True)
@@ -316,3 +316,92 @@ def pursuit_rows(rx, ry, c, sn, tx, ty, wb, ms):
     return phi
 
 
+
+
+@nb.njit(cache=True)
+def min_cost_assignment(cost):
+    """Minimum-total-cost assignment of a square cost matrix (paper Sec.
+    3.3, eq. (lp); the Hungarian step of the formation layer's re-forming),
+    compiled so that the re-forming runs in one call (from stop 56;
+    :func:`icv_envs.formation.assignment._solve`, SciPy's
+    ``linear_sum_assignment``, before).
+
+    The shortest augmenting path algorithm of D. F. Crouse, "On
+    implementing 2D rectangular assignment algorithms", IEEE Trans.
+    Aerospace and Electronic Systems 52(4), 2016, pp. 1685-1686 (the
+    algorithm SciPy implements), with SciPy's choices wherever the
+    pseudocode leaves one open, so that the answer is SciPy's (1.17),
+    ties included: the costs as given (SciPy 1.17 does not shift them by
+    their minimum); the columns scanned from the last to the first, a column taken out of the scan by
+    moving the scan's last one into its place; among columns of equal
+    reduced cost the first found, unless a later one is unassigned (it
+    ends the path). Returns ``out`` with ``out[i]`` the column of row
+    ``i`` (``tests/test_kernels.py`` compares it with SciPy's on random,
+    integer-valued and constant matrices)."""
+    n = cost.shape[0]
+    out = np.full(n, -1, dtype=np.int64)
+    if n == 0:
+        return out
+    c = cost
+    u = np.zeros(n)
+    v = np.zeros(n)
+    dist = np.empty(n)
+    pred = np.full(n, -1, dtype=np.int64)
+    row_of = np.full(n, -1, dtype=np.int64)
+    in_rows = np.zeros(n, dtype=np.bool_)
+    in_cols = np.zeros(n, dtype=np.bool_)
+    todo = np.empty(n, dtype=np.int64)
+    for start in range(n):
+        # the shortest augmenting path from row ``start``
+        for k in range(n):
+            todo[k] = n - 1 - k
+            in_rows[k] = False
+            in_cols[k] = False
+            dist[k] = np.inf
+        left = n
+        i = start
+        reached = 0.0
+        sink = -1
+        while sink < 0:
+            in_rows[i] = True
+            best = -1
+            best_d = np.inf
+            for k in range(left):
+                j = todo[k]
+                r = reached + c[i, j] - u[i] - v[j]
+                if r < dist[j]:
+                    pred[j] = i
+                    dist[j] = r
+                if dist[j] < best_d or (dist[j] == best_d and row_of[j] < 0):
+                    best_d = dist[j]
+                    best = k
+            reached = best_d
+            j = todo[best]
+            if reached == np.inf:  # (finite costs never get here)
+                return np.full(n, -1, dtype=np.int64)
+            if row_of[j] < 0:
+                sink = j
+            else:
+                i = row_of[j]
+            in_cols[j] = True
+            left -= 1
+            todo[best] = todo[left]
+        # the dual variables
+        u[start] += reached
+        for k in range(n):
+            if in_rows[k] and k != start:
+                u[k] += reached - dist[out[k]]
+        for k in range(n):
+            if in_cols[k]:
+                v[k] -= reached - dist[k]
+        # the path's columns passed one row back
+        j = sink
+        while True:
+            i = pred[j]
+            row_of[j] = i
+            prev = out[i]
+            out[i] = j
+            j = prev
+            if i == start:
+                break
+    return out

@@ -49,7 +49,7 @@ import functools
 
 import numpy as np
 
-from icv_envs.formation.assignment import _check_weight, _solve
+from icv_envs.formation.assignment import _check_weight
 from icv_envs.formation.control import (
     FEEDBACK_ERROR,
     PROFILE_ACCEL,
@@ -61,8 +61,7 @@ from icv_envs.formation.targets import formation_targets
 from icv_envs.sim._kernels.formation import drivable_lane_bits1, reference_rows
 from icv_envs.sim._kernels.formation_step import (
     off_reference_rows,
-    reform_costs,
-    reform_slots,
+    reform_members,
     update_pass,
 )
 from icv_envs._ufuncs import count_nonzero, flatnonzero
@@ -332,26 +331,34 @@ class FormationManager(FormationViews):
         anchor = float(self._A[gid])
         lanes, tx, tl = self._reform_lanes(road, gid, n)
         # vehicles in the formation frame (metres behind the front target and
-        # a fractional formation lane id interpolated over the lane set) and
-        # their costs, compiled (sim/_kernels/formation_step.reform_costs); the
-        # assignment by SciPy; the slots written and the members whose slot
-        # changed found in one more pass (reform_slots)
+        # a fractional formation lane id interpolated over the lane set),
+        # their costs, the minimum-cost assignment (SciPy's answer), the
+        # slots written and, for the members whose slot changed, a reference
+        # from where they are (a join plan, its slot and deadline stored), in
+        # one compiled call (sim/_kernels/formation_step.reform_members, from
+        # stop 56: reform_costs, SciPy's linear_sum_assignment, reform_slots
+        # and the plan one by one before)
         _, cy = traffic.center()
         lanes_f, lanes_i = self._lane_arrays_of(lanes)
-        cost = reform_costs(rows, cx, cy, anchor, float(road.lane_width), lanes_f, tx, tl, float(self.w1),
-                            float(self.w2), float(road.length) if road.periodic else -1.0)
-        slot = _solve(cost)
         jp = self._plans
         jp.grow(int(traffic.vid[rows[-1]]) + 1)  # (the largest id: rows ascend, and so do the ids by row)
-        r = reform_slots(rows, slot, tx, tl, lanes_i, gid, traffic.vid, traffic.tgt_behind, traffic.tgt_lane,
-                         jp.slot_gid, jp.slot_behind)
+        vid = traffic.vid
+        # (the plans' tables hold every id, as JoinPlans.plan_members makes
+        # them before it plans: almost always; otherwise the plans below)
+        plan = jp.capacity() >= int(vid[-1]) + 1
+        length = float(road.length) if road.periodic else -1.0
+        r = reform_members(rows, cx, cy, anchor, float(road.lane_width), lanes_f, lanes_i, tx, tl, float(self.w1),
+                           float(self.w2), length, gid, vid, traffic.tgt_behind, traffic.tgt_lane, plan, traffic.group,
+                           self._anchor_lut(), traffic.speed, traffic.accel, float(jp.speed), float(self.time),
+                           *jp.search_args(), jp.slot_gid, jp.slot_behind, jp.deadline, *jp.tables())
         self.reforms += 1
-        # members with a new slot get a reference from where they are
-        if len(r):
+        if plan:
+            jp.count += len(r)  # (the plans made inside, as plan_members counts them)
+        elif len(r):  # members with a new slot get a reference from where they are
             T = self._plan(traffic, road, r, cx)
-            jp.slot_gid[traffic.vid[r]] = gid
-            jp.slot_behind[traffic.vid[r]] = traffic.tgt_behind[r]
-            jp.deadline[traffic.vid[r]] = self.time + T
+            jp.slot_gid[vid[r]] = gid
+            jp.slot_behind[vid[r]] = traffic.tgt_behind[r]
+            jp.deadline[vid[r]] = self.time + T
 
     def _reform_lanes(self, road, gid: int, n: int) -> tuple[tuple, np.ndarray, np.ndarray]:
         """Paper Sec. 3.2: the lane set and targets of formation ``gid``

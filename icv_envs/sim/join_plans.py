@@ -91,6 +91,10 @@ class JoinPlans:
         self.c3[self._cap:], self.c4[self._cap:], self.c5[self._cap:] = c3, c4, c5
         self._cap = new
 
+    def capacity(self) -> int:
+        """How many vehicle ids the tables hold (ids below it: :meth:`grow`)."""
+        return self._cap
+
     def plan(self, vid: np.ndarray, d0, v0, a0, time: float) -> np.ndarray:
         """Plans for vehicles ``vid`` (non-empty) at ``time`` from offsets
         ``d0``, relative speeds ``v0`` and accelerations ``a0`` (finite);

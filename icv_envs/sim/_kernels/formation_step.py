@@ -18,12 +18,13 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from icv_envs.formation._kernels import plan_search_store, profile_eval
+from icv_envs.formation._kernels import min_cost_assignment, plan_search_store, profile_eval
 from icv_envs.sim._kernels.formation import (_wrap1, drivable_lane_bits, eligible_free_rows, hold_targets,
                                              leaving_rows, plan_inputs_rows, reference_rows, room_ahead)
 from icv_envs.sim._kernels.physics import lane_of1, npy_mod
 
-__all__ = ["hold_pass", "membership_pass", "off_reference_rows", "plan_pass", "reform_costs", "reform_slots",
+__all__ = ["hold_pass", "membership_pass", "off_reference_rows", "plan_pass", "reform_costs", "reform_members",
+           "reform_slots",
            "update_pass"]
 
 
@@ -413,3 +414,33 @@ def reform_slots(rows, slot, tx, tl, lanes, gid, vid, tgt_behind, tgt_lane, slot
             out[k] = r
             k += 1
     return out[:k]
+
+
+@nb.njit(cache=True)
+def reform_members(rows, cx, cy, anchor, lane_width, lanes_f, lanes_i, tx, tl, w1, w2, length, gid, vid, tgt_behind,
+                   tgt_lane, plan, group, anchors, speed, accel, v_form, time, accel_lim, decel, jerk, t_min, grow,
+                   cap, band_lo, band_hi, cap_free, tau, slot_gid, slot_behind, deadline, t0_tab, T_tab, d0_tab,
+                   v0_tab, a0_tab, c3_tab, c4_tab, c5_tab, fd_tab, fv_tab, fa_tab):
+    """``FormationManager._reform`` of one formation after its lane set
+    and targets (paper Sec. 3.3) in one call (from stop 56; before, three
+    kernels with SciPy's ``linear_sum_assignment`` and the plan between
+    them): the costs (:func:`reform_costs`), the minimum-cost assignment
+    (:func:`~icv_envs.formation._kernels.min_cost_assignment`, SciPy's
+    answer), the slots written (:func:`reform_slots`) and, with ``plan``
+    (the plan tables hold every vehicle id), a join plan for each member
+    whose slot changed (:func:`plan_pass` with ``period = length``), its
+    slot, place and deadline ``time + T`` stored by vehicle id. Returns the
+    rows whose slot changed (without ``plan`` the caller plans them)."""
+    cost = reform_costs(rows, cx, cy, anchor, lane_width, lanes_f, tx, tl, w1, w2, length)
+    slot = min_cost_assignment(cost)
+    r = reform_slots(rows, slot, tx, tl, lanes_i, gid, vid, tgt_behind, tgt_lane, slot_gid, slot_behind)
+    if plan and r.shape[0]:
+        T = plan_pass(r, group, tgt_behind, anchors, cx, speed, accel, vid, v_form, length, time, accel_lim, decel,
+                      jerk, t_min, grow, cap, band_lo, band_hi, cap_free, tau, t0_tab, T_tab, d0_tab, v0_tab, a0_tab,
+                      c3_tab, c4_tab, c5_tab, fd_tab, fv_tab, fa_tab)
+        for k in range(r.shape[0]):
+            v = vid[r[k]]
+            slot_gid[v] = gid
+            slot_behind[v] = tgt_behind[r[k]]
+            deadline[v] = time + T[k]
+    return r
