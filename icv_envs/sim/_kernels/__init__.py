@@ -87,7 +87,7 @@ from __future__ import annotations
 from icv_envs.sim._kernels.formation import (drivable_lane_bits, drivable_lane_bits1, eligible_free_rows,
                                              hold_targets, leaving_rows, reference_rows)
 from icv_envs.sim._kernels.formation_step import (hold_pass, membership_pass, off_reference_rows, plan_pass,
-                                                  reform_costs, reform_slots, update_pass)
+                                                  reform_costs, reform_members, reform_slots, update_pass)
 from icv_envs.sim._kernels.frames import intersection_frames, quiet_substeps
 from icv_envs.sim._kernels.neighbours import (sweep_candidates, collision_pairs, build_lane_index,
                                               build_lane_index_pair, leader_entries,
@@ -145,6 +145,7 @@ __all__ = [
     "off_reference_rows",
     "plan_pass",
     "reform_costs",
+    "reform_members",
     "reform_slots",
     "update_pass",
     "reference_rows",
