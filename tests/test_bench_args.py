@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from icv_envs._args import check_float
 from icv_envs.experiments import bench, intersection_bench, sumo_bench
 from icv_envs.experiments import intersection_compare
-from icv_envs.experiments.compare import validate_grid
+from icv_envs.experiments.compare import run_ramps, validate_grid
 from icv_envs.experiments.run import run_highway_formation
 
 BAD_SECONDS = ["x", None, float("nan"), float("inf"), -1.0, 0, True, [1.0]]
@@ -85,3 +85,36 @@ def test_bad_seconds_are_named(call, v):
 def test_bad_bench_arguments_are_named(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+@pytest.mark.parametrize("v", ["x", None, True, float("nan"), -1.0, 0, 2.0, [0.3]])
+def test_run_ramps_vgr_is_checked(v):
+    """``run_ramps`` (``icv-envs bench highway-ramps``, the sweeps' runs)
+    converted ``vgr`` with ``float()`` before the env saw it (stop 56): a
+    string or None raised float()'s own error, and ``True`` ran at 1.0."""
+    with pytest.raises(ValueError, match=r"^vgr = .*; allowed: a finite number > 0 and <= 1 vehicles/s per ramp"):
+        run_ramps("formation", v, 0, 1.0)
+
+
+@pytest.mark.parametrize("call", [
+    lambda v: intersection_compare.run_intersection("multi-vp", v, 0, 1.0),
+    lambda v: intersection_bench.bench_intersection(seconds=1.0, throughput=v, warmup=0, seeds=1),
+], ids=["run_intersection", "bench_intersection"])
+@pytest.mark.parametrize("v", ["x", None, True, float("inf"), -5, 0, 20001.0])
+def test_intersection_throughput_is_checked(call, v):
+    """The intersection's runs converted ``throughput`` with ``float()``
+    (stop 56): ``True`` ran at 1 vehicle/h."""
+    with pytest.raises(ValueError, match=r"^throughput = .*; allowed: a finite number > 0 and <= 20000 vehicles/h"):
+        call(v)
+
+
+@pytest.mark.parametrize("call", [
+    lambda v: intersection_compare.run_intersection("multi-vp", 1000.0, 0, v),
+    lambda v: run_ramps("formation", 0.2, 0, v),
+], ids=["run_intersection", "run_ramps"])
+@pytest.mark.parametrize("v", BAD_SECONDS)
+def test_single_runs_name_bad_seconds(call, v):
+    """One run's ``seconds`` was reported as the env's ``config['duration']``
+    or raised float()'s own error (stop 56)."""
+    with pytest.raises(ValueError, match=r"^seconds = .*; allowed: a finite number > 0"):
+        call(v)

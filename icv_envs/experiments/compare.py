@@ -107,9 +107,13 @@ def run_ramps(method: str, vgr: float, seed: int, seconds: float, config: dict |
     from icv_envs.envs.highway_ramps_v0 import parallel_env
 
     seed = check_int("seed", seed, 0)
+    seconds = check_float("seconds", seconds, 0)
     config = check_run_config(config, {"method": "method (--method)", "vgr": "vgr (--vgr)",
                                        "duration": "seconds (--seconds)"})
-    env = parallel_env(method=method, vgr=float(vgr), duration=float(seconds), **config)
+    # (checked as the benches check it: a bool or a string became 1.0 or a
+    # float() error here before, from stop 56)
+    vgr = check_float("vgr", vgr, 0, hi=MAX_VGR, unit="vehicles/s per ramp")
+    env = parallel_env(method=method, vgr=vgr, duration=seconds, **config)
     env.reset(seed=seed)
     w0 = 0.0 if jit is None else jit.wall
     with contextlib.nullcontext() if jit is None else jit:

@@ -120,7 +120,11 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
     seconds = check_float("seconds", seconds, 0)
     warmup = check_float("warmup", warmup, 0, strict=False)
     seeds = check_int("seeds", seeds, 1)  # (seeds 0 .. seeds-1)
-    per = [_one_seed(s, seconds, warmup, float(throughput), method, api) for s in range(seeds)]
+    # (a bool or a string became 1.0 or a float() error before, from stop 56)
+    from icv_envs.envs.intersection_config import MAX_THROUGHPUT
+
+    throughput = check_float("throughput", throughput, 0, hi=MAX_THROUGHPUT, unit="vehicles/h")
+    per = [_one_seed(s, seconds, warmup, throughput, method, api) for s in range(seeds)]
     agent_steps = sum(p["agent_steps"] for p in per)
     steps = sum(p["env_steps"] for p in per)
     wall = sum(p["wall_seconds"] for p in per)

@@ -114,9 +114,13 @@ def run_intersection(method: str, throughput: float, seed: int, seconds: float, 
     from icv_envs.envs.intersection_v0 import parallel_env
 
     seed = check_int("seed", seed, 0)
+    seconds = check_float("seconds", seconds, 0)
     cfg = {"expert_in_info": False}
     cfg.update(check_run_config(config, OWNED_CONFIG))
-    cfg.update({"method": method, "throughput": float(throughput), "duration": float(seconds)})
+    # (checked as the benches check it: a bool or a string became 1.0 or a
+    # float() error here before, from stop 56)
+    throughput = check_float("throughput", throughput, 0, hi=MAX_THROUGHPUT, unit="vehicles/h")
+    cfg.update({"method": method, "throughput": throughput, "duration": seconds})
     env = parallel_env(**cfg)
     env.reset(seed=seed)
     t0 = time.perf_counter()
