@@ -2705,3 +2705,20 @@ def test_min_cost_assignment_is_scipys(n, kind, seed):
     want = np.empty(n, dtype=np.int64)
     want[rows] = cols
     assert np.array_equal(min_cost_assignment(c), want)
+
+
+def test_min_cost_assignment_refuses_what_scipy_refuses():
+    """A NaN or -inf entry, or no finite assignment: SciPy raises, the
+    kernel answers -1 for every row and ``reform_members`` raises; a +inf
+    entry with a finite assignment elsewhere is an ordinary cost."""
+    from scipy.optimize import linear_sum_assignment
+
+    from icv_envs.formation._kernels import min_cost_assignment
+
+    for c in ([[np.nan, 1.0], [1.0, 2.0]], [[-np.inf, 1.0], [1.0, 2.0]], [[np.inf, np.inf], [1.0, 2.0]]):
+        c = np.array(c)
+        with pytest.raises(ValueError):
+            linear_sum_assignment(c)
+        assert min_cost_assignment(c).tolist() == [-1, -1]
+    c = np.array([[np.inf, 1.0], [1.0, 2.0]])
+    assert min_cost_assignment(c).tolist() == linear_sum_assignment(c)[1].tolist() == [1, 0]

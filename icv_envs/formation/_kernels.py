@@ -337,11 +337,16 @@ def min_cost_assignment(cost):
     reduced cost the first found, unless a later one is unassigned (it
     ends the path). Returns ``out`` with ``out[i]`` the column of row
     ``i`` (``tests/test_kernels.py`` compares it with SciPy's on random,
-    integer-valued and constant matrices)."""
+    integer-valued and constant matrices), or all -1 for a matrix SciPy
+    refuses (a NaN or -inf entry, or no assignment of finite cost)."""
     n = cost.shape[0]
     out = np.full(n, -1, dtype=np.int64)
     if n == 0:
         return out
+    for i in range(n):
+        for j in range(n):
+            if np.isnan(cost[i, j]) or cost[i, j] == -np.inf:
+                return out
     c = cost
     u = np.zeros(n)
     v = np.zeros(n)

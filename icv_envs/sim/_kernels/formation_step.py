@@ -433,6 +433,8 @@ def reform_members(rows, cx, cy, anchor, lane_width, lanes_f, lanes_i, tx, tl, w
     rows whose slot changed (without ``plan`` the caller plans them)."""
     cost = reform_costs(rows, cx, cy, anchor, lane_width, lanes_f, tx, tl, w1, w2, length)
     slot = min_cost_assignment(cost)
+    if slot.shape[0] and slot[0] < 0:  # (finite costs always have one; SciPy raised ValueError)
+        raise ValueError("re-forming: the assignment's cost matrix holds NaN or inf entries")
     r = reform_slots(rows, slot, tx, tl, lanes_i, gid, vid, tgt_behind, tgt_lane, slot_gid, slot_behind)
     if plan and r.shape[0]:
         T = plan_pass(r, group, tgt_behind, anchors, cx, speed, accel, vid, v_form, length, time, accel_lim, decel,
