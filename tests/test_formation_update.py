@@ -589,3 +589,92 @@ def test_reform_lanes_equal_the_two_window_search(seed):
         assert got[0] == want[0]
         assert got[1].tobytes() == want[1].tobytes() and got[2].tobytes() == want[2].tobytes()
         assert new._L[g1] == old._L[g2] and new._bits[g1] == old._bits[g2] and new._lanes[g1] == old._lanes[g2]
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_reform_members_is_the_separate_calls(seed):
+    """``reform_members`` (``FormationManager._reform`` after the lane set,
+    in one call from stop 56) against the calls it joined, bit for bit:
+    ``reform_costs``, SciPy's ``linear_sum_assignment``, ``reform_slots``
+    and, for the members whose slot changed, ``plan_pass`` and the stores
+    of slot, place and deadline by vehicle id; members that keep their slot
+    (no plan) and formations of one member included; with ``plan`` off it
+    only writes the slots and returns the same rows."""
+    from scipy.optimize import linear_sum_assignment
+
+    from icv_envs.formation.control import _PROFILE_SAMPLES, JOIN_GROW, JOIN_SEARCH_CAP
+    from icv_envs.formation.targets import formation_targets
+    from icv_envs.sim._kernels.formation_step import plan_pass, reform_costs, reform_members, reform_slots
+    from icv_envs.sim.join_plans import JOIN_MAX_DURATION
+
+    rng = np.random.default_rng(seed)
+    n_all = int(rng.integers(1, 40))
+    lw = 4.0
+    lanes = [(0,), (0, 1), (0, 1, 2), (1, 2, 3), (0, 2)][seed % 5]
+    length = float(rng.choice([-1.0, 3000.0]))
+    cx = rng.uniform(0.0, 3000.0, n_all)
+    cy = rng.uniform(-lw, 4 * lw, n_all)
+    vid = np.sort(rng.choice(3 * n_all + 5, n_all, replace=False)).astype(np.int64)
+    gid = 2
+    group = np.where(rng.random(n_all) < 0.7, gid, rng.integers(-1, 2, n_all)).astype(np.int64)
+    rows = np.flatnonzero(group == gid).astype(np.int64)
+    if not len(rows):
+        group[0] = gid
+        rows = np.array([0], dtype=np.int64)
+    tx, tl = formation_targets(len(rows), len(lanes), 20.0, "interlaced")
+    anchors = np.append(rng.uniform(0, 3000, 4), np.nan)
+    anchor = float(anchors[gid])
+    lanes_f, lanes_i = np.asarray(lanes, dtype=np.float64), np.asarray(lanes, dtype=np.int64)
+    speed, accel = rng.uniform(0, 35, n_all), rng.uniform(-3, 2, n_all)
+    v_form, time = 25.0, float(rng.uniform(0, 300))
+    search = (1.5, 3.0, 2.0, 2.0, JOIN_GROW, JOIN_MAX_DURATION, 18.0 - v_form, 33.0 - v_form, JOIN_SEARCH_CAP,
+              _PROFILE_SAMPLES)
+    cap = int(vid[-1]) + 1
+    names = ("t0", "T", "d0", "v0", "a0", "c3", "c4", "c5", "fd", "fv", "fa")
+    tables = {k: rng.normal(size=cap) for k in names}
+    # slots and places some members already hold (they keep them: no plan)
+    slot_gid = np.where(rng.random(cap) < 0.5, gid, -1).astype(np.int64)
+    behind0 = rng.uniform(0, 60, n_all)
+    slot_behind = rng.uniform(0, 60, cap)
+    slot_behind[vid] = np.where(rng.random(n_all) < 0.5, behind0, slot_behind[vid])
+    deadline = rng.uniform(0, 300, cap)
+    tgt_lane0 = rng.integers(-1, 3, n_all).astype(np.int64)
+    # about half the members already hold the slot the assignment gives them
+    # (the same formation, the same place): they keep their plan
+    cost = reform_costs(rows, cx, cy, anchor, lw, lanes_f, tx, tl, 1.0, 10.0, length)
+    r_rows, r_cols = linear_sum_assignment(cost)
+    slot = np.empty(len(rows), dtype=np.int64)
+    slot[r_rows] = r_cols
+    keep = rows[rng.random(len(rows)) < 0.5]
+    keep_slot = slot[np.searchsorted(rows, keep)]
+    slot_gid[vid[keep]] = gid
+    slot_behind[vid[keep]] = tx[keep_slot]
+
+    def state():
+        return ([behind0.copy(), tgt_lane0.copy(), slot_gid.copy(), slot_behind.copy(), deadline.copy()],
+                {k: v.copy() for k, v in tables.items()})
+
+    (tb_w, tlane_w, sg_w, sb_w, dl_w), tab_w = state()
+    r_want = reform_slots(rows, slot, tx, tl, lanes_i, gid, vid, tb_w, tlane_w, sg_w, sb_w)
+    if len(r_want):
+        T = plan_pass(r_want, group, tb_w, anchors, cx, speed, accel, vid, v_form, length, time, *search,
+                      *(tab_w[k] for k in names))
+        sg_w[vid[r_want]] = gid
+        sb_w[vid[r_want]] = tb_w[r_want]
+        dl_w[vid[r_want]] = time + T
+    for plan in (True, False):
+        (tb, tlane, sg, sb, dl), tab = state()
+        r = reform_members(rows, cx, cy, anchor, lw, lanes_f, lanes_i, tx, tl, 1.0, 10.0, length, gid, vid, tb, tlane,
+                           plan, group, anchors, speed, accel, v_form, time, *search, sg, sb, dl,
+                           *(tab[k] for k in names))
+        assert r.tolist() == r_want.tolist()
+        assert len(r) == len(rows) - len(keep)
+        assert tb.tobytes() == tb_w.tobytes() and tlane.tolist() == tlane_w.tolist()
+        if plan:
+            assert sg.tolist() == sg_w.tolist() and sb.tobytes() == sb_w.tobytes() and dl.tobytes() == dl_w.tobytes()
+            for k in names:
+                assert tab[k].tobytes() == tab_w[k].tobytes(), k
+        else:
+            assert sg.tolist() == slot_gid.tolist() and dl.tobytes() == deadline.tobytes()
+            for k in names:
+                assert tab[k].tobytes() == tables[k].tobytes(), k
