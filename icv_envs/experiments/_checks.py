@@ -7,9 +7,28 @@ from __future__ import annotations
 
 import numpy as np
 
-from icv_envs._args import check_config
+from icv_envs._args import check_config, check_float
 
-__all__ = ["check_run_config", "check_workers"]
+__all__ = ["check_run_config", "check_throughput", "check_vgr", "check_workers"]
+
+
+def check_vgr(vgr) -> float:
+    """One run's or bench's VGR (vehicles/s per ramp) as a float in ``(0,
+    MAX_VGR]``, checked before the env sees it (a bool or a string became
+    1.0 or a ``float()`` error before stop 56); one wording for
+    ``run_ramps``, ``bench_highway_ramps`` and ``ramps_vs_sumo``."""
+    from icv_envs.envs.highway_ramps import MAX_VGR
+
+    return check_float("vgr", vgr, 0, hi=MAX_VGR, unit="vehicles/s per ramp")
+
+
+def check_throughput(throughput) -> float:
+    """One intersection run's or bench's demand (vehicles/h) as a float in
+    ``(0, MAX_THROUGHPUT]`` (as :func:`check_vgr`), for ``run_intersection``
+    and ``bench_intersection``."""
+    from icv_envs.envs.intersection_config import MAX_THROUGHPUT
+
+    return check_float("throughput", throughput, 0, hi=MAX_THROUGHPUT, unit="vehicles/h")
 
 
 def check_run_config(config, owned: dict) -> dict:

@@ -142,11 +142,11 @@ def bench_highway_ramps(seconds: float = 600.0, vgr: float = 1.0 / 3.0, seed: in
     ``results/bench/stop54/cold_vs_warm/``)."""
     import resource
 
-    from icv_envs.envs.highway_ramps import MAX_VGR
+    from icv_envs.experiments._checks import check_vgr
     from icv_envs.experiments.compare import run_ramps
 
     seconds = check_float("seconds", seconds, 0)
-    vgr = check_float("vgr", vgr, 0, hi=MAX_VGR, unit="vehicles/s per ramp")
+    vgr = check_vgr(vgr)
     jit = JitClock()  # numba's compiler inside the run's loop, excluded (icv_envs/_jit_clock.py)
     m = run_ramps("formation", vgr, seed, seconds, jit=jit)
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0

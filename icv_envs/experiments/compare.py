@@ -39,7 +39,7 @@ import numpy as np
 
 from icv_envs.envs.highway_ramps import MAX_VGR, METHODS
 from icv_envs._args import check_float, check_int
-from icv_envs.experiments._checks import check_run_config, check_workers
+from icv_envs.experiments._checks import check_run_config, check_vgr, check_workers
 
 __all__ = ["run_ramps", "compare_highway_ramps", "run_jobs", "CSV_COLUMNS", "validate_grid"]
 
@@ -110,9 +110,7 @@ def run_ramps(method: str, vgr: float, seed: int, seconds: float, config: dict |
     seconds = check_float("seconds", seconds, 0)
     config = check_run_config(config, {"method": "method (--method)", "vgr": "vgr (--vgr)",
                                        "duration": "seconds (--seconds)"})
-    # (checked as the benches check it: a bool or a string became 1.0 or a
-    # float() error here before, from stop 56)
-    vgr = check_float("vgr", vgr, 0, hi=MAX_VGR, unit="vehicles/s per ramp")
+    vgr = check_vgr(vgr)
     env = parallel_env(method=method, vgr=vgr, duration=seconds, **config)
     env.reset(seed=seed)
     w0 = 0.0 if jit is None else jit.wall

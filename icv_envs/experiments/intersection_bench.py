@@ -51,6 +51,7 @@ import numpy as np
 
 from icv_envs._args import check_float, check_int
 from icv_envs._jit_clock import JitClock, jit_note
+from icv_envs.experiments._checks import check_throughput
 from icv_envs.experiments.bench import APIS  # (how the agents are stepped, ``--api``: module docstring)
 
 __all__ = ["bench_intersection", "METADRIVE_AGENT_STEPS_PER_S", "APIS"]
@@ -120,10 +121,7 @@ def bench_intersection(seconds: float = 500.0, throughput: float = 2200.0, metho
     seconds = check_float("seconds", seconds, 0)
     warmup = check_float("warmup", warmup, 0, strict=False)
     seeds = check_int("seeds", seeds, 1)  # (seeds 0 .. seeds-1)
-    # (a bool or a string became 1.0 or a float() error before, from stop 56)
-    from icv_envs.envs.intersection_config import MAX_THROUGHPUT
-
-    throughput = check_float("throughput", throughput, 0, hi=MAX_THROUGHPUT, unit="vehicles/h")
+    throughput = check_throughput(throughput)
     per = [_one_seed(s, seconds, warmup, throughput, method, api) for s in range(seeds)]
     agent_steps = sum(p["agent_steps"] for p in per)
     steps = sum(p["env_steps"] for p in per)

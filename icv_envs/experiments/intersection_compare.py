@@ -53,7 +53,7 @@ import numpy as np
 
 from icv_envs.envs.intersection import MAX_THROUGHPUT, METHODS, IntersectionEnv
 from icv_envs._args import check_float, check_int
-from icv_envs.experiments._checks import check_run_config, check_workers
+from icv_envs.experiments._checks import check_run_config, check_throughput, check_workers
 from icv_envs.experiments.compare import check_backend, run_jobs
 from icv_envs.experiments.seeds import parse_seeds
 
@@ -117,9 +117,7 @@ def run_intersection(method: str, throughput: float, seed: int, seconds: float, 
     seconds = check_float("seconds", seconds, 0)
     cfg = {"expert_in_info": False}
     cfg.update(check_run_config(config, OWNED_CONFIG))
-    # (checked as the benches check it: a bool or a string became 1.0 or a
-    # float() error here before, from stop 56)
-    throughput = check_float("throughput", throughput, 0, hi=MAX_THROUGHPUT, unit="vehicles/h")
+    throughput = check_throughput(throughput)
     cfg.update({"method": method, "throughput": throughput, "duration": seconds})
     env = parallel_env(**cfg)
     env.reset(seed=seed)

@@ -46,6 +46,7 @@ import numpy as np
 from icv_envs._args import check_float, check_int, check_int_list
 from icv_envs._gc_clock import GcClock
 from icv_envs._jit_clock import JitClock, jit_note, rss_note
+from icv_envs.experiments._checks import check_vgr
 from icv_envs.experiments.bench import APIS  # (how the ring's agents are stepped, ``--api``)
 
 __all__ = ["ramps_vs_sumo", "scaling", "plot_scaling", "time_icv_formation", "time_sumo"]
@@ -92,12 +93,11 @@ def ramps_vs_sumo(seconds: float = 600.0, measure: float = 100.0, vgr: float = 1
                   chunks: int = 10, sumo_warmup: float = 20.0, api: str = "dicts", echo=print) -> dict:
     from tqdm import tqdm
 
-    from icv_envs.envs.highway_ramps import MAX_VGR
     from icv_envs.envs.highway_ramps_v0 import parallel_env
     from icv_envs.experiments.sumo_ring import SumoRing, sumo_available
 
     seconds, measure = check_float("seconds", seconds, 0), check_float("measure", measure, 0)
-    vgr = check_float("vgr", vgr, 0, hi=MAX_VGR, unit="vehicles/s per ramp")
+    vgr = check_vgr(vgr)
     seed, chunks = check_int("seed", seed, 0), check_int("chunks", chunks, 1)
     sumo_warmup = check_float("sumo_warmup", sumo_warmup, 0, strict=False)
     if not sumo_available():

@@ -316,8 +316,6 @@ def pursuit_rows(rx, ry, c, sn, tx, ty, wb, ms):
     return phi
 
 
-
-
 @nb.njit(cache=True)
 def min_cost_assignment(cost):
     """Minimum-total-cost assignment of a square cost matrix (paper Sec.
@@ -332,8 +330,9 @@ def min_cost_assignment(cost):
     algorithm SciPy implements), with SciPy's choices wherever the
     pseudocode leaves one open, so that the answer is SciPy's (1.17),
     ties included: the costs as given (SciPy 1.17 does not shift them by
-    their minimum); the columns scanned from the last to the first, a column taken out of the scan by
-    moving the scan's last one into its place; among columns of equal
+    their minimum); the columns scanned from the last to the first, a
+    column taken out of the scan by moving the scan's last one into its
+    place; among columns of equal
     reduced cost the first found, unless a later one is unassigned (it
     ends the path). Returns ``out`` with ``out[i]`` the column of row
     ``i`` (``tests/test_kernels.py`` compares it with SciPy's on random,
@@ -347,7 +346,6 @@ def min_cost_assignment(cost):
         for j in range(n):
             if np.isnan(cost[i, j]) or cost[i, j] == -np.inf:
                 return out
-    c = cost
     u = np.zeros(n)
     v = np.zeros(n)
     dist = np.empty(n)
@@ -373,7 +371,7 @@ def min_cost_assignment(cost):
             best_d = np.inf
             for k in range(left):
                 j = todo[k]
-                r = reached + c[i, j] - u[i] - v[j]
+                r = reached + cost[i, j] - u[i] - v[j]
                 if r < dist[j]:
                     pred[j] = i
                     dist[j] = r
